@@ -1,0 +1,28 @@
+/* Local shading frame from a world-space normal and tangent (DESIGN.md
+ * conventions): +z = normal, +x = tangent made orthogonal to the normal
+ * (Gram-Schmidt), +y = z cross x, so (x, y, z) is right-handed. */
+#ifndef GLINT_FRAME_H
+#define GLINT_FRAME_H
+
+#include "compat.h"
+
+typedef struct {
+  real3 t; /* local +x */
+  real3 b; /* local +y */
+  real3 n; /* local +z */
+} ShadingFrame;
+
+GLINT_FN ShadingFrame frame_from_normal_tangent(real3 normal, real3 tangent) {
+  ShadingFrame f;
+  f.n = normalize(normal);
+  /* Validation guarantees |t . n| < 1 - tolerance, so this cannot vanish. */
+  f.t = normalize(tangent - f.n * dot(f.n, tangent));
+  f.b = cross(f.n, f.t);
+  return f;
+}
+
+GLINT_FN real3 frame_to_local(ShadingFrame f, real3 v) {
+  return make_real3(dot(v, f.t), dot(v, f.b), dot(v, f.n));
+}
+
+#endif /* GLINT_FRAME_H */

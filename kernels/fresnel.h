@@ -1,0 +1,74 @@
+/* Fresnel reflectance, per RGB channel. The kind is a build-time constant on
+ * the device (GLINT_FRESNEL) and a runtime value on the host. */
+#ifndef GLINT_FRESNEL_H
+#define GLINT_FRESNEL_H
+
+#include "compat.h"
+
+#define GLINT_FRESNEL_SCHLICK 1
+#define GLINT_FRESNEL_CONDUCTOR 2
+#define GLINT_FRESNEL_DIELECTRIC 3
+
+/* Schlick 1994, "An Inexpensive BRDF Model for Physically-based Rendering",
+ * Eq. 15: F = f0 + (1 - f0)(1 - cos)^5. */
+GLINT_FN real F_schlick(real f0, real cos_theta) {
+  real m = clamp(R(1.0) - cos_theta, R(0.0), R(1.0));
+  real m2 = m * m;
+  return f0 + (R(1.0) - f0) * (m2 * m2 * m);
+}
+
+/* Exact unpolarised reflectance of a conductor with complex IOR eta + i k.
+ * Born & Wolf form as written in Lazanyi & Szirmay-Kalos 2005, "Fresnel term
+ * approximations for metals" (Eq. 1-2), via a^2 + b^2 = sqrt(t0^2 + 4 eta^2 k^2):
+ *   Rs = (a2b2 + c^2 - 2 a c) / (a2b2 + c^2 + 2 a c)
+ *   Rp = Rs (c^2 a2b2 + s^4 - 2 a c s^2) / (c^2 a2b2 + s^4 + 2 a c s^2). */
+GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
+  real c = clamp(cos_theta, R(0.0), R(1.0));
+  real c2 = c * c;
+  real s2 = R(1.0) - c2;
+  real t0 = eta * eta - k * k - s2;
+  real a2b2 = sqrt(fmax(t0 * t0 + R(4.0) * eta * eta * k * k, R(0.0)));
+  real a = sqrt(fmax(R(0.5) * (a2b2 + t0), R(0.0)));
+  real t1 = a2b2 + c2;
+  real t2 = R(2.0) * a * c;
+  real rs = (t1 - t2) / (t1 + t2);
+  real t3 = c2 * a2b2 + s2 * s2;
+  real t4 = t2 * s2;
+  real rp = rs * (t3 - t4) / (t3 + t4);
+  return clamp(R(0.5) * (rs + rp), R(0.0), R(1.0));
+}
+
+/* Exact unpolarised reflectance of a dielectric interface, light arriving
+ * from the side with index 1 onto index `ior` (Walter et al. 2007 Eq. 22 in
+ * the s/p amplitude form). ior < 1 can give total internal reflection. */
+GLINT_FN real F_dielectric(real ior, real cos_theta) {
+  real c = clamp(cos_theta, R(0.0), R(1.0));
+  real sin2_t = (R(1.0) - c * c) / (ior * ior);
+  if (sin2_t >= R(1.0)) return R(1.0);
+  real cos_t = sqrt(R(1.0) - sin2_t);
+  real rs = (c - ior * cos_t) / (c + ior * cos_t);
+  real rp = (ior * c - cos_t) / (ior * c + cos_t);
+  return R(0.5) * (rs * rs + rp * rp);
+}
+
+/* params: schlick (f0.rgb), conductor (eta.rgb, k.rgb), dielectric (ior). */
+typedef struct {
+  int kind;
+  real3 a; /* f0 or eta, or (ior, ior, ior) */
+  real3 b; /* k for conductors */
+} FresnelParams;
+
+GLINT_FN real3 fresnel_eval(FresnelParams p, real cos_theta) {
+  if (p.kind == GLINT_FRESNEL_CONDUCTOR) {
+    return make_real3(F_conductor(p.a.x, p.b.x, cos_theta), F_conductor(p.a.y, p.b.y, cos_theta),
+                      F_conductor(p.a.z, p.b.z, cos_theta));
+  }
+  if (p.kind == GLINT_FRESNEL_DIELECTRIC) {
+    real f = F_dielectric(p.a.x, cos_theta);
+    return make_real3(f, f, f);
+  }
+  return make_real3(F_schlick(p.a.x, cos_theta), F_schlick(p.a.y, cos_theta),
+                    F_schlick(p.a.z, cos_theta));
+}
+
+#endif /* GLINT_FRESNEL_H */

@@ -1,0 +1,42 @@
+/* Light records as the host packs them (one float block per light kind) and
+ * the irradiance each delivers at a shading point. Units: directional lights
+ * carry irradiance E [W/m^2] on a surface facing them; point lights carry
+ * intensity I [W/sr], irradiance I/d^2 at normal incidence. */
+#ifndef GLINT_LIGHTS_H
+#define GLINT_LIGHTS_H
+
+#include "compat.h"
+
+/* Directional: [dir.xyz (unit, towards the light), E.rgb, cos(gamma), 0]. */
+/* Point:       [pos.xyz, I.rgb, radius, 0]. */
+#define GLINT_LIGHT_FLOATS 8
+
+GLINT_FN real3 light_load3(const GLINT_GLOBAL float *rec, int offset) {
+  return make_real3((real)rec[offset], (real)rec[offset + 1], (real)rec[offset + 2]);
+}
+
+/* Direction (world or local, as given) towards a directional light. */
+GLINT_FN real3 directional_light_dir(const GLINT_GLOBAL float *rec) {
+  return normalize(light_load3(rec, 0));
+}
+
+GLINT_FN real3 directional_light_irradiance(const GLINT_GLOBAL float *rec) {
+  return light_load3(rec, 3);
+}
+
+/* Unit direction from `p` to a point light and its normal-incidence
+ * irradiance I / d^2. A light at the shading point (d = 0) contributes
+ * nothing rather than infinity. */
+GLINT_FN real3 point_light_dir(const GLINT_GLOBAL float *rec, real3 p,
+                               GLINT_PRIVATE real3 *irradiance) {
+  real3 d = light_load3(rec, 0) - p;
+  real d2 = dot(d, d);
+  if (!(d2 > R(0.0))) {
+    *irradiance = make_real3(R(0.0), R(0.0), R(0.0));
+    return make_real3(R(0.0), R(0.0), R(1.0));
+  }
+  *irradiance = light_load3(rec, 3) / d2;
+  return d / sqrt(d2);
+}
+
+#endif /* GLINT_LIGHTS_H */

@@ -1,0 +1,103 @@
+/* Microfacet normal distributions D(h) and their Smith masking term, written
+ * in the local shading frame (+z = macro normal, +x = tangent = alpha_x axis).
+ *
+ * References:
+ *  - Walter, Marschner, Li, Torrance 2007, "Microfacet Models for Refraction
+ *    through Rough Surfaces" (GGX and Beckmann D, Smith Lambda).
+ *  - Heitz 2014, "Understanding the Masking-Shadowing Function in
+ *    Microfacet-Based BRDFs" (anisotropic Lambda, Eq. 86-87; height-correlated
+ *    G2 = 1 / (1 + Lambda_o + Lambda_i), Eq. 99).
+ */
+#ifndef GLINT_NDF_H
+#define GLINT_NDF_H
+
+#include "compat.h"
+
+#define GLINT_NDF_GGX 1
+#define GLINT_NDF_BECKMANN 2
+
+/* GGX (Trowbridge-Reitz), anisotropic. Walter et al. 2007 Eq. 33 generalised
+ * to two roughnesses (Heitz 2014 Eq. 85):
+ *   D(h) = 1 / (pi ax ay (hx^2/ax^2 + hy^2/ay^2 + hz^2)^2),  hz > 0. */
+GLINT_FN real D_ggx_aniso(real3 h, real alpha_x, real alpha_y) {
+  if (h.z <= R(0.0)) return R(0.0);
+  real sx = h.x / alpha_x;
+  real sy = h.y / alpha_y;
+  real q = sx * sx + sy * sy + h.z * h.z;
+  return R(1.0) / (GLINT_PI * alpha_x * alpha_y * q * q);
+}
+
+/* Beckmann, anisotropic (Heitz 2014 Eq. 84):
+ *   D(h) = exp(-(tx^2 + ty^2)) / (pi ax ay hz^4),  t = slope / alpha. */
+GLINT_FN real D_beckmann_aniso(real3 h, real alpha_x, real alpha_y) {
+  if (h.z <= R(0.0)) return R(0.0);
+  real tx = h.x / (alpha_x * h.z);
+  real ty = h.y / (alpha_y * h.z);
+  real t2 = tx * tx + ty * ty;
+  /* exp(-80) ~ 1.8e-35: beyond it D is below any float result, and hz^4 may
+   * already have underflowed, which would turn 0/0 into NaN. */
+  if (t2 > R(80.0)) return R(0.0);
+  real hz2 = h.z * h.z;
+  return exp(-t2) / (GLINT_PI * alpha_x * alpha_y * hz2 * hz2);
+}
+
+/* Projected roughness s = sqrt(ax^2 wx^2 + ay^2 wy^2): Lambda depends on the
+ * direction only through a = wz / s (Heitz 2014 Eq. 86). */
+GLINT_FN real projected_roughness(real3 w, real alpha_x, real alpha_y) {
+  real x = alpha_x * w.x;
+  real y = alpha_y * w.y;
+  return sqrt(x * x + y * y);
+}
+
+/* wz * Lambda(w) rather than Lambda itself: Lambda diverges like 1/wz at
+ * grazing angles while wz * Lambda stays finite, so the visibility term below
+ * has no 0 * inf.
+ * GGX: Lambda = (-1 + sqrt(1 + s^2/wz^2)) / 2, hence
+ *   wz Lambda = (sqrt(wz^2 + s^2) - wz) / 2 = s^2 / (2 (sqrt(wz^2 + s^2) + wz)),
+ * the last form avoiding cancellation when s << wz. */
+GLINT_FN real z_lambda_ggx(real3 w, real alpha_x, real alpha_y) {
+  real s = projected_roughness(w, alpha_x, alpha_y);
+  real z = fmax(w.z, R(0.0));
+  real root = sqrt(z * z + s * s);
+  real denom = R(2.0) * (root + z);
+  return denom > R(0.0) ? s * s / denom : R(0.0);
+}
+
+/* Beckmann: Lambda = (erf(a) - 1)/2 + exp(-a^2) / (2 a sqrt(pi)), a = wz/s
+ * (Walter et al. 2007 Eq. 27 with the exact erf form). Multiplying by wz:
+ *   wz Lambda = (s exp(-a^2) / sqrt(pi) - wz erfc(a)) / 2,
+ * finite as wz -> 0 (-> s / (2 sqrt(pi))) and as s -> 0 (-> 0). */
+GLINT_FN real z_lambda_beckmann(real3 w, real alpha_x, real alpha_y) {
+  real s = projected_roughness(w, alpha_x, alpha_y);
+  real z = fmax(w.z, R(0.0));
+  if (s <= R(0.0)) return R(0.0);
+  real a = z / s;
+  if (a > R(9.0)) return R(0.0); /* both terms < 1e-36 relative */
+  real v = (s * exp(-a * a) / GLINT_SQRT_PI - z * erfc(a)) * R(0.5);
+  return fmax(v, R(0.0)); /* rounding may leave a tiny negative */
+}
+
+GLINT_FN real ndf_D(int ndf, real3 h, real alpha_x, real alpha_y) {
+  return ndf == GLINT_NDF_BECKMANN ? D_beckmann_aniso(h, alpha_x, alpha_y)
+                                   : D_ggx_aniso(h, alpha_x, alpha_y);
+}
+
+GLINT_FN real ndf_z_lambda(int ndf, real3 w, real alpha_x, real alpha_y) {
+  return ndf == GLINT_NDF_BECKMANN ? z_lambda_beckmann(w, alpha_x, alpha_y)
+                                   : z_lambda_ggx(w, alpha_x, alpha_y);
+}
+
+/* Height-correlated Smith visibility V = G2 / (4 cos_o cos_i) with
+ * G2 = 1 / (1 + Lambda_o + Lambda_i) (Heitz 2014 Eq. 99), rewritten as
+ *   V = 1 / (4 (zo zi + zi (zo Lambda_o) + zo (zi Lambda_i)))
+ * so it stays finite at grazing angles. Returns 0 below either horizon. */
+GLINT_FN real smith_visibility_correlated(int ndf, real3 wo, real3 wi, real alpha_x,
+                                          real alpha_y) {
+  if (wo.z <= R(0.0) || wi.z <= R(0.0)) return R(0.0);
+  real zlo = ndf_z_lambda(ndf, wo, alpha_x, alpha_y);
+  real zli = ndf_z_lambda(ndf, wi, alpha_x, alpha_y);
+  real denom = R(4.0) * (wo.z * wi.z + wi.z * zlo + wo.z * zli);
+  return denom > R(0.0) ? R(1.0) / denom : R(0.0);
+}
+
+#endif /* GLINT_NDF_H */

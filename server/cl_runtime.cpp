@@ -1,0 +1,294 @@
+#include "server/cl_runtime.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace glint {
+namespace {
+
+std::string DeviceString(cl_device_id d, cl_device_info what) {
+  size_t size = 0;
+  if (clGetDeviceInfo(d, what, 0, nullptr, &size) != CL_SUCCESS || size == 0) return "";
+  std::string s(size, '\0');
+  clGetDeviceInfo(d, what, size, s.data(), nullptr);
+  while (!s.empty() && s.back() == '\0') s.pop_back();
+  return s;
+}
+
+std::string PlatformString(cl_platform_id p, cl_platform_info what) {
+  size_t size = 0;
+  if (clGetPlatformInfo(p, what, 0, nullptr, &size) != CL_SUCCESS || size == 0) return "";
+  std::string s(size, '\0');
+  clGetPlatformInfo(p, what, size, s.data(), nullptr);
+  while (!s.empty() && s.back() == '\0') s.pop_back();
+  return s;
+}
+
+struct DeviceHandle {
+  cl_platform_id platform;
+  cl_device_id device;
+  DeviceInfo info;
+};
+
+std::vector<DeviceHandle> EnumerateDevices() {
+  std::vector<DeviceHandle> out;
+  cl_uint np = 0;
+  if (clGetPlatformIDs(0, nullptr, &np) != CL_SUCCESS || np == 0) return out;
+  std::vector<cl_platform_id> platforms(np);
+  clGetPlatformIDs(np, platforms.data(), nullptr);
+  for (cl_platform_id p : platforms) {
+    cl_uint nd = 0;
+    if (clGetDeviceIDs(p, CL_DEVICE_TYPE_ALL, 0, nullptr, &nd) != CL_SUCCESS || nd == 0) continue;
+    std::vector<cl_device_id> devices(nd);
+    clGetDeviceIDs(p, CL_DEVICE_TYPE_ALL, nd, devices.data(), nullptr);
+    for (cl_device_id d : devices) {
+      DeviceHandle h{p, d, {}};
+      h.info.name = DeviceString(d, CL_DEVICE_NAME);
+      h.info.vendor = DeviceString(d, CL_DEVICE_VENDOR);
+      h.info.opencl_version = DeviceString(d, CL_DEVICE_VERSION);
+      h.info.driver_version = DeviceString(d, CL_DRIVER_VERSION);
+      h.info.platform_name = PlatformString(p, CL_PLATFORM_NAME);
+      cl_uint cu = 0;
+      clGetDeviceInfo(d, CL_DEVICE_MAX_COMPUTE_UNITS, sizeof(cu), &cu, nullptr);
+      h.info.compute_units = cu;
+      cl_device_fp_config fp64 = 0;
+      clGetDeviceInfo(d, CL_DEVICE_DOUBLE_FP_CONFIG, sizeof(fp64), &fp64, nullptr);
+      h.info.fp64 = fp64 != 0;
+      out.push_back(h);
+    }
+  }
+  return out;
+}
+
+// FNV-1a, 64 bit: a stable file name for a cache entry (std::hash is not
+// guaranteed stable across builds).
+uint64_t Fnv1a(const std::string &s) {
+  uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : s) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+std::string BuildLog(cl_program program, cl_device_id device) {
+  size_t size = 0;
+  clGetProgramBuildInfo(program, device, CL_PROGRAM_BUILD_LOG, 0, nullptr, &size);
+  std::string log(size, '\0');
+  if (size) clGetProgramBuildInfo(program, device, CL_PROGRAM_BUILD_LOG, size, log.data(), nullptr);
+  while (!log.empty() && (log.back() == '\0' || log.back() == '\n')) log.pop_back();
+  return log;
+}
+
+}  // namespace
+
+std::string ClErrorName(cl_int err) {
+  switch (err) {
+#define GLINT_CASE(x) \
+  case x:             \
+    return #x;
+    GLINT_CASE(CL_DEVICE_NOT_FOUND)
+    GLINT_CASE(CL_OUT_OF_RESOURCES)
+    GLINT_CASE(CL_OUT_OF_HOST_MEMORY)
+    GLINT_CASE(CL_MEM_OBJECT_ALLOCATION_FAILURE)
+    GLINT_CASE(CL_BUILD_PROGRAM_FAILURE)
+    GLINT_CASE(CL_INVALID_VALUE)
+    GLINT_CASE(CL_INVALID_DEVICE)
+    GLINT_CASE(CL_INVALID_BINARY)
+    GLINT_CASE(CL_INVALID_BUILD_OPTIONS)
+    GLINT_CASE(CL_INVALID_PROGRAM_EXECUTABLE)
+    GLINT_CASE(CL_INVALID_KERNEL_NAME)
+    GLINT_CASE(CL_INVALID_KERNEL_ARGS)
+    GLINT_CASE(CL_INVALID_ARG_SIZE)
+    GLINT_CASE(CL_INVALID_ARG_VALUE)
+    GLINT_CASE(CL_INVALID_WORK_GROUP_SIZE)
+    GLINT_CASE(CL_INVALID_BUFFER_SIZE)
+    GLINT_CASE(CL_INVALID_MEM_OBJECT)
+    GLINT_CASE(CL_INVALID_HOST_PTR)
+#undef GLINT_CASE
+    default:
+      return "OpenCL error " + std::to_string(err);
+  }
+}
+
+std::vector<DeviceInfo> ListDevices() {
+  std::vector<DeviceInfo> out;
+  for (auto &h : EnumerateDevices()) out.push_back(h.info);
+  return out;
+}
+
+Status ClRuntime::Create(const std::string &selector, const std::string &cache_dir,
+                         std::unique_ptr<ClRuntime> *out) {
+  // PoCL keeps its own compiled-kernel cache; point it at ours unless the
+  // user chose one, so one --cache-dir holds everything.
+  if (!cache_dir.empty() && std::getenv("POCL_CACHE_DIR") == nullptr) {
+    std::error_code ec;
+    std::filesystem::create_directories(std::filesystem::path(cache_dir) / "pocl", ec);
+    if (!ec) setenv("POCL_CACHE_DIR", (std::filesystem::path(cache_dir) / "pocl").c_str(), 0);
+  }
+  auto devices = EnumerateDevices();
+  if (devices.empty()) {
+    return Status::FailedPrecondition(
+        "no OpenCL device found (is an ICD such as pocl-opencl-icd installed?)");
+  }
+  const DeviceHandle *chosen = nullptr;
+  if (selector.empty()) {
+    for (auto &d : devices)
+      if (d.info.platform_name.find("Portable Computing Language") != std::string::npos) {
+        chosen = &d;
+        break;
+      }
+    if (!chosen) chosen = &devices[0];
+  } else if (selector.find_first_not_of("0123456789") == std::string::npos) {
+    size_t index = std::stoul(selector);
+    if (index >= devices.size()) {
+      return Status::InvalidArgument("--device " + selector + ": only " +
+                                     std::to_string(devices.size()) + " OpenCL devices");
+    }
+    chosen = &devices[index];
+  } else {
+    for (auto &d : devices)
+      if (d.info.name.find(selector) != std::string::npos ||
+          d.info.platform_name.find(selector) != std::string::npos) {
+        chosen = &d;
+        break;
+      }
+    if (!chosen) return Status::InvalidArgument("--device " + selector + ": no device matches");
+  }
+
+  std::unique_ptr<ClRuntime> rt(new ClRuntime());
+  rt->platform_ = chosen->platform;
+  rt->device_ = chosen->device;
+  rt->info_ = chosen->info;
+  rt->cache_dir_ = cache_dir;
+  cl_int err = CL_SUCCESS;
+  cl_context_properties props[] = {CL_CONTEXT_PLATFORM,
+                                   reinterpret_cast<cl_context_properties>(rt->platform_), 0};
+  rt->context_ = clCreateContext(props, 1, &rt->device_, nullptr, nullptr, &err);
+  if (err != CL_SUCCESS) return Status::Internal("clCreateContext failed: " + ClErrorName(err));
+  if (!cache_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(cache_dir, ec);
+    if (ec) rt->cache_dir_.clear();  // no disk cache, still serve
+  }
+  *out = std::move(rt);
+  return Status::Ok();
+}
+
+ClRuntime::~ClRuntime() {
+  for (auto &entry : programs_) clReleaseProgram(entry.second);
+  if (context_) clReleaseContext(context_);
+}
+
+int ClRuntime::programs_compiled() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return compiled_;
+}
+
+int ClRuntime::programs_loaded_from_disk() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return loaded_;
+}
+
+Status ClRuntime::GetProgram(const std::string &source, const std::string &options,
+                             cl_program *out) {
+  const std::string key = options + '\n' + source;
+  // One lock over lookup and build: two requests needing the same new kernel
+  // compile it once, and compiles are rare after warm-up.
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = programs_.find(key);
+  if (it != programs_.end()) {
+    *out = it->second;
+    return Status::Ok();
+  }
+  std::string path;
+  if (!cache_dir_.empty()) {
+    std::ostringstream name;
+    name << std::hex << Fnv1a(key + '\n' + info_.platform_name + '\n' + info_.name + '\n' +
+                              info_.driver_version)
+         << ".clbin";
+    path = (std::filesystem::path(cache_dir_) / name.str()).string();
+  }
+  cl_program program = nullptr;
+  if (!path.empty() && LoadBinary(path, options, &program)) {
+    ++loaded_;
+  } else {
+    Status s = BuildFromSource(source, options, &program);
+    if (!s.ok()) return s;
+    ++compiled_;
+    if (!path.empty()) SaveBinary(path, program);
+  }
+  programs_.emplace(key, program);
+  *out = program;
+  return Status::Ok();
+}
+
+Status ClRuntime::BuildFromSource(const std::string &source, const std::string &options,
+                                  cl_program *out) {
+  const char *text = source.c_str();
+  size_t len = source.size();
+  cl_int err = CL_SUCCESS;
+  cl_program program = clCreateProgramWithSource(context_, 1, &text, &len, &err);
+  if (err != CL_SUCCESS)
+    return Status::Internal("clCreateProgramWithSource failed: " + ClErrorName(err));
+  err = clBuildProgram(program, 1, &device_, options.c_str(), nullptr, nullptr);
+  if (err != CL_SUCCESS) {
+    std::string log = BuildLog(program, device_);
+    clReleaseProgram(program);
+    return Status::Internal("OpenCL program build failed on " + info_.name + " (" +
+                            ClErrorName(err) + ") with options '" + options +
+                            "'; build log:\n" + log);
+  }
+  *out = program;
+  return Status::Ok();
+}
+
+bool ClRuntime::LoadBinary(const std::string &path, const std::string &options,
+                           cl_program *out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
+                                   std::istreambuf_iterator<char>());
+  if (bytes.empty()) return false;
+  const unsigned char *data = bytes.data();
+  size_t size = bytes.size();
+  cl_int status = CL_SUCCESS, err = CL_SUCCESS;
+  cl_program program =
+      clCreateProgramWithBinary(context_, 1, &device_, &size, &data, &status, &err);
+  if (err != CL_SUCCESS || status != CL_SUCCESS) return false;
+  if (clBuildProgram(program, 1, &device_, options.c_str(), nullptr, nullptr) != CL_SUCCESS) {
+    // A stale or corrupt entry: compile from source instead (and overwrite it).
+    clReleaseProgram(program);
+    return false;
+  }
+  *out = program;
+  return true;
+}
+
+void ClRuntime::SaveBinary(const std::string &path, cl_program program) {
+  size_t size = 0;
+  if (clGetProgramInfo(program, CL_PROGRAM_BINARY_SIZES, sizeof(size), &size, nullptr) !=
+          CL_SUCCESS ||
+      size == 0)
+    return;
+  std::vector<unsigned char> bytes(size);
+  unsigned char *ptr = bytes.data();
+  if (clGetProgramInfo(program, CL_PROGRAM_BINARIES, sizeof(ptr), &ptr, nullptr) != CL_SUCCESS)
+    return;
+  // Write then rename, so a concurrent reader never sees half a file.
+  std::string tmp = path + ".tmp" + std::to_string(reinterpret_cast<uintptr_t>(program));
+  {
+    std::ofstream o(tmp, std::ios::binary);
+    if (!o) return;
+    o.write(reinterpret_cast<const char *>(bytes.data()), std::streamsize(size));
+    if (!o) return;
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) std::filesystem::remove(tmp, ec);
+}
+
+}  // namespace glint

@@ -1,0 +1,185 @@
+#include "server/device_engine.h"
+
+#include "server/kernel_source.h"
+
+namespace glint {
+
+struct DeviceEngine::Lane {
+  cl_command_queue queue = nullptr;
+  cl_mem dummy = nullptr;  // bound to kernel arguments the request does not use
+  std::map<std::string, cl_kernel> kernels;  // by build options
+  ~Lane() {
+    for (auto &k : kernels) clReleaseKernel(k.second);
+    if (dummy) clReleaseMemObject(dummy);
+    if (queue) clReleaseCommandQueue(queue);
+  }
+};
+
+namespace {
+
+// Owns a cl_mem for the duration of one evaluation.
+class Buffer {
+ public:
+  Buffer() = default;
+  ~Buffer() {
+    if (mem_) clReleaseMemObject(mem_);
+  }
+  Buffer(const Buffer &) = delete;
+  Buffer &operator=(const Buffer &) = delete;
+  cl_mem *out() { return &mem_; }
+  cl_mem get() const { return mem_; }
+
+ private:
+  cl_mem mem_ = nullptr;
+};
+
+// Read-only input straight from the request's memory where possible
+// (CL_MEM_USE_HOST_PTR avoids a copy on CPU devices); empty arrays bind the
+// lane's dummy buffer.
+Status MakeInput(cl_context ctx, const float *data, size_t count, cl_mem dummy, Buffer *buf,
+                 cl_mem *arg) {
+  if (count == 0) {
+    *arg = dummy;
+    return Status::Ok();
+  }
+  cl_int err = CL_SUCCESS;
+  *buf->out() = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, count * sizeof(float),
+                               const_cast<float *>(data), &err);
+  if (err != CL_SUCCESS) return Status::Internal("clCreateBuffer (input) failed: " + ClErrorName(err));
+  *arg = buf->get();
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status DeviceEngine::Create(const DeviceEngineOptions &options,
+                            std::unique_ptr<DeviceEngine> *out) {
+  std::unique_ptr<DeviceEngine> engine(new DeviceEngine());
+  engine->options_ = options;
+  Status s = ClRuntime::Create(options.device, options.cache_dir, &engine->runtime_);
+  if (!s.ok()) return s;
+  engine->smooth_source_ = ExpandKernelSource("smooth.cl");
+  for (int i = 0; i < std::max(1, options.lanes); ++i) {
+    auto lane = std::make_unique<Lane>();
+    cl_int err = CL_SUCCESS;
+    lane->queue = clCreateCommandQueue(engine->runtime_->context(), engine->runtime_->device(), 0,
+                                       &err);
+    if (err != CL_SUCCESS) return Status::Internal("clCreateCommandQueue failed: " + ClErrorName(err));
+    lane->dummy = clCreateBuffer(engine->runtime_->context(), CL_MEM_READ_ONLY, 4 * sizeof(float),
+                                 nullptr, &err);
+    if (err != CL_SUCCESS) return Status::Internal("clCreateBuffer failed: " + ClErrorName(err));
+    engine->lanes_.push_back(std::move(lane));
+  }
+  *out = std::move(engine);
+  return Status::Ok();
+}
+
+DeviceEngine::~DeviceEngine() = default;
+
+Status DeviceEngine::KernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *out) {
+  const std::string options = spec.BuildOptions();
+  auto it = lane.kernels.find(options);
+  if (it != lane.kernels.end()) {
+    *out = it->second;
+    return Status::Ok();
+  }
+  if (spec.fp64 && !runtime_->info().fp64) {
+    return Status::InvalidArgument("precision: FP64 requested but " + runtime_->info().name +
+                                   " has no cl_khr_fp64");
+  }
+  cl_program program = nullptr;
+  Status s = runtime_->GetProgram(smooth_source_, options, &program);
+  if (!s.ok()) return s;
+  cl_int err = CL_SUCCESS;
+  cl_kernel kernel = clCreateKernel(program, "glint_smooth", &err);
+  if (err != CL_SUCCESS) return Status::Internal("clCreateKernel failed: " + ClErrorName(err));
+  lane.kernels.emplace(options, kernel);
+  *out = kernel;
+  return Status::Ok();
+}
+
+Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan,
+                              const glint::v1::QueryBatch &q, float *out_rgb) {
+  Lane &lane = *lanes_.at(size_t(lane_index));
+  cl_kernel kernel = nullptr;
+  Status s = KernelFor(lane, plan.spec, &kernel);
+  if (!s.ok()) return s;
+  const cl_uint n = q.count();
+  if (n == 0) return Status::Ok();
+  cl_context ctx = runtime_->context();
+
+  Buffer wo, wi, pos, nrm, tan, mat, dir, pnt, out;
+  cl_mem a_wo, a_wi, a_pos, a_nrm, a_tan, a_mat, a_dir, a_pnt;
+  const struct {
+    const float *data;
+    size_t count;
+    Buffer *buf;
+    cl_mem *arg;
+  } inputs[] = {{q.wo().data(), size_t(q.wo_size()), &wo, &a_wo},
+                {q.wi().data(), size_t(q.wi_size()), &wi, &a_wi},
+                {q.position().data(), size_t(q.position_size()), &pos, &a_pos},
+                {q.normal().data(), size_t(q.normal_size()), &nrm, &a_nrm},
+                {q.tangent().data(), size_t(q.tangent_size()), &tan, &a_tan},
+                {plan.material.data(), plan.material.size(), &mat, &a_mat},
+                {plan.directional.data(), plan.directional.size(), &dir, &a_dir},
+                {plan.point.data(), plan.point.size(), &pnt, &a_pnt}};
+  for (const auto &in : inputs) {
+    s = MakeInput(ctx, in.data, in.count, lane.dummy, in.buf, in.arg);
+    if (!s.ok()) return s;
+  }
+  cl_int err = CL_SUCCESS;
+  *out.out() = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY, size_t(n) * 3 * sizeof(float), nullptr, &err);
+  if (err != CL_SUCCESS) return Status::Internal("clCreateBuffer (output) failed: " + ClErrorName(err));
+  cl_mem a_out = out.get();
+  const cl_uint n_dir = plan.n_directional, n_pnt = plan.n_point;
+
+  cl_uint arg = 0;
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n));
+  for (cl_mem *m : {&a_wo, &a_wi, &a_pos, &a_nrm, &a_tan, &a_mat, &a_dir})
+    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), m));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_dir));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_pnt));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_pnt));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_out));
+
+  const size_t local = options_.local_size;
+  const size_t global = (size_t(n) + local - 1) / local * local;
+  GLINT_CL_CHECK(
+      clEnqueueNDRangeKernel(lane.queue, kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr));
+  GLINT_CL_CHECK(clEnqueueReadBuffer(lane.queue, a_out, CL_TRUE, 0, size_t(n) * 3 * sizeof(float),
+                                     out_rgb, 0, nullptr, nullptr));
+  return Status::Ok();
+}
+
+Status DeviceEngine::Warm(const KernelSpec &spec) {
+  // A tiny plan of the right shape: one probe or one light of each kind used.
+  glint::v1::QueryBatch q;
+  q.set_count(1);
+  for (float v : {0.0f, 0.0f, 1.0f}) q.add_wo(v);
+  if (spec.probe)
+    for (float v : {0.0f, 0.0f, 1.0f}) q.add_wi(v);
+  if (spec.has_frame) {
+    for (float v : {0.0f, 0.0f, 0.0f}) q.add_position(v);
+    for (float v : {0.0f, 0.0f, 1.0f}) q.add_normal(v);
+    for (float v : {1.0f, 0.0f, 0.0f}) q.add_tangent(v);
+  }
+  EvalPlan plan;
+  plan.spec = spec;
+  plan.material = {0.5f, 0.5f, 0.04f, 0.04f, 0.04f, 0.0f, 0.0f, 0.0f};
+  if (spec.has_directional) {
+    plan.directional = {0, 0, 1, 1, 1, 1, 1, 0};
+    plan.n_directional = 1;
+  }
+  if (spec.has_point) {
+    plan.point = {0, 0, 1, 1, 1, 1, 0, 0};
+    plan.n_point = 1;
+  }
+  float rgb[3];
+  for (int lane = 0; lane < lanes(); ++lane) {
+    Status s = Evaluate(lane, plan, q, rgb);
+    if (!s.ok()) return s;
+  }
+  return Status::Ok();
+}
+
+}  // namespace glint

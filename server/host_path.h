@@ -1,0 +1,15 @@
+// The host scalar path: the same kernels/*.h math compiled as C++ and run in
+// a plain loop on one thread. It is the baseline in benchmarks, the fallback
+// behind `glintd --device host`, and lets tests run the kernels in double.
+#pragma once
+
+#include "glint/v1/glint.pb.h"
+#include "server/eval_plan.h"
+
+namespace glint {
+
+// Writes 3 * queries.count() floats. Uses double arithmetic when
+// plan.spec.fp64, float otherwise, like the device kernel.
+void HostEvaluate(const EvalPlan &plan, const glint::v1::QueryBatch &queries, float *out_rgb);
+
+}  // namespace glint

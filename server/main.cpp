@@ -1,0 +1,210 @@
+// glintd: parses flags, builds the engine and the gRPC server, warms the
+// default kernels, reports SERVING, and shuts down cleanly on SIGINT/SIGTERM.
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
+
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <string>
+
+#include "server/service.h"
+
+namespace {
+
+struct Flags {
+  std::string listen = "127.0.0.1:50051";
+  std::string device;  // "" = PoCL CPU if present; "host" = scalar C++ path
+  std::string cache_dir;
+  std::string port_file;
+  uint32_t max_batch = 1u << 20;
+  int workers = 2;
+  int max_pending = 16;
+  int max_message_mb = 64;
+  bool quiet = false;
+  bool list_devices = false;
+};
+
+const char kUsage[] =
+    "usage: glintd [options]\n"
+    "  --listen ADDR        address to serve on (default 127.0.0.1:50051; port 0 picks a free one)\n"
+    "  --device SEL         OpenCL device: index from --list-devices, or a substring of its\n"
+    "                       device/platform name; 'host' runs the scalar C++ path without OpenCL\n"
+    "                       (default: PoCL's CPU device, else the first device)\n"
+    "  --cache-dir DIR      compiled-kernel cache (default $GLINT_CACHE_DIR, else\n"
+    "                       $XDG_CACHE_HOME/glint, else ~/.cache/glint; '' disables)\n"
+    "  --max-batch N        queries per unary call or stream chunk (default 1048576)\n"
+    "  --workers N          evaluation threads / device queues (default 2)\n"
+    "  --max-pending N      queued+running requests before RESOURCE_EXHAUSTED (default 16)\n"
+    "  --max-message-mb N   gRPC message size limit, both directions (default 64)\n"
+    "  --port-file PATH     write the bound port here once SERVING\n"
+    "  --list-devices       print the OpenCL devices and exit\n"
+    "  --quiet              no per-request log lines\n";
+
+std::string DefaultCacheDir() {
+  if (const char *d = std::getenv("GLINT_CACHE_DIR")) return d;
+  if (const char *x = std::getenv("XDG_CACHE_HOME")) return std::string(x) + "/glint";
+  if (const char *h = std::getenv("HOME")) return std::string(h) + "/.cache/glint";
+  return "";
+}
+
+bool ParseFlags(int argc, char **argv, Flags *f) {
+  f->cache_dir = DefaultCacheDir();
+  for (int i = 1; i < argc; ++i) {
+    std::string a = argv[i];
+    auto value = [&](const char *name) -> const char * {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "glintd: %s needs a value\n", name);
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    auto number = [&](const char *name, long lo, long hi) -> long {
+      const char *v = value(name);
+      char *end = nullptr;
+      long n = std::strtol(v, &end, 10);
+      if (*v == '\0' || *end != '\0' || n < lo || n > hi) {
+        std::fprintf(stderr, "glintd: %s %s: expected an integer in [%ld, %ld]\n", name, v, lo, hi);
+        std::exit(2);
+      }
+      return n;
+    };
+    if (a == "--listen") f->listen = value("--listen");
+    else if (a == "--device") f->device = value("--device");
+    else if (a == "--cache-dir") f->cache_dir = value("--cache-dir");
+    else if (a == "--port-file") f->port_file = value("--port-file");
+    else if (a == "--max-batch") f->max_batch = uint32_t(number("--max-batch", 1, 1 << 24));
+    else if (a == "--workers") f->workers = int(number("--workers", 1, 64));
+    else if (a == "--max-pending") f->max_pending = int(number("--max-pending", 1, 1 << 16));
+    else if (a == "--max-message-mb") f->max_message_mb = int(number("--max-message-mb", 1, 1024));
+    else if (a == "--list-devices") f->list_devices = true;
+    else if (a == "--quiet") f->quiet = true;
+    else if (a == "--help" || a == "-h") {
+      std::fputs(kUsage, stdout);
+      std::exit(0);
+    } else {
+      std::fprintf(stderr, "glintd: unknown option %s\n%s", a.c_str(), kUsage);
+      return false;
+    }
+  }
+  return true;
+}
+
+// The kernels most requests use, compiled and run before SERVING; others are
+// compiled on first use (and then come from the disk cache).
+std::vector<glint::KernelSpec> WarmSpecs() {
+  std::vector<glint::KernelSpec> specs;
+  for (int ndf : {1, 2}) {
+    glint::KernelSpec probe;
+    probe.ndf = ndf;
+    probe.probe = true;
+    specs.push_back(probe);
+    glint::KernelSpec lit;
+    lit.ndf = ndf;
+    lit.has_frame = true;
+    lit.has_directional = true;
+    lit.has_point = true;
+    specs.push_back(lit);
+  }
+  return specs;
+}
+
+}  // namespace
+
+int main(int argc, char **argv) {
+  Flags flags;
+  if (!ParseFlags(argc, argv, &flags)) return 2;
+  if (flags.list_devices) {
+    auto devices = glint::ListDevices();
+    for (size_t i = 0; i < devices.size(); ++i) {
+      const auto &d = devices[i];
+      std::printf("%zu: %s | %s | %s | %u compute units | fp64 %s\n", i, d.name.c_str(),
+                  d.platform_name.c_str(), d.opencl_version.c_str(), d.compute_units,
+                  d.fp64 ? "yes" : "no");
+    }
+    if (devices.empty()) std::printf("no OpenCL devices (use --device host)\n");
+    return 0;
+  }
+
+  // Block the stop signals in every thread; main waits for them with sigwait.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
+  std::unique_ptr<glint::DeviceEngine> engine;
+  glint::ServiceOptions options;
+  options.limits.max_batch = flags.max_batch;
+  options.max_message_bytes = uint64_t(flags.max_message_mb) << 20;
+  options.log_requests = !flags.quiet;
+  if (flags.device != "host") {
+    glint::DeviceEngineOptions eo;
+    eo.device = flags.device;
+    eo.cache_dir = flags.cache_dir;
+    eo.lanes = flags.workers;
+    glint::Status s = glint::DeviceEngine::Create(eo, &engine);
+    if (!s.ok()) {
+      std::fprintf(stderr, "glintd: %s\n", s.message().c_str());
+      return 1;
+    }
+    options.limits.fp64_available = engine->info().fp64;
+  }
+  glint::Scheduler scheduler(flags.workers, size_t(flags.max_pending));
+  glint::GlintServiceImpl service(engine.get(), &scheduler, options);
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(flags.listen, grpc::InsecureServerCredentials(), &port);
+  builder.SetMaxReceiveMessageSize(flags.max_message_mb << 20);
+  builder.SetMaxSendMessageSize(flags.max_message_mb << 20);
+  builder.RegisterService(&service);
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  if (!server || port == 0) {
+    std::fprintf(stderr, "glintd: could not listen on %s\n", flags.listen.c_str());
+    return 1;
+  }
+  server->GetHealthCheckService()->SetServingStatus(false);
+
+  if (engine) {
+    const auto t0 = std::chrono::steady_clock::now();
+    for (const auto &spec : WarmSpecs()) {
+      glint::Status s = engine->Warm(spec);
+      if (!s.ok()) {
+        std::fprintf(stderr, "glintd: warm-up of %s failed: %s\n", spec.Describe().c_str(),
+                     s.message().c_str());
+        server->Shutdown();
+        return 1;
+      }
+    }
+    std::fprintf(stderr, "glintd: device %s (%s), %zu kernels warm in %.0f ms (%d compiled, %d from cache %s)\n",
+                 engine->info().name.c_str(), engine->info().platform_name.c_str(),
+                 WarmSpecs().size(),
+                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(),
+                 engine->runtime().programs_compiled(), engine->runtime().programs_loaded_from_disk(),
+                 flags.cache_dir.empty() ? "(disabled)" : flags.cache_dir.c_str());
+  } else {
+    std::fprintf(stderr, "glintd: device host (scalar C++ path, no OpenCL)\n");
+  }
+
+  server->GetHealthCheckService()->SetServingStatus(true);
+  std::string host = flags.listen.substr(0, flags.listen.rfind(':'));
+  std::fprintf(stderr, "glintd: SERVING on %s:%d\n", host.c_str(), port);
+  if (!flags.port_file.empty()) {
+    std::string tmp = flags.port_file + ".tmp";
+    { std::ofstream(tmp) << port << "\n"; }
+    std::rename(tmp.c_str(), flags.port_file.c_str());
+  }
+
+  int sig = 0;
+  sigwait(&stop_signals, &sig);
+  std::fprintf(stderr, "glintd: signal %d, shutting down\n", sig);
+  server->GetHealthCheckService()->SetServingStatus(false);
+  server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
+  return 0;
+}

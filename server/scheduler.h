@@ -1,0 +1,42 @@
+// A fixed pool of worker threads, one per engine lane, fed by a bounded queue.
+// gRPC handlers only enqueue; evaluation runs here, never on gRPC's threads.
+// When the queue is full, TrySubmit fails at once and the caller answers
+// RESOURCE_EXHAUSTED: overload fails fast instead of queueing without bound.
+#pragma once
+
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace glint {
+
+class Scheduler {
+ public:
+  using Job = std::function<void(int lane)>;
+
+  Scheduler(int workers, size_t max_pending);
+  ~Scheduler();  // runs every queued job, then joins
+  Scheduler(const Scheduler &) = delete;
+  Scheduler &operator=(const Scheduler &) = delete;
+
+  bool TrySubmit(Job job);
+  size_t pending() const;  // queued + running
+  size_t max_pending() const { return max_pending_; }
+
+ private:
+  void WorkerLoop(int lane);
+
+  const size_t max_pending_;
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<Job> queue_;
+  size_t running_ = 0;
+  bool stopping_ = false;
+  std::vector<std::thread> workers_;
+};
+
+}  // namespace glint

@@ -1,0 +1,64 @@
+// The gRPC service glint.v1.GlintService on the callback API: handlers
+// validate nothing themselves and run nothing heavy; they hand a job to the
+// Scheduler and finish the RPC from the worker that ran it.
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <atomic>
+#include <memory>
+#include <string>
+
+#include "glint/v1/glint.grpc.pb.h"
+#include "server/device_engine.h"
+#include "server/scheduler.h"
+#include "server/validation.h"
+
+namespace glint {
+
+struct ServiceOptions {
+  ValidationLimits limits;
+  uint64_t max_message_bytes = 64ull << 20;
+  bool log_requests = true;
+};
+
+// Evaluates on the OpenCL engine, or on the host path when engine is null.
+class GlintServiceImpl final : public glint::v1::GlintService::CallbackService {
+ public:
+  GlintServiceImpl(DeviceEngine *engine, Scheduler *scheduler, ServiceOptions options);
+
+  grpc::ServerUnaryReactor *Evaluate(grpc::CallbackServerContext *ctx,
+                                     const glint::v1::EvaluateRequest *request,
+                                     glint::v1::EvaluateResponse *response) override;
+  grpc::ServerBidiReactor<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult> *
+  EvaluateStream(grpc::CallbackServerContext *ctx) override;
+  grpc::ServerUnaryReactor *GetCapabilities(grpc::CallbackServerContext *ctx,
+                                            const glint::v1::GetCapabilitiesRequest *request,
+                                            glint::v1::Capabilities *response) override;
+
+  // Validates `queries` against `settings` (already validated) and evaluates
+  // them on `lane`, filling response->radiance.
+  Status RunBatch(int lane, const glint::v1::EvaluateRequest &settings,
+                  const glint::v1::QueryBatch &queries, uint64_t first_query, bool streamed,
+                  glint::v1::EvaluateResponse *response);
+
+  Scheduler &scheduler() { return *scheduler_; }
+  const ServiceOptions &options() const { return options_; }
+  void LogLine(const std::string &line);
+
+ private:
+  class StreamReactor;
+  std::string DeviceName() const;
+
+  DeviceEngine *engine_;
+  Scheduler *scheduler_;
+  ServiceOptions options_;
+  std::mutex log_mutex_;
+};
+
+grpc::Status ToGrpcStatus(const Status &status);
+
+// The message a client gets when the queue is full.
+Status OverloadStatus(const Scheduler &scheduler);
+
+}  // namespace glint

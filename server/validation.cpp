@@ -1,0 +1,272 @@
+#include "server/validation.h"
+
+#include <cmath>
+#include <sstream>
+#include <string>
+
+namespace glint {
+namespace {
+
+using google::protobuf::RepeatedField;
+
+std::string Vec(const float *v, int n) {
+  std::ostringstream o;
+  o << '(';
+  for (int i = 0; i < n; ++i) o << (i ? ", " : "") << v[i];
+  o << ')';
+  return o.str();
+}
+
+bool AllFinite(const float *v, int n) {
+  for (int i = 0; i < n; ++i)
+    if (!std::isfinite(v[i])) return false;
+  return true;
+}
+
+double Length3(const float *v) {
+  return std::sqrt(double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]);
+}
+
+// A fixed-size vector field of the material or a light: exactly n finite values.
+Status CheckFixed(const RepeatedField<float> &v, int n, const std::string &field) {
+  if (v.size() != n) {
+    return Status::InvalidArgument(field + ": has " + std::to_string(v.size()) +
+                                   " values; expected " + std::to_string(n));
+  }
+  if (!AllFinite(v.data(), n)) return Status::InvalidArgument(field + ": " + Vec(v.data(), n) + " is not finite");
+  return Status::Ok();
+}
+
+Status CheckRange(const RepeatedField<float> &v, int n, const std::string &field, float lo,
+                  float hi, const char *expected) {
+  Status s = CheckFixed(v, n, field);
+  if (!s.ok()) return s;
+  for (int i = 0; i < n; ++i) {
+    if (!(v[i] >= lo && v[i] <= hi)) {
+      return Status::InvalidArgument(field + ": " + Vec(v.data(), n) + "; expected " + expected);
+    }
+  }
+  return Status::Ok();
+}
+
+Status CheckUnit(const float *v, const std::string &field, double tol) {
+  double len = Length3(v);
+  if (std::fabs(len - 1.0) > tol) {
+    std::ostringstream o;
+    o << field << ": " << Vec(v, 3) << " has length " << len
+      << "; expected a unit vector (|length - 1| <= " << tol << ")";
+    return Status::InvalidArgument(o.str());
+  }
+  return Status::Ok();
+}
+
+Status CheckMaterial(const glint::v1::Material &m) {
+  using glint::v1::Material;
+  if (m.model() != glint::v1::SMOOTH) {
+    return Status::InvalidArgument("material.model: " +
+                                   (glint::v1::Model_IsValid(m.model()) && m.model() != 0
+                                        ? glint::v1::Model_Name(m.model())
+                                        : std::string(m.model() == 0 ? "unset" : "unknown value " + std::to_string(m.model()))) +
+                                   "; expected SMOOTH");
+  }
+  if (m.ndf() != glint::v1::GGX && m.ndf() != glint::v1::BECKMANN) {
+    return Status::InvalidArgument(
+        "material.ndf: " +
+        (m.ndf() == 0 ? std::string("unset") : "unknown value " + std::to_string(m.ndf())) +
+        "; expected GGX or BECKMANN");
+  }
+  for (auto [value, name] : {std::pair{m.alpha_x(), "material.alpha_x"},
+                             std::pair{m.alpha_y(), "material.alpha_y"}}) {
+    if (!(value > 0.0f && value <= 1.0f)) {
+      std::ostringstream o;
+      o << name << ": " << value << "; expected a roughness in (0, 1]";
+      return Status::InvalidArgument(o.str());
+    }
+  }
+  switch (m.fresnel_case()) {
+    case Material::kSchlick:
+      return CheckRange(m.schlick().f0(), 3, "material.schlick.f0", 0.0f, 1.0f,
+                        "3 values in [0, 1]");
+    case Material::kConductor: {
+      Status s = CheckRange(m.conductor().eta(), 3, "material.conductor.eta", 1e-6f, 1e6f,
+                            "3 values > 0");
+      if (!s.ok()) return s;
+      return CheckRange(m.conductor().k(), 3, "material.conductor.k", 0.0f, 1e6f,
+                        "3 values >= 0");
+    }
+    case Material::kDielectric: {
+      float ior = m.dielectric().ior();
+      if (!(ior > 0.0f && ior < 1e6f)) {
+        std::ostringstream o;
+        o << "material.dielectric.ior: " << ior << "; expected a finite value > 0";
+        return Status::InvalidArgument(o.str());
+      }
+      return Status::Ok();
+    }
+    default:
+      return Status::InvalidArgument(
+          "material.fresnel: unset; expected one of schlick, conductor, dielectric");
+  }
+}
+
+Status CheckLight(const glint::v1::Light &light, const std::string &field, double tol) {
+  if (light.has_directional()) {
+    const auto &d = light.directional();
+    const std::string f = field + ".directional";
+    Status s = CheckFixed(d.direction(), 3, f + ".direction");
+    if (s.ok()) s = CheckUnit(d.direction().data(), f + ".direction", tol);
+    if (s.ok()) s = CheckRange(d.irradiance(), 3, f + ".irradiance", 0.0f, 3e38f, "3 values >= 0");
+    if (s.ok() && !(d.cone_half_angle_deg() >= 0.0f && d.cone_half_angle_deg() <= 90.0f)) {
+      std::ostringstream o;
+      o << f << ".cone_half_angle_deg: " << d.cone_half_angle_deg() << "; expected [0, 90]";
+      s = Status::InvalidArgument(o.str());
+    }
+    return s;
+  }
+  if (light.has_point()) {
+    const auto &p = light.point();
+    const std::string f = field + ".point";
+    Status s = CheckFixed(p.position(), 3, f + ".position");
+    if (s.ok()) s = CheckRange(p.intensity(), 3, f + ".intensity", 0.0f, 3e38f, "3 values >= 0");
+    if (s.ok() && !(p.radius() >= 0.0f && std::isfinite(p.radius()))) {
+      std::ostringstream o;
+      o << f << ".radius: " << p.radius() << "; expected a finite value >= 0";
+      s = Status::InvalidArgument(o.str());
+    }
+    return s;
+  }
+  return Status::InvalidArgument(field + ": no light kind set; expected directional or point");
+}
+
+// An optional per-query array: empty, or `per` values for each query.
+Status CheckArraySize(const RepeatedField<float> &v, uint32_t count, int per, bool required,
+                      const std::string &field) {
+  if (v.empty() && !required) return Status::Ok();
+  uint64_t want = uint64_t(count) * per;
+  if (uint64_t(v.size()) != want) {
+    return Status::InvalidArgument(field + ": has " + std::to_string(v.size()) +
+                                   " values; expected " + std::to_string(per) + " x count = " +
+                                   std::to_string(want) + (required ? "" : " (or none)"));
+  }
+  return Status::Ok();
+}
+
+std::string Indexed(const char *field, uint64_t i) {
+  return std::string(field) + "[" + std::to_string(i) + "]";
+}
+
+}  // namespace
+
+Status ValidateSettings(const glint::v1::EvaluateRequest &request, const ValidationLimits &limits) {
+  if (!request.has_material()) return Status::InvalidArgument("material: unset");
+  Status s = CheckMaterial(request.material());
+  if (!s.ok()) return s;
+  if (request.lights_size() > int(limits.max_lights)) {
+    return Status::InvalidArgument("lights: " + std::to_string(request.lights_size()) +
+                                   " lights; at most " + std::to_string(limits.max_lights) +
+                                   " per request");
+  }
+  for (int l = 0; l < request.lights_size(); ++l) {
+    s = CheckLight(request.lights(l), Indexed("lights", uint64_t(l)), limits.unit_tolerance);
+    if (!s.ok()) return s;
+  }
+  switch (request.precision()) {
+    case glint::v1::PRECISION_UNSPECIFIED:
+    case glint::v1::FP32:
+      break;
+    case glint::v1::FP64:
+      if (!limits.fp64_available) {
+        return Status::InvalidArgument(
+            "precision: FP64 requested but the device has no cl_khr_fp64; use FP32");
+      }
+      break;
+    default:
+      return Status::InvalidArgument("precision: unknown value " +
+                                     std::to_string(request.precision()) +
+                                     "; expected FP32 or FP64");
+  }
+  return Status::Ok();
+}
+
+Status ValidateQueries(const glint::v1::QueryBatch &q, bool has_lights,
+                       const ValidationLimits &limits, uint64_t first_query, bool streamed) {
+  const uint32_t n = q.count();
+  if (n == 0) return Status::InvalidArgument("queries.count: 0; expected at least one query");
+  if (n > limits.max_batch) {
+    return Status::InvalidArgument(
+        "queries.count: " + std::to_string(n) + " exceeds the limit of " +
+        std::to_string(limits.max_batch) + " queries per " +
+        (streamed ? "stream chunk; send smaller chunks"
+                  : "call; send the batch over EvaluateStream in chunks of at most " +
+                        std::to_string(limits.max_batch)));
+  }
+  Status s = CheckArraySize(q.wo(), n, 3, true, "queries.wo");
+  if (s.ok()) s = CheckArraySize(q.uv(), n, 2, false, "queries.uv");
+  if (s.ok()) s = CheckArraySize(q.footprint(), n, 4, false, "queries.footprint");
+  if (s.ok()) s = CheckArraySize(q.wi(), n, 3, false, "queries.wi");
+  if (s.ok()) s = CheckArraySize(q.position(), n, 3, false, "queries.position");
+  if (s.ok()) s = CheckArraySize(q.normal(), n, 3, false, "queries.normal");
+  if (s.ok()) s = CheckArraySize(q.tangent(), n, 3, false, "queries.tangent");
+  if (!s.ok()) return s;
+
+  const bool frame = !q.normal().empty();
+  if (frame != !q.position().empty() || frame != !q.tangent().empty()) {
+    return Status::InvalidArgument(
+        "queries.position/normal/tangent: give all three arrays (a world-space frame) or none");
+  }
+  const bool probe = !q.wi().empty();
+  if (probe && has_lights) {
+    return Status::InvalidArgument(
+        "lights: a BRDF probe batch (queries.wi set) must carry no lights");
+  }
+  if (!probe && !has_lights) {
+    return Status::InvalidArgument(
+        "lights: empty; a batch without queries.wi needs at least one light");
+  }
+
+  const double tol = limits.unit_tolerance;
+  struct Array {
+    const RepeatedField<float> &v;
+    int per;
+    const char *name;
+    bool unit;
+  };
+  const Array arrays[] = {{q.wo(), 3, "queries.wo", true},
+                          {q.wi(), 3, "queries.wi", true},
+                          {q.uv(), 2, "queries.uv", false},
+                          {q.footprint(), 4, "queries.footprint", false},
+                          {q.position(), 3, "queries.position", false},
+                          {q.normal(), 3, "queries.normal", true},
+                          {q.tangent(), 3, "queries.tangent", true}};
+  // Query-major order so the reported index is the first bad query overall.
+  for (uint32_t i = 0; i < n; ++i) {
+    for (const Array &a : arrays) {
+      if (a.v.empty()) continue;
+      const float *v = a.v.data() + uint64_t(i) * a.per;
+      if (!AllFinite(v, a.per)) {
+        return Status::InvalidArgument(Indexed(a.name, first_query + i) + ": " + Vec(v, a.per) +
+                                       " is not finite");
+      }
+      if (a.unit) {
+        s = CheckUnit(v, Indexed(a.name, first_query + i), tol);
+        if (!s.ok()) return s;
+      }
+    }
+    if (frame) {
+      const float *nv = q.normal().data() + 3 * uint64_t(i);
+      const float *tv = q.tangent().data() + 3 * uint64_t(i);
+      double c = (double(nv[0]) * tv[0] + double(nv[1]) * tv[1] + double(nv[2]) * tv[2]) /
+                 (Length3(nv) * Length3(tv));
+      if (std::fabs(c) > limits.max_tangent_normal_cos) {
+        std::ostringstream o;
+        o << Indexed("queries.tangent", first_query + i) << ": " << Vec(tv, 3)
+          << " is parallel to the normal " << Vec(nv, 3) << " (|cos| = " << std::fabs(c)
+          << "); expected a tangent with |cos| <= " << limits.max_tangent_normal_cos;
+        return Status::InvalidArgument(o.str());
+      }
+    }
+  }
+  return Status::Ok();
+}
+
+}  // namespace glint

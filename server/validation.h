@@ -1,0 +1,34 @@
+// Request validation: every input is checked here before it can reach a
+// kernel. Messages name the field path, the first bad query index and what was
+// expected, e.g. "queries.wo[17]: (nan, 0, 1) is not finite".
+#pragma once
+
+#include <cstdint>
+
+#include "glint/v1/glint.pb.h"
+#include "server/status.h"
+
+namespace glint {
+
+struct ValidationLimits {
+  uint32_t max_batch = 1u << 20;  // queries per unary call or stream chunk
+  uint32_t max_lights = 64;
+  bool fp64_available = true;
+  // Unit vectors may deviate from length 1 by this much (float data that was
+  // normalised in another program); kernels renormalise them.
+  double unit_tolerance = 1e-3;
+  // Tangent and normal count as parallel when |t . n| exceeds this.
+  double max_tangent_normal_cos = 0.999;
+};
+
+// Checks material, lights and precision (the settings of a request or of a
+// stream's first chunk).
+Status ValidateSettings(const glint::v1::EvaluateRequest &request, const ValidationLimits &limits);
+
+// Checks a query batch against the settings it will run with. Indices in
+// messages are offset by `first_query` (a stream chunk's position).
+Status ValidateQueries(const glint::v1::QueryBatch &queries, bool has_lights,
+                       const ValidationLimits &limits, uint64_t first_query = 0,
+                       bool streamed = false);
+
+}  // namespace glint

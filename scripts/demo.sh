@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# The README's main command: install, build, start glintd on loopback, render
+# preview images of a material on a sphere and a plane, and print where they are.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/install-deps.sh
+bash scripts/build.sh
+BUILD_DIR="${GLINT_BUILD_DIR:-build}"
+OUT="${GLINT_OUT_DIR:-$PWD/out}"
+mkdir -p "$OUT"
+PORT_FILE="$(mktemp)"
+"$BUILD_DIR/server/glintd" --listen 127.0.0.1:0 --port-file "$PORT_FILE" 2>"$OUT/glintd.log" &
+GLINTD=$!
+trap 'kill $GLINTD 2>/dev/null || true; rm -f "$PORT_FILE"' EXIT
+for _ in $(seq 1 300); do
+  [ -s "$PORT_FILE" ] && break
+  kill -0 $GLINTD 2>/dev/null || { cat "$OUT/glintd.log"; exit 1; }
+  sleep 0.1
+done
+SERVER="127.0.0.1:$(cat "$PORT_FILE")"
+GLINT="$BUILD_DIR/client/cli/glint"
+"$GLINT" info --server "$SERVER"
+for scene in sphere plane; do
+  "$GLINT" preview --server "$SERVER" --material examples/materials/gold_aniso.json \
+    --lights examples/lights/studio.json --scene "$scene" --size 512x384 \
+    --out "$OUT/preview_$scene.exr"
+done
+echo
+echo "Preview images are in $OUT:"
+ls -1 "$OUT"/preview_*

@@ -1,0 +1,204 @@
+// Every refusal names the field, the first bad query index and what was
+// expected; good requests pass.
+#include "server/validation.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+
+namespace glint {
+namespace {
+
+using glint::v1::EvaluateRequest;
+
+EvaluateRequest GoodProbe(uint32_t n = 4) {
+  EvaluateRequest r;
+  auto *m = r.mutable_material();
+  m->set_model(v1::SMOOTH);
+  m->set_ndf(v1::GGX);
+  m->set_alpha_x(0.3f);
+  m->set_alpha_y(0.1f);
+  for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
+  auto *q = r.mutable_queries();
+  q->set_count(n);
+  for (uint32_t i = 0; i < n; ++i) {
+    for (float v : {0.0f, 0.6f, 0.8f}) q->add_wo(v);
+    for (float v : {0.0f, -0.6f, 0.8f}) q->add_wi(v);
+  }
+  return r;
+}
+
+Status Validate(const EvaluateRequest &r, ValidationLimits limits = {}) {
+  Status s = ValidateSettings(r, limits);
+  if (!s.ok()) return s;
+  return ValidateQueries(r.queries(), r.lights_size() > 0, limits);
+}
+
+struct Case {
+  const char *name;
+  std::function<void(EvaluateRequest &)> mutate;
+  std::vector<const char *> must_contain;
+};
+
+TEST(Validation, GoodRequestsPass) {
+  EXPECT_TRUE(Validate(GoodProbe()).ok());
+  EvaluateRequest lit = GoodProbe();
+  lit.mutable_queries()->clear_wi();
+  auto *d = lit.add_lights()->mutable_directional();
+  for (float v : {0.0f, 0.0f, 1.0f}) d->add_direction(v);
+  for (float v : {1.0f, 1.0f, 1.0f}) d->add_irradiance(v);
+  Status s = Validate(lit);
+  EXPECT_TRUE(s.ok()) << s.message();
+  // Within the unit tolerance (1e-3): accepted.
+  EvaluateRequest slightly_off = GoodProbe();
+  slightly_off.mutable_queries()->set_wo(2, 0.8005f);
+  EXPECT_TRUE(Validate(slightly_off).ok());
+}
+
+TEST(Validation, RefusalsNameFieldIndexAndExpectation) {
+  constexpr float nan = std::numeric_limits<float>::quiet_NaN();
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  const std::vector<Case> cases = {
+      {"no material", [](auto &r) { r.clear_material(); }, {"material"}},
+      {"model unset", [](auto &r) { r.mutable_material()->set_model(v1::MODEL_UNSPECIFIED); },
+       {"material.model", "unset", "SMOOTH"}},
+      {"model unknown", [](auto &r) { r.mutable_material()->set_model(v1::Model(42)); },
+       {"material.model", "42"}},
+      {"ndf unknown", [](auto &r) { r.mutable_material()->set_ndf(v1::Ndf(7)); },
+       {"material.ndf", "GGX or BECKMANN"}},
+      {"alpha 0", [](auto &r) { r.mutable_material()->set_alpha_x(0.0f); },
+       {"material.alpha_x", "(0, 1]"}},
+      {"alpha > 1", [](auto &r) { r.mutable_material()->set_alpha_y(1.5f); },
+       {"material.alpha_y", "(0, 1]"}},
+      {"alpha nan", [](auto &r) { r.mutable_material()->set_alpha_y(nan); }, {"material.alpha_y"}},
+      {"no fresnel", [](auto &r) { r.mutable_material()->clear_schlick(); },
+       {"material.fresnel", "schlick, conductor, dielectric"}},
+      {"f0 two values", [](auto &r) { r.mutable_material()->mutable_schlick()->mutable_f0()->RemoveLast(); },
+       {"material.schlick.f0", "expected 3"}},
+      {"f0 > 1", [](auto &r) { r.mutable_material()->mutable_schlick()->set_f0(1, 1.5f); },
+       {"material.schlick.f0", "[0, 1]"}},
+      {"conductor k < 0",
+       [](auto &r) {
+         auto *c = r.mutable_material()->mutable_conductor();
+         for (float v : {1.0f, 1.0f, 1.0f}) c->add_eta(v);
+         for (float v : {1.0f, -1.0f, 1.0f}) c->add_k(v);
+       },
+       {"material.conductor.k", ">= 0"}},
+      {"dielectric ior inf", [](auto &r) { r.mutable_material()->mutable_dielectric()->set_ior(inf); },
+       {"material.dielectric.ior"}},
+      {"count 0", [](auto &r) { r.mutable_queries()->set_count(0); }, {"queries.count", "at least one"}},
+      {"wo length mismatch", [](auto &r) { r.mutable_queries()->mutable_wo()->RemoveLast(); },
+       {"queries.wo", "expected 3 x count = 12"}},
+      {"uv wrong size", [](auto &r) { r.mutable_queries()->add_uv(0.5f); }, {"queries.uv", "or none"}},
+      {"wo nan at 2", [](auto &r) { r.mutable_queries()->set_wo(7, nan); }, {"queries.wo[2]", "not finite"}},
+      {"wi zero at 3",
+       [](auto &r) {
+         for (int k = 9; k < 12; ++k) r.mutable_queries()->set_wi(k, 0.0f);
+       },
+       {"queries.wi[3]", "unit vector"}},
+      {"wo not unit at 1", [](auto &r) { r.mutable_queries()->set_wo(5, 0.9f); },
+       {"queries.wo[1]", "length", "unit vector"}},
+      {"footprint inf at 1",
+       [](auto &r) {
+         for (int k = 0; k < 16; ++k) r.mutable_queries()->add_footprint(k == 5 ? inf : 0.0f);
+       },
+       {"queries.footprint[1]", "not finite"}},
+      {"partial frame",
+       [](auto &r) {
+         for (int k = 0; k < 12; ++k) r.mutable_queries()->add_normal(k % 3 == 2 ? 1.0f : 0.0f);
+       },
+       {"position/normal/tangent", "all three"}},
+      {"tangent parallel at 0",
+       [](auto &r) {
+         auto *q = r.mutable_queries();
+         for (int k = 0; k < 12; ++k) {
+           q->add_position(0.0f);
+           q->add_normal(k % 3 == 2 ? 1.0f : 0.0f);
+           q->add_tangent(k % 3 == 2 ? 1.0f : 0.0f);
+         }
+       },
+       {"queries.tangent[0]", "parallel"}},
+      {"probe with lights",
+       [](auto &r) {
+         auto *d = r.add_lights()->mutable_directional();
+         for (float v : {0.0f, 0.0f, 1.0f}) d->add_direction(v);
+         for (float v : {1.0f, 1.0f, 1.0f}) d->add_irradiance(v);
+       },
+       {"lights", "probe"}},
+      {"no wi and no lights", [](auto &r) { r.mutable_queries()->clear_wi(); },
+       {"lights", "at least one light"}},
+      {"light without kind",
+       [](auto &r) {
+         r.mutable_queries()->clear_wi();
+         r.add_lights();
+       },
+       {"lights[0]", "directional or point"}},
+      {"directional not unit",
+       [](auto &r) {
+         r.mutable_queries()->clear_wi();
+         auto *d = r.add_lights()->mutable_directional();
+         for (float v : {0.0f, 0.0f, 2.0f}) d->add_direction(v);
+         for (float v : {1.0f, 1.0f, 1.0f}) d->add_irradiance(v);
+       },
+       {"lights[0].directional.direction", "unit"}},
+      {"point negative intensity",
+       [](auto &r) {
+         r.mutable_queries()->clear_wi();
+         auto *p = r.add_lights()->mutable_point();
+         for (float v : {0.0f, 0.0f, 2.0f}) p->add_position(v);
+         for (float v : {1.0f, -1.0f, 1.0f}) p->add_intensity(v);
+       },
+       {"lights[0].point.intensity", ">= 0"}},
+      {"cone angle > 90",
+       [](auto &r) {
+         r.mutable_queries()->clear_wi();
+         auto *d = r.add_lights()->mutable_directional();
+         for (float v : {0.0f, 0.0f, 1.0f}) d->add_direction(v);
+         for (float v : {1.0f, 1.0f, 1.0f}) d->add_irradiance(v);
+         d->set_cone_half_angle_deg(120.0f);
+       },
+       {"cone_half_angle_deg", "[0, 90]"}},
+      {"precision unknown", [](auto &r) { r.set_precision(v1::Precision(9)); }, {"precision"}},
+  };
+  for (const Case &c : cases) {
+    EvaluateRequest r = GoodProbe();
+    c.mutate(r);
+    Status s = Validate(r);
+    ASSERT_FALSE(s.ok()) << c.name;
+    EXPECT_EQ(s.code(), Status::Code::kInvalidArgument) << c.name;
+    for (const char *part : c.must_contain)
+      EXPECT_NE(s.message().find(part), std::string::npos)
+          << c.name << ": '" << s.message() << "' lacks '" << part << "'";
+  }
+}
+
+TEST(Validation, BatchOverTheLimitPointsToTheStream) {
+  ValidationLimits limits;
+  limits.max_batch = 3;
+  Status s = Validate(GoodProbe(4), limits);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("EvaluateStream"), std::string::npos) << s.message();
+}
+
+TEST(Validation, Fp64RefusedWhenTheDeviceLacksIt) {
+  ValidationLimits limits;
+  limits.fp64_available = false;
+  EvaluateRequest r = GoodProbe();
+  r.set_precision(v1::FP64);
+  Status s = Validate(r, limits);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("FP64"), std::string::npos);
+}
+
+TEST(Validation, StreamIndicesAreGlobal) {
+  EvaluateRequest r = GoodProbe();
+  r.mutable_queries()->set_wo(4, 0.0f);  // query 1 of this chunk
+  Status s = ValidateQueries(r.queries(), false, {}, 1000, true);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("queries.wo[1001]"), std::string::npos) << s.message();
+}
+
+}  // namespace
+}  // namespace glint

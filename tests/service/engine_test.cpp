@@ -103,11 +103,11 @@ TEST_F(EngineTest, DeviceMatchesHostPathForEverySpecialisation) {
                   << plan.spec.Describe() << " query " << i / 3;
               nonzero += dev[i] > 0.0f;
             }
-            // Most queries are lit and above the horizon (with random frames
-            // about half the lights are behind the surface): a kernel returning
-            // zeros everywhere would agree with a host path that does too.
-            EXPECT_GT(nonzero, int(dev.size()) / (framed && !probe ? 8 : 2))
-                << plan.spec.Describe();
+            // A kernel returning zeros everywhere would agree with a host path
+            // that does too. Random frames put about half of the lights behind
+            // the surface and a narrow Beckmann lobe underflows to exactly 0
+            // far from the specular direction, hence the low bar of 5%.
+            EXPECT_GT(nonzero, int(dev.size()) / 20) << plan.spec.Describe();
             ++combos;
           }
   EXPECT_EQ(combos, 48);

@@ -1,0 +1,148 @@
+// Smooth-model throughput for one batch of queries (default 1M), three ways:
+//   device  in-process on the OpenCL device (DeviceEngine, one lane)
+//   host    in-process on the host scalar path (one thread, same kernels/*.h)
+//   glintd  end to end through glintd on loopback (unary Evaluate, including
+//           protobuf encoding and the gRPC transfer both ways)
+// Reports the median of --repeat runs as evaluations per second.
+//
+//   build/bench/bench_smooth [--queries N] [--repeat R] [--fp64] [--lights]
+#include <grpcpp/grpcpp.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <thread>
+
+#include "glint/v1/glint.grpc.pb.h"
+#include "server/device_engine.h"
+#include "server/host_path.h"
+#include "test_queries.h"
+
+extern char **environ;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+template <typename F>
+double MedianSeconds(int repeat, F &&run) {
+  std::vector<double> t;
+  for (int r = 0; r < repeat; ++r) {
+    auto t0 = Clock::now();
+    run();
+    t.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+  }
+  std::sort(t.begin(), t.end());
+  return t[t.size() / 2];
+}
+
+glint::v1::EvaluateRequest MakeRequest(uint32_t n, bool fp64, bool lights) {
+  glint::v1::EvaluateRequest r;
+  auto *m = r.mutable_material();
+  m->set_model(glint::v1::SMOOTH);
+  m->set_ndf(glint::v1::GGX);
+  m->set_alpha_x(0.3f);
+  m->set_alpha_y(0.1f);
+  for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
+  r.set_precision(fp64 ? glint::v1::FP64 : glint::v1::FP32);
+  *r.mutable_queries() = glint::test::RandomQueries(n, !lights, lights, 42);
+  if (lights) {
+    auto *d = r.add_lights()->mutable_directional();
+    for (float v : {0.6f, 0.0f, 0.8f}) d->add_direction(v);
+    for (float v : {1.0f, 1.0f, 1.0f}) d->add_irradiance(v);
+    auto *p = r.add_lights()->mutable_point();
+    for (float v : {0.0f, 1.0f, 2.0f}) p->add_position(v);
+    for (float v : {5.0f, 5.0f, 5.0f}) p->add_intensity(v);
+  }
+  return r;
+}
+
+}  // namespace
+
+int main(int argc, char **argv) {
+  uint32_t n = 1u << 20;
+  int repeat = 5;
+  bool fp64 = false, lights = false;
+  for (int i = 1; i < argc; ++i) {
+    std::string a = argv[i];
+    if (a == "--queries" && i + 1 < argc) n = uint32_t(std::stoul(argv[++i]));
+    else if (a == "--repeat" && i + 1 < argc) repeat = std::stoi(argv[++i]);
+    else if (a == "--fp64") fp64 = true;
+    else if (a == "--lights") lights = true;
+    else {
+      std::fprintf(stderr, "usage: bench_smooth [--queries N] [--repeat R] [--fp64] [--lights]\n");
+      return 2;
+    }
+  }
+  glint::v1::EvaluateRequest request = MakeRequest(n, fp64, lights);
+  const glint::EvalPlan plan = glint::MakeEvalPlan(request, request.queries());
+  std::vector<float> out(size_t(3) * n);
+  std::printf("smooth model, %u queries, kernel %s, median of %d\n", n,
+              plan.spec.Describe().c_str(), repeat);
+  std::printf("| path | seconds | evaluations/s |\n|---|---|---|\n");
+
+  std::unique_ptr<glint::DeviceEngine> engine;
+  glint::DeviceEngineOptions options;
+  options.lanes = 1;
+  glint::Status s = glint::DeviceEngine::Create(options, &engine);
+  if (!s.ok()) {
+    std::fprintf(stderr, "%s\n", s.message().c_str());
+    return 1;
+  }
+  s = engine->Evaluate(0, plan, request.queries(), out.data());  // compile + warm
+  if (!s.ok()) {
+    std::fprintf(stderr, "%s\n", s.message().c_str());
+    return 1;
+  }
+  double device = MedianSeconds(repeat, [&] { (void)engine->Evaluate(0, plan, request.queries(), out.data()); });
+  std::printf("| device (%s) | %.4f | %.1f M |\n", engine->info().name.c_str(), device, n / device / 1e6);
+  double host = MedianSeconds(std::max(1, repeat / 2),
+                              [&] { glint::HostEvaluate(plan, request.queries(), out.data()); });
+  std::printf("| host scalar, 1 thread | %.4f | %.1f M |\n", host, n / host / 1e6);
+  engine.reset();
+
+  // glintd on a free loopback port.
+  std::string port_file = "/tmp/bench_glintd_port_" + std::to_string(getpid());
+  std::vector<std::string> args = {GLINTD_PATH, "--listen", "127.0.0.1:0", "--port-file",
+                                   port_file, "--quiet", "--workers", "1"};
+  std::vector<char *> argvv;
+  for (auto &a : args) argvv.push_back(a.data());
+  argvv.push_back(nullptr);
+  pid_t pid = -1;
+  if (posix_spawn(&pid, GLINTD_PATH, nullptr, nullptr, argvv.data(), environ) != 0) return 1;
+  int port = 0;
+  for (int i = 0; i < 600 && port == 0; ++i) {
+    std::ifstream in(port_file);
+    if (!(in >> port)) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  grpc::ChannelArguments ch;
+  ch.SetMaxReceiveMessageSize(256 << 20);
+  ch.SetMaxSendMessageSize(256 << 20);
+  auto stub = glint::v1::GlintService::NewStub(grpc::CreateCustomChannel(
+      "127.0.0.1:" + std::to_string(port), grpc::InsecureChannelCredentials(), ch));
+  bool ok = true;
+  auto call = [&] {
+    grpc::ClientContext ctx;
+    glint::v1::EvaluateResponse res;
+    grpc::Status st = stub->Evaluate(&ctx, request, &res);
+    if (!st.ok()) {
+      std::fprintf(stderr, "glintd: %s\n", st.error_message().c_str());
+      ok = false;
+    }
+  };
+  call();  // first call pays for connection set-up and any kernel compile
+  double e2e = MedianSeconds(repeat, call);
+  if (ok) std::printf("| glintd end to end (loopback, unary) | %.4f | %.1f M |\n", e2e, n / e2e / 1e6);
+  kill(pid, SIGTERM);
+  waitpid(pid, nullptr, 0);
+  std::remove(port_file.c_str());
+  std::printf("\ndevice / host = %.1fx; end-to-end / device = %.2f\n", host / device, device / e2e);
+  return ok ? 0 : 1;
+}

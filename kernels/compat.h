@@ -25,7 +25,9 @@ typedef double3 real3;
 typedef float real;
 typedef float3 real3;
 #endif
-#define GLINT_FN inline
+/* Inline everything into the entry point: PoCL vectorises across work-items
+ * only in loops without calls. */
+#define GLINT_FN inline __attribute__((always_inline))
 #define GLINT_GLOBAL __global
 #define GLINT_CONSTANT __constant
 #define GLINT_PRIVATE __private

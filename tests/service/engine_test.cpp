@@ -7,8 +7,12 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <thread>
+
+#include <unistd.h>
 
 #include "server/device_engine.h"
 #include "server/eval_plan.h"
@@ -229,6 +233,48 @@ TEST_F(EngineTest, BuildFailureCarriesTheBuildLog) {
   EXPECT_EQ(s.code(), Status::Code::kInternal);
   EXPECT_NE(s.message().find("build log"), std::string::npos) << s.message();
   EXPECT_NE(s.message().find("undefined_symbol"), std::string::npos) << s.message();
+}
+
+}  // namespace
+}  // namespace glint
+
+namespace glint {
+namespace {
+
+// Programs compiled once are loaded from the disk cache by the next process
+// (here: the next runtime) instead of being compiled again.
+TEST(ProgramCache, SecondRuntimeLoadsBinariesFromDisk) {
+  const std::string dir = ::testing::TempDir() + "glint_cache_test_" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  const std::string source = "__kernel void twice(__global float *x) { x[get_global_id(0)] *= 2.0f; }";
+  {
+    std::unique_ptr<ClRuntime> rt;
+    ASSERT_TRUE(ClRuntime::Create("", dir, &rt).ok());
+    cl_program p = nullptr;
+    ASSERT_TRUE(rt->GetProgram(source, "-DX=1", &p).ok());
+    ASSERT_TRUE(rt->GetProgram(source, "-DX=1", &p).ok());  // memory hit
+    EXPECT_EQ(rt->programs_compiled(), 1);
+    EXPECT_EQ(rt->programs_loaded_from_disk(), 0);
+  }
+  std::unique_ptr<ClRuntime> rt;
+  ASSERT_TRUE(ClRuntime::Create("", dir, &rt).ok());
+  cl_program p = nullptr;
+  ASSERT_TRUE(rt->GetProgram(source, "-DX=1", &p).ok());
+  EXPECT_EQ(rt->programs_compiled(), 0);
+  EXPECT_EQ(rt->programs_loaded_from_disk(), 1);
+  // Different options are a different program.
+  ASSERT_TRUE(rt->GetProgram(source, "-DX=2", &p).ok());
+  EXPECT_EQ(rt->programs_compiled(), 1);
+  // A corrupt entry falls back to compiling.
+  for (auto &entry : std::filesystem::directory_iterator(dir)) {
+    if (entry.path().extension() == ".clbin") std::ofstream(entry.path()) << "garbage";
+  }
+  std::unique_ptr<ClRuntime> rt2;
+  ASSERT_TRUE(ClRuntime::Create("", dir, &rt2).ok());
+  Status s = rt2->GetProgram(source, "-DX=1", &p);
+  EXPECT_TRUE(s.ok()) << s.message();
+  EXPECT_EQ(rt2->programs_compiled(), 1);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

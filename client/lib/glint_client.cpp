@@ -1,0 +1,403 @@
+#include "client/lib/glint_client.h"
+
+#include <grpc/grpc.h>
+
+#include <algorithm>
+#include <atomic>
+#include <stdexcept>
+#include <thread>
+#include <utility>
+
+#include "grpc/health/v1/health.grpc.pb.h"
+
+namespace glint::client {
+namespace {
+
+using glint::v1::QueryBatch;
+
+// gRPC's default receive limit, assumed when a server does not advertise its own.
+constexpr uint64_t kGrpcDefaultMessageBytes = 4u << 20;
+// Serialized bytes per query of the response: 3 packed floats.
+constexpr size_t kResponseBytesPerQuery = 3 * sizeof(float);
+// Room for message framing, tags, stats and the chunk envelope on top of the payload.
+constexpr size_t kEnvelopeBytes = 4096;
+
+std::shared_ptr<grpc::Channel> MakeChannel(const std::string &address,
+                                           const ClientOptions &options) {
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(options.max_message_bytes);
+  args.SetMaxSendMessageSize(options.max_message_bytes);
+  // gRPC backs off up to 120 s between connection attempts by default; an interactive tool that
+  // waits for a starting server wants to notice it within a second or so.
+  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
+  args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
+  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 1000);
+  return grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
+}
+
+// One SoA array of QueryBatch with its number of floats per query.
+struct ArrayRef {
+  const char *name;
+  int components;
+  const google::protobuf::RepeatedField<float> &(QueryBatch::*get)() const;
+  google::protobuf::RepeatedField<float> *(QueryBatch::*mutable_get)();
+};
+
+// Every array of QueryBatch. A field added to the wire contract must be added here too, or
+// streamed batches would silently drop it; the unit tests compare against the descriptor.
+constexpr ArrayRef kArrays[] = {
+    {"uv", 2, &QueryBatch::uv, &QueryBatch::mutable_uv},
+    {"footprint", 4, &QueryBatch::footprint, &QueryBatch::mutable_footprint},
+    {"wo", 3, &QueryBatch::wo, &QueryBatch::mutable_wo},
+    {"wi", 3, &QueryBatch::wi, &QueryBatch::mutable_wi},
+    {"position", 3, &QueryBatch::position, &QueryBatch::mutable_position},
+    {"normal", 3, &QueryBatch::normal, &QueryBatch::mutable_normal},
+    {"tangent", 3, &QueryBatch::tangent, &QueryBatch::mutable_tangent},
+};
+
+// Empty or components x count: the only shapes that can be sliced. Returns "" when fine.
+std::string CheckShapes(const QueryBatch &batch) {
+  for (const ArrayRef &a : kArrays) {
+    const auto &field = (batch.*a.get)();
+    const uint64_t expected = uint64_t{batch.count()} * static_cast<uint64_t>(a.components);
+    if (!field.empty() && static_cast<uint64_t>(field.size()) != expected) {
+      return "queries." + std::string(a.name) + " has " + std::to_string(field.size()) +
+             " floats; expected 0 or " + std::to_string(a.components) +
+             " x count = " + std::to_string(expected);
+    }
+  }
+  return "";
+}
+
+}  // namespace
+
+QueryBatch SliceQueries(const QueryBatch &batch, uint32_t begin, uint32_t end) {
+  if (begin > end || end > batch.count()) {
+    throw std::out_of_range("SliceQueries: range [" + std::to_string(begin) + ", " +
+                            std::to_string(end) + ") outside a batch of " +
+                            std::to_string(batch.count()) + " queries");
+  }
+  if (std::string problem = CheckShapes(batch); !problem.empty()) {
+    throw std::invalid_argument("SliceQueries: " + problem);
+  }
+  QueryBatch out;
+  out.set_count(end - begin);
+  for (const ArrayRef &a : kArrays) {
+    const auto &src = (batch.*a.get)();
+    if (src.empty()) continue;  // optional array absent: stays absent in every slice
+    auto *dst = (out.*a.mutable_get)();
+    const int first = static_cast<int>(begin) * a.components;
+    const int n = static_cast<int>(end - begin) * a.components;
+    dst->Reserve(n);
+    dst->Add(src.begin() + first, src.begin() + first + n);
+  }
+  return out;
+}
+
+size_t BytesPerQuery(const QueryBatch &batch) {
+  size_t bytes = 0;
+  for (const ArrayRef &a : kArrays) {
+    if (!(batch.*a.get)().empty()) bytes += static_cast<size_t>(a.components) * sizeof(float);
+  }
+  return bytes;
+}
+
+const char *StatusCodeName(grpc::StatusCode code) {
+  switch (code) {
+    case grpc::StatusCode::OK:
+      return "OK";
+    case grpc::StatusCode::CANCELLED:
+      return "CANCELLED";
+    case grpc::StatusCode::UNKNOWN:
+      return "UNKNOWN";
+    case grpc::StatusCode::INVALID_ARGUMENT:
+      return "INVALID_ARGUMENT";
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
+      return "DEADLINE_EXCEEDED";
+    case grpc::StatusCode::NOT_FOUND:
+      return "NOT_FOUND";
+    case grpc::StatusCode::ALREADY_EXISTS:
+      return "ALREADY_EXISTS";
+    case grpc::StatusCode::PERMISSION_DENIED:
+      return "PERMISSION_DENIED";
+    case grpc::StatusCode::UNAUTHENTICATED:
+      return "UNAUTHENTICATED";
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:
+      return "RESOURCE_EXHAUSTED";
+    case grpc::StatusCode::FAILED_PRECONDITION:
+      return "FAILED_PRECONDITION";
+    case grpc::StatusCode::ABORTED:
+      return "ABORTED";
+    case grpc::StatusCode::OUT_OF_RANGE:
+      return "OUT_OF_RANGE";
+    case grpc::StatusCode::UNIMPLEMENTED:
+      return "UNIMPLEMENTED";
+    case grpc::StatusCode::INTERNAL:
+      return "INTERNAL";
+    case grpc::StatusCode::UNAVAILABLE:
+      return "UNAVAILABLE";
+    case grpc::StatusCode::DATA_LOSS:
+      return "DATA_LOSS";
+    default:
+      return "UNKNOWN_STATUS_CODE";
+  }
+}
+
+std::string FormatStatus(const grpc::Status &status) {
+  std::string out = StatusCodeName(status.error_code());
+  if (!status.error_message().empty()) out += ": " + status.error_message();
+  return out;
+}
+
+GlintClient::GlintClient(const std::string &address, ClientOptions options)
+    : address_(address),
+      options_(options),
+      channel_(MakeChannel(address, options)),
+      stub_(glint::v1::GlintService::NewStub(channel_)) {}
+
+GlintClient::GlintClient(std::shared_ptr<grpc::Channel> channel, ClientOptions options)
+    : address_("(channel)"),
+      options_(options),
+      channel_(std::move(channel)),
+      stub_(glint::v1::GlintService::NewStub(channel_)) {}
+
+grpc::Status GlintClient::GetCapabilities(glint::v1::Capabilities *capabilities) {
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + options_.rpc_timeout);
+  glint::v1::Capabilities caps;
+  grpc::Status status =
+      stub_->GetCapabilities(&context, glint::v1::GetCapabilitiesRequest(), &caps);
+  if (!status.ok()) return status;
+  {
+    std::lock_guard<std::mutex> lock(caps_mutex_);
+    caps_ = caps;
+  }
+  if (capabilities != nullptr) *capabilities = std::move(caps);
+  return grpc::Status::OK;
+}
+
+grpc::Status GlintClient::CachedCapabilities(glint::v1::Capabilities *capabilities) {
+  {
+    std::lock_guard<std::mutex> lock(caps_mutex_);
+    if (caps_) {
+      *capabilities = *caps_;
+      return grpc::Status::OK;
+    }
+  }
+  return GetCapabilities(capabilities);
+}
+
+bool GlintClient::WaitUntilServing(std::chrono::milliseconds timeout, std::string *why) {
+  using grpc::health::v1::HealthCheckResponse;
+  auto health = grpc::health::v1::Health::NewStub(channel_);
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  std::string last = "no health check attempted";
+  for (;;) {
+    const auto now = std::chrono::steady_clock::now();
+    if (now >= end) break;
+    grpc::ClientContext context;
+    // Fail fast (no wait_for_ready): a refused connection then reports its real reason
+    // instead of a bare DEADLINE_EXCEEDED, and the loop below does the waiting.
+    context.set_deadline(
+        std::chrono::system_clock::now() +
+        std::min<std::chrono::steady_clock::duration>(end - now, std::chrono::seconds(1)));
+    grpc::health::v1::HealthCheckRequest request;
+    request.set_service("");  // the server as a whole
+    HealthCheckResponse response;
+    grpc::Status status = health->Check(&context, request, &response);
+    if (status.ok()) {
+      if (response.status() == HealthCheckResponse::SERVING) return true;
+      last = "health status " + HealthCheckResponse::ServingStatus_Name(response.status());
+    } else if (status.error_code() == grpc::StatusCode::UNIMPLEMENTED) {
+      // Retrying cannot help: the server has no grpc.health.v1 service at all.
+      if (why)
+        *why = "server does not implement grpc.health.v1.Health (" + FormatStatus(status) + ")";
+      return false;
+    } else {
+      last = FormatStatus(status);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  if (why) *why = "not SERVING after " + std::to_string(timeout.count()) + " ms: " + last;
+  return false;
+}
+
+grpc::Status GlintClient::Evaluate(const glint::v1::EvaluateRequest &request,
+                                   std::vector<float> *radiance, ProgressFn progress,
+                                   EvaluateInfo *info) {
+  if (radiance == nullptr) {
+    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "Evaluate: radiance is null");
+  }
+  EvaluateInfo local_info;
+  if (info == nullptr) info = &local_info;
+  *info = EvaluateInfo();
+
+  glint::v1::Capabilities caps;
+  if (grpc::Status status = CachedCapabilities(&caps); !status.ok()) return status;
+
+  // The smaller of the server's and our own message limit, and of the server's batch limit and
+  // our optional chunk cap. 0 from the server means "not reported".
+  uint64_t message_limit =
+      caps.max_message_bytes() ? caps.max_message_bytes() : kGrpcDefaultMessageBytes;
+  message_limit =
+      std::min<uint64_t>(message_limit, static_cast<uint64_t>(options_.max_message_bytes));
+  uint32_t max_batch = caps.max_batch() ? caps.max_batch() : UINT32_MAX;
+  if (options_.max_chunk_queries) max_batch = std::min(max_batch, options_.max_chunk_queries);
+  // One message, unary or chunk, stays "comfortably below" the limit (half of it, so framing
+  // estimates never matter) and under max_chunk_bytes (a few MiB: progress, memory, latency).
+  const uint64_t budget = std::min<uint64_t>(message_limit / 2, options_.max_chunk_bytes);
+
+  const QueryBatch &queries = request.queries();
+  const uint32_t count = queries.count();
+  const uint64_t request_bytes = request.ByteSizeLong();
+  const uint64_t response_bytes = uint64_t{count} * kResponseBytesPerQuery + kEnvelopeBytes;
+  if (count <= max_batch && request_bytes <= budget && response_bytes <= budget) {
+    grpc::Status status = EvaluateUnary(request, radiance, info);
+    if (status.ok() && progress) progress(count, count);
+    return status;
+  }
+
+  // Stream: the shape check is ours here because slicing a malformed array would mis-assign
+  // values to queries; the server reports everything else.
+  if (std::string problem = CheckShapes(queries); !problem.empty()) {
+    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, problem);
+  }
+  // The first chunk also carries the settings; sizing every chunk for them keeps one rule.
+  size_t settings_bytes = request.material().ByteSizeLong();
+  for (const auto &light : request.lights()) settings_bytes += light.ByteSizeLong() + 8;
+  const auto chunk_budget_total = static_cast<size_t>(budget);
+  const size_t overhead = settings_bytes + kEnvelopeBytes;
+  if (chunk_budget_total <= overhead) {
+    return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                        "material and lights alone (" + std::to_string(settings_bytes) +
+                            " bytes) exceed the chunk size budget of " +
+                            std::to_string(chunk_budget_total) + " bytes");
+  }
+  const size_t per_query = std::max(BytesPerQuery(queries), kResponseBytesPerQuery);
+  const uint64_t by_bytes = std::max<uint64_t>(1, (chunk_budget_total - overhead) / per_query);
+  const auto chunk_queries = static_cast<uint32_t>(std::min<uint64_t>(by_bytes, max_batch));
+  return EvaluateStreamed(request, chunk_queries, radiance, progress, info);
+}
+
+grpc::Status GlintClient::EvaluateUnary(const glint::v1::EvaluateRequest &request,
+                                        std::vector<float> *radiance, EvaluateInfo *info) {
+  grpc::ClientContext context;
+  glint::v1::EvaluateResponse response;
+  grpc::Status status = stub_->Evaluate(&context, request, &response);
+  if (!status.ok()) return status;
+  const uint64_t expected = uint64_t{request.queries().count()} * 3;
+  if (static_cast<uint64_t>(response.radiance_size()) != expected) {
+    return grpc::Status(grpc::StatusCode::INTERNAL,
+                        "server returned " + std::to_string(response.radiance_size()) +
+                            " radiance floats for " + std::to_string(request.queries().count()) +
+                            " queries");
+  }
+  radiance->assign(response.radiance().begin(), response.radiance().end());
+  info->streamed = false;
+  info->chunks = 1;
+  info->chunk_queries = request.queries().count();
+  info->device = response.stats().device();
+  return grpc::Status::OK;
+}
+
+grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &request,
+                                           uint32_t chunk_queries, std::vector<float> *radiance,
+                                           const ProgressFn &progress, EvaluateInfo *info) {
+  const uint32_t count = request.queries().count();
+  const uint64_t chunks = (uint64_t{count} + chunk_queries - 1) / chunk_queries;
+  info->streamed = true;
+  info->chunks = chunks;
+  info->chunk_queries = chunk_queries;
+
+  std::vector<float> out(uint64_t{count} * 3);
+  grpc::ClientContext context;
+  std::unique_ptr<
+      grpc::ClientReaderWriter<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult>>
+      stream = stub_->EvaluateStream(&context);
+
+  // Writer and reader run concurrently: with both sides' HTTP/2 windows full, a client that only
+  // reads after writing everything would wait for a server that waits for it. Chunks are built
+  // lazily so only a few slices exist at once.
+  std::atomic<bool> writer_failed{false};
+  std::string writer_error;
+  std::thread writer([&] {
+    try {
+      for (uint64_t k = 0; k < chunks; ++k) {
+        glint::v1::EvaluateChunk chunk;
+        chunk.set_chunk_index(k);
+        glint::v1::EvaluateRequest *part = chunk.mutable_request();
+        if (k == 0) {
+          *part->mutable_material() = request.material();
+          *part->mutable_lights() = request.lights();
+          part->set_precision(request.precision());
+          part->set_seed(request.seed());
+        }
+        const auto begin = static_cast<uint32_t>(k * chunk_queries);
+        const auto end =
+            static_cast<uint32_t>(std::min<uint64_t>(uint64_t{begin} + chunk_queries, count));
+        *part->mutable_queries() = SliceQueries(request.queries(), begin, end);
+        // false: the call is over (server error or our own cancel); Finish says why.
+        if (!stream->Write(chunk)) return;
+      }
+      stream->WritesDone();
+    } catch (const std::exception &e) {
+      writer_error = e.what();
+      writer_failed = true;
+      context.TryCancel();
+    }
+  });
+
+  grpc::Status protocol_error;
+  uint64_t received = 0;
+  uint64_t done = 0;
+  glint::v1::EvaluateChunkResult result;
+  while (stream->Read(&result)) {
+    const uint64_t first = received * chunk_queries;
+    const uint64_t n = std::min<uint64_t>(chunk_queries, count - std::min<uint64_t>(first, count));
+    std::string problem;
+    if (received >= chunks) {
+      problem = "server sent a result for chunk " + std::to_string(result.chunk_index()) +
+                " after all " + std::to_string(chunks) + " chunks were answered";
+    } else if (result.chunk_index() != received) {
+      problem = "server answered chunk " + std::to_string(result.chunk_index()) + " where chunk " +
+                std::to_string(received) + " was expected";
+    } else if (result.first_query() != first) {
+      problem = "chunk " + std::to_string(received) + " reports first_query " +
+                std::to_string(result.first_query()) + ", expected " + std::to_string(first);
+    } else if (static_cast<uint64_t>(result.result().radiance_size()) != n * 3) {
+      problem = "chunk " + std::to_string(received) + " carries " +
+                std::to_string(result.result().radiance_size()) + " radiance floats for " +
+                std::to_string(n) + " queries";
+    }
+    if (!problem.empty()) {
+      protocol_error = grpc::Status(grpc::StatusCode::INTERNAL, problem);
+      context.TryCancel();
+      break;
+    }
+    std::copy(result.result().radiance().begin(), result.result().radiance().end(),
+              out.begin() + static_cast<std::ptrdiff_t>(first * 3));
+    if (info->device.empty()) info->device = result.result().stats().device();
+    ++received;
+    done += n;
+    if (progress) progress(done, count);
+  }
+  if (!protocol_error.ok()) {
+    // Drain so that Finish does not wait on unread messages of a call we cancelled.
+    while (stream->Read(&result)) {
+    }
+  }
+  writer.join();
+  grpc::Status status = stream->Finish();
+  if (writer_failed) return grpc::Status(grpc::StatusCode::INTERNAL, writer_error);
+  if (!protocol_error.ok()) return protocol_error;
+  if (!status.ok()) return status;
+  if (received != chunks) {
+    return grpc::Status(grpc::StatusCode::DATA_LOSS, "stream ended after " +
+                                                         std::to_string(received) + " of " +
+                                                         std::to_string(chunks) + " chunk results");
+  }
+  *radiance = std::move(out);
+  return grpc::Status::OK;
+}
+
+}  // namespace glint::client

@@ -1,0 +1,109 @@
+// Client side of glint.v1.GlintService: one channel, cached capabilities, and an Evaluate that
+// picks unary or streamed transport by itself so callers never meet gRPC's message-size limits.
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "glint/v1/glint.grpc.pb.h"
+#include "glint/v1/glint.pb.h"
+
+namespace glint::client {
+
+// Called after each part of a batch has come back: `done` of `total` queries evaluated.
+// Runs on the calling thread of Evaluate.
+using ProgressFn = std::function<void(uint64_t done, uint64_t total)>;
+
+struct ClientOptions {
+  // Both directions. The server advertises its own limit in Capabilities.max_message_bytes; this
+  // only has to be at least as large so that the client is never the side that refuses.
+  int max_message_bytes = 64 << 20;
+  // Upper bound on the serialized size of one message (a unary request or a stream chunk).
+  // Several MiB keeps per-message latency and memory small while amortising per-message
+  // overhead (PLATFORM-NOTES: "keep messages to a few MiB and stream larger batches").
+  size_t max_chunk_bytes = 8u << 20;
+  // Extra cap on queries per message (0 = only the server's max_batch). Tests use it to force
+  // many small chunks against a server with a large max_batch.
+  uint32_t max_chunk_queries = 0;
+  // Deadline for the cheap RPCs (GetCapabilities). Evaluate has none: a large batch may
+  // legitimately take minutes, and the caller can cancel by closing the process.
+  std::chrono::milliseconds rpc_timeout{10000};
+};
+
+// How the last Evaluate call was carried out (for summaries and tests).
+struct EvaluateInfo {
+  bool streamed = false;
+  uint64_t chunks = 0;         // 1 for a unary call
+  uint32_t chunk_queries = 0;  // queries per chunk (the last one may be smaller)
+  std::string device;          // from the server's EvaluateStats, if it reported one
+};
+
+// One channel to one server (or one load-balanced target). Thread-safe: concurrent calls,
+// including concurrent Evaluate, share the channel and the capabilities cache.
+class GlintClient {
+ public:
+  // `address` is any gRPC target: "127.0.0.1:50051", "dns:///glint:50051", "unix:/path".
+  explicit GlintClient(const std::string &address, ClientOptions options = {});
+  // For tests and callers that want their own channel arguments or credentials.
+  GlintClient(std::shared_ptr<grpc::Channel> channel, ClientOptions options = {});
+
+  const std::string &address() const { return address_; }
+
+  // Always asks the server (and refreshes the cache Evaluate uses).
+  grpc::Status GetCapabilities(glint::v1::Capabilities *capabilities);
+
+  // Polls grpc.health.v1.Health/Check (service "") until it answers SERVING or `timeout`
+  // passes. On false, `why` (if given) says what the last attempt saw, e.g. "NOT_SERVING" or
+  // "UNAVAILABLE: failed to connect to all addresses".
+  bool WaitUntilServing(std::chrono::milliseconds timeout, std::string *why = nullptr);
+
+  // Evaluates `request` and fills `radiance` with 3 floats (RGB) per query, in query order.
+  // A batch within max_batch and max_chunk_bytes (and half the server's message limit) goes
+  // unary; a larger one is split with SliceQueries and sent over EvaluateStream, the first
+  // chunk carrying material, lights, precision and seed. The result is bit-identical either way
+  // (the server's determinism contract). `progress` is called as results arrive.
+  grpc::Status Evaluate(const glint::v1::EvaluateRequest &request, std::vector<float> *radiance,
+                        ProgressFn progress = {}, EvaluateInfo *info = nullptr);
+
+ private:
+  grpc::Status CachedCapabilities(glint::v1::Capabilities *capabilities);
+  grpc::Status EvaluateUnary(const glint::v1::EvaluateRequest &request,
+                             std::vector<float> *radiance, EvaluateInfo *info);
+  grpc::Status EvaluateStreamed(const glint::v1::EvaluateRequest &request, uint32_t chunk_queries,
+                                std::vector<float> *radiance, const ProgressFn &progress,
+                                EvaluateInfo *info);
+
+  std::string address_;
+  ClientOptions options_;
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<glint::v1::GlintService::Stub> stub_;
+  std::mutex caps_mutex_;
+  std::optional<glint::v1::Capabilities> caps_;
+};
+
+// Queries [begin, end) of `batch` as a batch of its own: every SoA array is cut with its own
+// component count, and arrays that are empty in `batch` stay empty. Requires begin <= end <=
+// batch.count(); throws std::out_of_range otherwise.
+glint::v1::QueryBatch SliceQueries(const glint::v1::QueryBatch &batch, uint32_t begin,
+                                   uint32_t end);
+
+// Bytes one query adds to a serialized QueryBatch (packed floats of the arrays present in
+// `batch`), used to size stream chunks.
+size_t BytesPerQuery(const glint::v1::QueryBatch &batch);
+
+// "INVALID_ARGUMENT", "UNAVAILABLE", ... for messages people read.
+const char *StatusCodeName(grpc::StatusCode code);
+
+// "UNAVAILABLE: failed to connect ..." (code name, then the message when there is one).
+std::string FormatStatus(const grpc::Status &status);
+
+}  // namespace glint::client

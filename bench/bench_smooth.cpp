@@ -72,10 +72,14 @@ int main(int argc, char **argv) {
   bool fp64 = false, lights = false;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
-    if (a == "--queries" && i + 1 < argc) n = uint32_t(std::stoul(argv[++i]));
-    else if (a == "--repeat" && i + 1 < argc) repeat = std::stoi(argv[++i]);
-    else if (a == "--fp64") fp64 = true;
-    else if (a == "--lights") lights = true;
+    if (a == "--queries" && i + 1 < argc)
+      n = uint32_t(std::stoul(argv[++i]));
+    else if (a == "--repeat" && i + 1 < argc)
+      repeat = std::stoi(argv[++i]);
+    else if (a == "--fp64")
+      fp64 = true;
+    else if (a == "--lights")
+      lights = true;
     else {
       std::fprintf(stderr, "usage: bench_smooth [--queries N] [--repeat R] [--fp64] [--lights]\n");
       return 2;
@@ -101,8 +105,10 @@ int main(int argc, char **argv) {
     std::fprintf(stderr, "%s\n", s.message().c_str());
     return 1;
   }
-  double device = MedianSeconds(repeat, [&] { (void)engine->Evaluate(0, plan, request.queries(), out.data()); });
-  std::printf("| device (%s) | %.4f | %.1f M |\n", engine->info().name.c_str(), device, n / device / 1e6);
+  double device = MedianSeconds(
+      repeat, [&] { (void)engine->Evaluate(0, plan, request.queries(), out.data()); });
+  std::printf("| device (%s) | %.4f | %.1f M |\n", engine->info().name.c_str(), device,
+              n / device / 1e6);
   double host = MedianSeconds(std::max(1, repeat / 2),
                               [&] { glint::HostEvaluate(plan, request.queries(), out.data()); });
   std::printf("| host scalar, 1 thread | %.4f | %.1f M |\n", host, n / host / 1e6);
@@ -111,7 +117,7 @@ int main(int argc, char **argv) {
   // glintd on a free loopback port.
   std::string port_file = "/tmp/bench_glintd_port_" + std::to_string(getpid());
   std::vector<std::string> args = {GLINTD_PATH, "--listen", "127.0.0.1:0", "--port-file",
-                                   port_file, "--quiet", "--workers", "1"};
+                                   port_file,   "--quiet",  "--workers",   "1"};
   std::vector<char *> argvv;
   for (auto &a : args) argvv.push_back(a.data());
   argvv.push_back(nullptr);
@@ -139,7 +145,8 @@ int main(int argc, char **argv) {
   };
   call();  // first call pays for connection set-up and any kernel compile
   double e2e = MedianSeconds(repeat, call);
-  if (ok) std::printf("| glintd end to end (loopback, unary) | %.4f | %.1f M |\n", e2e, n / e2e / 1e6);
+  if (ok)
+    std::printf("| glintd end to end (loopback, unary) | %.4f | %.1f M |\n", e2e, n / e2e / 1e6);
   kill(pid, SIGTERM);
   waitpid(pid, nullptr, 0);
   std::remove(port_file.c_str());

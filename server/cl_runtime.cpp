@@ -207,8 +207,9 @@ Status ClRuntime::GetProgram(const std::string &source, const std::string &optio
   std::string path;
   if (!cache_dir_.empty()) {
     std::ostringstream name;
-    name << std::hex << Fnv1a(key + '\n' + info_.platform_name + '\n' + info_.name + '\n' +
-                              info_.driver_version)
+    name << std::hex
+         << Fnv1a(key + '\n' + info_.platform_name + '\n' + info_.name + '\n' +
+                  info_.driver_version)
          << ".clbin";
     path = (std::filesystem::path(cache_dir_) / name.str()).string();
   }
@@ -239,15 +240,14 @@ Status ClRuntime::BuildFromSource(const std::string &source, const std::string &
     std::string log = BuildLog(program, device_);
     clReleaseProgram(program);
     return Status::Internal("OpenCL program build failed on " + info_.name + " (" +
-                            ClErrorName(err) + ") with options '" + options +
-                            "'; build log:\n" + log);
+                            ClErrorName(err) + ") with options '" + options + "'; build log:\n" +
+                            log);
   }
   *out = program;
   return Status::Ok();
 }
 
-bool ClRuntime::LoadBinary(const std::string &path, const std::string &options,
-                           cl_program *out) {
+bool ClRuntime::LoadBinary(const std::string &path, const std::string &options, cl_program *out) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return false;
   std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),

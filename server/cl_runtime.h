@@ -73,12 +73,12 @@ class ClRuntime {
 std::string ClErrorName(cl_int err);
 
 // Returns Internal naming the call and the error from the enclosing function.
-#define GLINT_CL_CHECK(call)                                                                 \
-  do {                                                                                       \
-    cl_int glint_err_ = (call);                                                              \
-    if (glint_err_ != CL_SUCCESS)                                                            \
-      return ::glint::Status::Internal(std::string(#call) + " failed: " +                    \
-                                       ::glint::ClErrorName(glint_err_));                    \
+#define GLINT_CL_CHECK(call)                                                            \
+  do {                                                                                  \
+    cl_int glint_err_ = (call);                                                         \
+    if (glint_err_ != CL_SUCCESS)                                                       \
+      return ::glint::Status::Internal(std::string(#call) +                             \
+                                       " failed: " + ::glint::ClErrorName(glint_err_)); \
   } while (0)
 
 }  // namespace glint

@@ -6,7 +6,7 @@ namespace glint {
 
 struct DeviceEngine::Lane {
   cl_command_queue queue = nullptr;
-  cl_mem dummy = nullptr;  // bound to kernel arguments the request does not use
+  cl_mem dummy = nullptr;                    // bound to kernel arguments the request does not use
   std::map<std::string, cl_kernel> kernels;  // by build options
   ~Lane() {
     for (auto &k : kernels) clReleaseKernel(k.second);
@@ -45,7 +45,8 @@ Status MakeInput(cl_context ctx, const float *data, size_t count, cl_mem dummy, 
   cl_int err = CL_SUCCESS;
   *buf->out() = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, count * sizeof(float),
                                const_cast<float *>(data), &err);
-  if (err != CL_SUCCESS) return Status::Internal("clCreateBuffer (input) failed: " + ClErrorName(err));
+  if (err != CL_SUCCESS)
+    return Status::Internal("clCreateBuffer (input) failed: " + ClErrorName(err));
   *arg = buf->get();
   return Status::Ok();
 }
@@ -62,9 +63,10 @@ Status DeviceEngine::Create(const DeviceEngineOptions &options,
   for (int i = 0; i < std::max(1, options.lanes); ++i) {
     auto lane = std::make_unique<Lane>();
     cl_int err = CL_SUCCESS;
-    lane->queue = clCreateCommandQueue(engine->runtime_->context(), engine->runtime_->device(), 0,
-                                       &err);
-    if (err != CL_SUCCESS) return Status::Internal("clCreateCommandQueue failed: " + ClErrorName(err));
+    lane->queue =
+        clCreateCommandQueue(engine->runtime_->context(), engine->runtime_->device(), 0, &err);
+    if (err != CL_SUCCESS)
+      return Status::Internal("clCreateCommandQueue failed: " + ClErrorName(err));
     lane->dummy = clCreateBuffer(engine->runtime_->context(), CL_MEM_READ_ONLY, 4 * sizeof(float),
                                  nullptr, &err);
     if (err != CL_SUCCESS) return Status::Internal("clCreateBuffer failed: " + ClErrorName(err));
@@ -98,8 +100,8 @@ Status DeviceEngine::KernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *ou
   return Status::Ok();
 }
 
-Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan,
-                              const glint::v1::QueryBatch &q, float *out_rgb) {
+Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan, const glint::v1::QueryBatch &q,
+                              float *out_rgb) {
   Lane &lane = *lanes_.at(size_t(lane_index));
   cl_kernel kernel = nullptr;
   Status s = KernelFor(lane, plan.spec, &kernel);
@@ -129,7 +131,8 @@ Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan,
   }
   cl_int err = CL_SUCCESS;
   *out.out() = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY, size_t(n) * 3 * sizeof(float), nullptr, &err);
-  if (err != CL_SUCCESS) return Status::Internal("clCreateBuffer (output) failed: " + ClErrorName(err));
+  if (err != CL_SUCCESS)
+    return Status::Internal("clCreateBuffer (output) failed: " + ClErrorName(err));
   cl_mem a_out = out.get();
   const cl_uint n_dir = plan.n_directional, n_pnt = plan.n_point;
 

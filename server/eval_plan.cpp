@@ -78,8 +78,7 @@ EvalPlan MakeEvalPlan(const glint::v1::EvaluateRequest &settings,
       Append3(d.direction(), &plan.directional);
       Append3(d.irradiance(), &plan.directional);
       constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
-      plan.directional.push_back(
-          static_cast<float>(std::cos(d.cone_half_angle_deg() * kDegToRad)));
+      plan.directional.push_back(static_cast<float>(std::cos(d.cone_half_angle_deg() * kDegToRad)));
       plan.directional.push_back(0.0f);
       ++plan.n_directional;
     } else if (light.has_point()) {

@@ -30,7 +30,8 @@ struct Flags {
 
 const char kUsage[] =
     "usage: glintd [options]\n"
-    "  --listen ADDR        address to serve on (default 127.0.0.1:50051; port 0 picks a free one)\n"
+    "  --listen ADDR        address to serve on (default 127.0.0.1:50051; port 0 picks a free "
+    "one)\n"
     "  --device SEL         OpenCL device: index from --list-devices, or a substring of its\n"
     "                       device/platform name; 'host' runs the scalar C++ path without OpenCL\n"
     "                       (default: PoCL's CPU device, else the first device)\n"
@@ -72,16 +73,26 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       }
       return n;
     };
-    if (a == "--listen") f->listen = value("--listen");
-    else if (a == "--device") f->device = value("--device");
-    else if (a == "--cache-dir") f->cache_dir = value("--cache-dir");
-    else if (a == "--port-file") f->port_file = value("--port-file");
-    else if (a == "--max-batch") f->max_batch = uint32_t(number("--max-batch", 1, 1 << 24));
-    else if (a == "--workers") f->workers = int(number("--workers", 1, 64));
-    else if (a == "--max-pending") f->max_pending = int(number("--max-pending", 1, 1 << 16));
-    else if (a == "--max-message-mb") f->max_message_mb = int(number("--max-message-mb", 1, 1024));
-    else if (a == "--list-devices") f->list_devices = true;
-    else if (a == "--quiet") f->quiet = true;
+    if (a == "--listen")
+      f->listen = value("--listen");
+    else if (a == "--device")
+      f->device = value("--device");
+    else if (a == "--cache-dir")
+      f->cache_dir = value("--cache-dir");
+    else if (a == "--port-file")
+      f->port_file = value("--port-file");
+    else if (a == "--max-batch")
+      f->max_batch = uint32_t(number("--max-batch", 1, 1 << 24));
+    else if (a == "--workers")
+      f->workers = int(number("--workers", 1, 64));
+    else if (a == "--max-pending")
+      f->max_pending = int(number("--max-pending", 1, 1 << 16));
+    else if (a == "--max-message-mb")
+      f->max_message_mb = int(number("--max-message-mb", 1, 1024));
+    else if (a == "--list-devices")
+      f->list_devices = true;
+    else if (a == "--quiet")
+      f->quiet = true;
     else if (a == "--help" || a == "-h") {
       std::fputs(kUsage, stdout);
       std::exit(0);
@@ -182,12 +193,13 @@ int main(int argc, char **argv) {
         return 1;
       }
     }
-    std::fprintf(stderr, "glintd: device %s (%s), %zu kernels warm in %.0f ms (%d compiled, %d from cache %s)\n",
-                 engine->info().name.c_str(), engine->info().platform_name.c_str(),
-                 WarmSpecs().size(),
-                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(),
-                 engine->runtime().programs_compiled(), engine->runtime().programs_loaded_from_disk(),
-                 flags.cache_dir.empty() ? "(disabled)" : flags.cache_dir.c_str());
+    std::fprintf(
+        stderr,
+        "glintd: device %s (%s), %zu kernels warm in %.0f ms (%d compiled, %d from cache %s)\n",
+        engine->info().name.c_str(), engine->info().platform_name.c_str(), WarmSpecs().size(),
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(),
+        engine->runtime().programs_compiled(), engine->runtime().programs_loaded_from_disk(),
+        flags.cache_dir.empty() ? "(disabled)" : flags.cache_dir.c_str());
   } else {
     std::fprintf(stderr, "glintd: device host (scalar C++ path, no OpenCL)\n");
   }

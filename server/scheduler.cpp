@@ -3,7 +3,8 @@
 namespace glint {
 
 Scheduler::Scheduler(int workers, size_t max_pending) : max_pending_(max_pending) {
-  for (int lane = 0; lane < workers; ++lane) workers_.emplace_back([this, lane] { WorkerLoop(lane); });
+  for (int lane = 0; lane < workers; ++lane)
+    workers_.emplace_back([this, lane] { WorkerLoop(lane); });
 }
 
 Scheduler::~Scheduler() {

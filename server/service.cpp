@@ -63,8 +63,8 @@ void GlintServiceImpl::LogLine(const std::string &line) {
 Status GlintServiceImpl::RunBatch(int lane, const glint::v1::EvaluateRequest &settings,
                                   const glint::v1::QueryBatch &queries, uint64_t first_query,
                                   bool streamed, glint::v1::EvaluateResponse *response) {
-  Status s = ValidateQueries(queries, settings.lights_size() > 0, options_.limits, first_query,
-                             streamed);
+  Status s =
+      ValidateQueries(queries, settings.lights_size() > 0, options_.limits, first_query, streamed);
   if (!s.ok()) return s;
   const EvalPlan plan = MakeEvalPlan(settings, queries);
   const auto start = Clock::now();
@@ -88,7 +88,8 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   const auto received = Clock::now();
   Status s = ValidateSettings(*request, options_.limits);
   if (!s.ok()) {
-    LogLine("Evaluate n=" + std::to_string(request->queries().count()) + " refused: " + s.message());
+    LogLine("Evaluate n=" + std::to_string(request->queries().count()) +
+            " refused: " + s.message());
     reactor->Finish(ToGrpcStatus(s));
     return reactor;
   }
@@ -133,8 +134,9 @@ class GlintServiceImpl::StreamReactor
       return;
     }
     if (chunk_.chunk_index() != next_index_) {
-      return Fail(Status::InvalidArgument("chunk_index: got " + std::to_string(chunk_.chunk_index()) +
-                                          "; expected " + std::to_string(next_index_)));
+      return Fail(Status::InvalidArgument("chunk_index: got " +
+                                          std::to_string(chunk_.chunk_index()) + "; expected " +
+                                          std::to_string(next_index_)));
     }
     if (chunk_.request().has_material() || next_index_ == 0) {
       // The first chunk sets material, lights, precision and seed; a later
@@ -142,7 +144,9 @@ class GlintServiceImpl::StreamReactor
       settings_ = chunk_.request();
       settings_.clear_queries();
       Status s = ValidateSettings(settings_, service_->options().limits);
-      if (!s.ok()) return Fail(Status::InvalidArgument("chunk " + std::to_string(next_index_) + ": " + s.message()));
+      if (!s.ok())
+        return Fail(
+            Status::InvalidArgument("chunk " + std::to_string(next_index_) + ": " + s.message()));
     }
     bool queued = service_->scheduler().TrySubmit([this](int lane) {
       result_.Clear();
@@ -151,7 +155,8 @@ class GlintServiceImpl::StreamReactor
       Status s = service_->RunBatch(lane, settings_, chunk_.request().queries(), next_query_, true,
                                     result_.mutable_result());
       if (!s.ok()) {
-        return Fail(Status::InvalidArgument("chunk " + std::to_string(next_index_) + ": " + s.message()));
+        return Fail(
+            Status::InvalidArgument("chunk " + std::to_string(next_index_) + ": " + s.message()));
       }
       next_query_ += chunk_.request().queries().count();
       ++next_index_;
@@ -186,8 +191,8 @@ class GlintServiceImpl::StreamReactor
   uint64_t next_query_ = 0;
 };
 
-grpc::ServerBidiReactor<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult> *
-GlintServiceImpl::EvaluateStream(grpc::CallbackServerContext *) {
+grpc::ServerBidiReactor<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult>
+    *GlintServiceImpl::EvaluateStream(grpc::CallbackServerContext *) {
   return new StreamReactor(this);
 }
 

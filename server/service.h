@@ -30,8 +30,8 @@ class GlintServiceImpl final : public glint::v1::GlintService::CallbackService {
   grpc::ServerUnaryReactor *Evaluate(grpc::CallbackServerContext *ctx,
                                      const glint::v1::EvaluateRequest *request,
                                      glint::v1::EvaluateResponse *response) override;
-  grpc::ServerBidiReactor<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult> *
-  EvaluateStream(grpc::CallbackServerContext *ctx) override;
+  grpc::ServerBidiReactor<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult> *EvaluateStream(
+      grpc::CallbackServerContext *ctx) override;
   grpc::ServerUnaryReactor *GetCapabilities(grpc::CallbackServerContext *ctx,
                                             const glint::v1::GetCapabilitiesRequest *request,
                                             glint::v1::Capabilities *response) override;

@@ -33,7 +33,8 @@ Status CheckFixed(const RepeatedField<float> &v, int n, const std::string &field
     return Status::InvalidArgument(field + ": has " + std::to_string(v.size()) +
                                    " values; expected " + std::to_string(n));
   }
-  if (!AllFinite(v.data(), n)) return Status::InvalidArgument(field + ": " + Vec(v.data(), n) + " is not finite");
+  if (!AllFinite(v.data(), n))
+    return Status::InvalidArgument(field + ": " + Vec(v.data(), n) + " is not finite");
   return Status::Ok();
 }
 
@@ -63,11 +64,13 @@ Status CheckUnit(const float *v, const std::string &field, double tol) {
 Status CheckMaterial(const glint::v1::Material &m) {
   using glint::v1::Material;
   if (m.model() != glint::v1::SMOOTH) {
-    return Status::InvalidArgument("material.model: " +
-                                   (glint::v1::Model_IsValid(m.model()) && m.model() != 0
-                                        ? glint::v1::Model_Name(m.model())
-                                        : std::string(m.model() == 0 ? "unset" : "unknown value " + std::to_string(m.model()))) +
-                                   "; expected SMOOTH");
+    return Status::InvalidArgument(
+        "material.model: " +
+        (glint::v1::Model_IsValid(m.model()) && m.model() != 0
+             ? glint::v1::Model_Name(m.model())
+             : std::string(m.model() == 0 ? "unset"
+                                          : "unknown value " + std::to_string(m.model()))) +
+        "; expected SMOOTH");
   }
   if (m.ndf() != glint::v1::GGX && m.ndf() != glint::v1::BECKMANN) {
     return Status::InvalidArgument(
@@ -75,8 +78,8 @@ Status CheckMaterial(const glint::v1::Material &m) {
         (m.ndf() == 0 ? std::string("unset") : "unknown value " + std::to_string(m.ndf())) +
         "; expected GGX or BECKMANN");
   }
-  for (auto [value, name] : {std::pair{m.alpha_x(), "material.alpha_x"},
-                             std::pair{m.alpha_y(), "material.alpha_y"}}) {
+  for (auto [value, name] :
+       {std::pair{m.alpha_x(), "material.alpha_x"}, std::pair{m.alpha_y(), "material.alpha_y"}}) {
     if (!(value > 0.0f && value <= 1.0f)) {
       std::ostringstream o;
       o << name << ": " << value << "; expected a roughness in (0, 1]";
@@ -88,11 +91,10 @@ Status CheckMaterial(const glint::v1::Material &m) {
       return CheckRange(m.schlick().f0(), 3, "material.schlick.f0", 0.0f, 1.0f,
                         "3 values in [0, 1]");
     case Material::kConductor: {
-      Status s = CheckRange(m.conductor().eta(), 3, "material.conductor.eta", 1e-6f, 1e6f,
-                            "3 values > 0");
+      Status s =
+          CheckRange(m.conductor().eta(), 3, "material.conductor.eta", 1e-6f, 1e6f, "3 values > 0");
       if (!s.ok()) return s;
-      return CheckRange(m.conductor().k(), 3, "material.conductor.k", 0.0f, 1e6f,
-                        "3 values >= 0");
+      return CheckRange(m.conductor().k(), 3, "material.conductor.k", 0.0f, 1e6f, "3 values >= 0");
     }
     case Material::kDielectric: {
       float ior = m.dielectric().ior();
@@ -144,9 +146,9 @@ Status CheckArraySize(const RepeatedField<float> &v, uint32_t count, int per, bo
   if (v.empty() && !required) return Status::Ok();
   uint64_t want = uint64_t(count) * per;
   if (uint64_t(v.size()) != want) {
-    return Status::InvalidArgument(field + ": has " + std::to_string(v.size()) +
-                                   " values; expected " + std::to_string(per) + " x count = " +
-                                   std::to_string(want) + (required ? "" : " (or none)"));
+    return Status::InvalidArgument(
+        field + ": has " + std::to_string(v.size()) + " values; expected " + std::to_string(per) +
+        " x count = " + std::to_string(want) + (required ? "" : " (or none)"));
   }
   return Status::Ok();
 }

@@ -4,6 +4,7 @@
 // errors. The math itself is checked against independent references in
 // tests/kernels.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstring>
@@ -11,8 +12,6 @@
 #include <fstream>
 #include <memory>
 #include <thread>
-
-#include <unistd.h>
 
 #include "server/device_engine.h"
 #include "server/eval_plan.h"
@@ -246,7 +245,8 @@ namespace {
 TEST(ProgramCache, SecondRuntimeLoadsBinariesFromDisk) {
   const std::string dir = ::testing::TempDir() + "glint_cache_test_" + std::to_string(::getpid());
   std::filesystem::remove_all(dir);
-  const std::string source = "__kernel void twice(__global float *x) { x[get_global_id(0)] *= 2.0f; }";
+  const std::string source =
+      "__kernel void twice(__global float *x) { x[get_global_id(0)] *= 2.0f; }";
   {
     std::unique_ptr<ClRuntime> rt;
     ASSERT_TRUE(ClRuntime::Create("", dir, &rt).ok());

@@ -21,7 +21,7 @@ TEST(Scheduler, RefusesBeyondMaxPendingAndRecovers) {
       gate.wait();
       ++ran;
     }));
-    started.get_future().wait();  // job 1 is running
+    started.get_future().wait();                             // job 1 is running
     ASSERT_TRUE(scheduler.TrySubmit([&](int) { ++ran; }));   // queued: 2 pending
     EXPECT_FALSE(scheduler.TrySubmit([&](int) { ++ran; }));  // full
     EXPECT_EQ(scheduler.pending(), 2u);

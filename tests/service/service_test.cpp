@@ -33,8 +33,8 @@ class Glintd {
     port_file_ = ::testing::TempDir() + "glintd_port_" + std::to_string(getpid());
     std::remove(port_file_.c_str());
     std::string max_batch = std::to_string(kMaxBatch);
-    std::vector<std::string> args = {GLINTD_PATH, "--listen",  "127.0.0.1:0", "--port-file",
-                                     port_file_,  "--max-batch", max_batch,  "--quiet"};
+    std::vector<std::string> args = {GLINTD_PATH, "--listen",    "127.0.0.1:0", "--port-file",
+                                     port_file_,  "--max-batch", max_batch,     "--quiet"};
     std::vector<char *> argv;
     for (auto &a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
@@ -183,8 +183,8 @@ TEST_F(ServiceTest, StreamIsBitIdenticalToUnaryForAnyChunking) {
     grpc::Status s = Stream(r, chunk, &streamed, &results);
     ASSERT_TRUE(s.ok()) << s.error_message();
     ASSERT_EQ(streamed.size(), size_t(unary.radiance_size()));
-    EXPECT_EQ(0, std::memcmp(streamed.data(), unary.radiance().data(),
-                             streamed.size() * sizeof(float)))
+    EXPECT_EQ(
+        0, std::memcmp(streamed.data(), unary.radiance().data(), streamed.size() * sizeof(float)))
         << "chunk " << chunk;
     for (size_t k = 0; k < results.size(); ++k) {
       EXPECT_EQ(results[k].chunk_index(), k);

@@ -5,6 +5,22 @@
  * run the same math in double. The shared headers use the common subset of
  * OpenCL C 1.2 and C++: no templates, references, overloads or classes.
  *
+ * On the device one work-item evaluates GLINT_LANES queries (8, set by
+ * server/device_engine.cpp): `real` is then an OpenCL vector (float8 or
+ * double8), one lane per query, and every line of the shared headers is SIMD
+ * code. The host sees plain scalars. Rules that keep one source valid for both:
+ *  - `real3` is a struct of three `real`s; use the r3_* helpers (C++ also has
+ *    operators, host-only, for code outside kernels/).
+ *  - no branch on per-query values: on the device they are vectors and `if`
+ *    does not compile. Compute with safe inputs, then choose with glint_select
+ *    (a per-lane select). Guards stay; they just become selects. A branch on
+ *    glint_any(condition) is fine: it is uniform per work-item (skips work
+ *    only when no lane needs it) and an ordinary early return on the host.
+ *  - comparisons give a glint_mask (int on the host, intN/longN lanes of 0/-1
+ *    on the device); combine masks with |, & and !, never && or ||.
+ *  - math builtins (sqrt, exp, erfc, fmin, fmax, clamp) work on both; PoCL has
+ *    vector versions of them (SLEEF).
+ *
  * Host use: include <cmath> first, then include the kernel headers inside a
  * namespace of your own so that float and double builds can share a binary
  * (see server/host_path.cpp). */
@@ -19,21 +35,53 @@
 /* ---------------------------- OpenCL C --------------------------------- */
 #if GLINT_USE_DOUBLE
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#endif
+/* Queries per work-item (set by the host, server/device_engine.cpp). With
+ * GLINT_LANES > 1, `real` is an OpenCL vector type and every line of the
+ * shared headers processes GLINT_LANES queries at once; comparisons then give
+ * per-lane masks (`glint_mask`) for glint_select and glint_any. 1 gives the
+ * scalar kernel (one query per work-item). */
+#ifndef GLINT_LANES
+#define GLINT_LANES 1
+#endif
+#if GLINT_LANES == 1
+#if GLINT_USE_DOUBLE
 typedef double real;
-typedef double3 real3;
 #else
 typedef float real;
-typedef float3 real3;
 #endif
-/* Inline everything into the entry point: PoCL vectorises across work-items
- * only in loops without calls. */
+typedef int glint_mask;
+#elif GLINT_LANES == 8
+#if GLINT_USE_DOUBLE
+typedef double8 real;
+typedef long8 glint_mask;
+#else
+typedef float8 real;
+typedef int8 glint_mask;
+#endif
+#elif GLINT_LANES == 16
+#if GLINT_USE_DOUBLE
+typedef double16 real;
+typedef long16 glint_mask;
+#else
+typedef float16 real;
+typedef int16 glint_mask;
+#endif
+#else
+#error "GLINT_LANES must be 1, 8 or 16"
+#endif
+/* Inline everything into the entry point (no calls left but math builtins). */
 #define GLINT_FN inline __attribute__((always_inline))
 #define GLINT_GLOBAL __global
 #define GLINT_CONSTANT __constant
 #define GLINT_PRIVATE __private
 #define glint_assert(x)
-
-GLINT_FN real3 make_real3(real x, real y, real z) { return (real3)(x, y, z); }
+/* No implicit a * b + c -> fma contraction (OpenCL C allows it by default).
+ * The host path (baseline x86-64, no FMA) rounds every product; contracting
+ * on the device only changes the rounding in the cancellation-prone spots
+ * (dot products of nearly orthogonal vectors in frame_to_local) and breaks
+ * the device-vs-host agreement the tests ask for. */
+#pragma OPENCL FP_CONTRACT OFF
 
 #else
 /* ------------------------------- C++ ----------------------------------- */
@@ -67,32 +115,77 @@ using std::sin;
 using std::sqrt;
 
 typedef unsigned int uint;
+typedef int glint_mask; /* result of a comparison of two reals */
 
-struct real3 {
+GLINT_FN real clamp(real x, real lo, real hi) { return fmin(fmax(x, lo), hi); }
+#endif
+
+/* ------------------------------ common --------------------------------- */
+
+/* Three components in the working precision (directions, RGB). */
+typedef struct {
   real x, y, z;
-};
+} real3;
+
 GLINT_FN real3 make_real3(real x, real y, real z) {
-  real3 v = {x, y, z};
+  real3 v;
+  v.x = x;
+  v.y = y;
+  v.z = z;
   return v;
 }
-GLINT_FN real3 operator+(real3 a, real3 b) { return make_real3(a.x + b.x, a.y + b.y, a.z + b.z); }
-GLINT_FN real3 operator-(real3 a, real3 b) { return make_real3(a.x - b.x, a.y - b.y, a.z - b.z); }
+
+GLINT_FN real3 r3_add(real3 a, real3 b) { return make_real3(a.x + b.x, a.y + b.y, a.z + b.z); }
+GLINT_FN real3 r3_sub(real3 a, real3 b) { return make_real3(a.x - b.x, a.y - b.y, a.z - b.z); }
+/* Component-wise product (RGB times RGB). */
+GLINT_FN real3 r3_mul(real3 a, real3 b) { return make_real3(a.x * b.x, a.y * b.y, a.z * b.z); }
+GLINT_FN real3 r3_scale(real3 a, real s) { return make_real3(a.x * s, a.y * s, a.z * s); }
+GLINT_FN real3 r3_div(real3 a, real s) { return make_real3(a.x / s, a.y / s, a.z / s); }
+GLINT_FN real r3_dot(real3 a, real3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+GLINT_FN real3 r3_cross(real3 a, real3 b) {
+  return make_real3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+GLINT_FN real r3_length(real3 a) { return sqrt(r3_dot(a, a)); }
+GLINT_FN real3 r3_normalize(real3 a) { return r3_div(a, r3_length(a)); }
+
+/* OpenCL's select(a, b, c): c ? b : a, per lane. A conditional expression on
+ * values that are already computed: a select instruction, never a branch
+ * (for OpenCL vectors, `?:` with a vector condition is select()). */
+GLINT_FN real glint_select(real a, real b, glint_mask c) { return c ? b : a; }
+GLINT_FN real3 r3_select(real3 a, real3 b, glint_mask c) {
+  return make_real3(glint_select(a.x, b.x, c), glint_select(a.y, b.y, c),
+                    glint_select(a.z, b.z, c));
+}
+
+/* True if the condition holds in at least one lane: lets a work-item skip a
+ * whole computation when no lane needs it. The branch is uniform per
+ * work-item (all of its lanes take it together), so it does not break the
+ * SIMD code; it pays off only where whole blocks of queries agree (coherent
+ * batches), so use it sparingly. On the host it is the plain condition. */
+#if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
+#define glint_any(c) any(c)
+#else
+#define glint_any(c) (c)
+#endif
+
+#ifndef __OPENCL_VERSION__
+/* Host-only conveniences for C++ code outside kernels/ (the shared headers use
+ * the r3_* functions so that host and device run the same code). */
+GLINT_FN real3 operator+(real3 a, real3 b) { return r3_add(a, b); }
+GLINT_FN real3 operator-(real3 a, real3 b) { return r3_sub(a, b); }
 GLINT_FN real3 operator-(real3 a) { return make_real3(-a.x, -a.y, -a.z); }
-GLINT_FN real3 operator*(real3 a, real3 b) { return make_real3(a.x * b.x, a.y * b.y, a.z * b.z); }
-GLINT_FN real3 operator*(real3 a, real s) { return make_real3(a.x * s, a.y * s, a.z * s); }
-GLINT_FN real3 operator*(real s, real3 a) { return a * s; }
-GLINT_FN real3 operator/(real3 a, real s) { return make_real3(a.x / s, a.y / s, a.z / s); }
+GLINT_FN real3 operator*(real3 a, real3 b) { return r3_mul(a, b); }
+GLINT_FN real3 operator*(real3 a, real s) { return r3_scale(a, s); }
+GLINT_FN real3 operator*(real s, real3 a) { return r3_scale(a, s); }
+GLINT_FN real3 operator/(real3 a, real s) { return r3_div(a, s); }
 GLINT_FN real3 &operator+=(real3 &a, real3 b) {
   a = a + b;
   return a;
 }
-GLINT_FN real dot(real3 a, real3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-GLINT_FN real3 cross(real3 a, real3 b) {
-  return make_real3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
-}
-GLINT_FN real length(real3 a) { return sqrt(dot(a, a)); }
-GLINT_FN real3 normalize(real3 a) { return a / length(a); }
-GLINT_FN real clamp(real x, real lo, real hi) { return fmin(fmax(x, lo), hi); }
+GLINT_FN real dot(real3 a, real3 b) { return r3_dot(a, b); }
+GLINT_FN real3 cross(real3 a, real3 b) { return r3_cross(a, b); }
+GLINT_FN real length(real3 a) { return r3_length(a); }
+GLINT_FN real3 normalize(real3 a) { return r3_normalize(a); }
 #endif
 
 /* Literal in the working precision. fp32 device builds also pass

@@ -14,15 +14,15 @@ typedef struct {
 
 GLINT_FN ShadingFrame frame_from_normal_tangent(real3 normal, real3 tangent) {
   ShadingFrame f;
-  f.n = normalize(normal);
+  f.n = r3_normalize(normal);
   /* Validation guarantees |t . n| < 1 - tolerance, so this cannot vanish. */
-  f.t = normalize(tangent - f.n * dot(f.n, tangent));
-  f.b = cross(f.n, f.t);
+  f.t = r3_normalize(r3_sub(tangent, r3_scale(f.n, r3_dot(f.n, tangent))));
+  f.b = r3_cross(f.n, f.t);
   return f;
 }
 
 GLINT_FN real3 frame_to_local(ShadingFrame f, real3 v) {
-  return make_real3(dot(v, f.t), dot(v, f.b), dot(v, f.n));
+  return make_real3(r3_dot(v, f.t), r3_dot(v, f.b), r3_dot(v, f.n));
 }
 
 #endif /* GLINT_FRAME_H */

@@ -28,7 +28,13 @@ GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
   real s2 = R(1.0) - c2;
   real t0 = eta * eta - k * k - s2;
   real a2b2 = sqrt(fmax(t0 * t0 + R(4.0) * eta * eta * k * k, R(0.0)));
-  real a = sqrt(fmax(R(0.5) * (a2b2 + t0), R(0.0)));
+  /* a^2 = (a2b2 + t0) / 2 cancels when t0 < 0 and |t0| >> 2 eta k (small eta, large k: silver,
+   * gold in the red), costing fp32 up to 1e-5 in F. As a2b2^2 - t0^2 = 4 eta^2 k^2, it equals
+   * 2 eta^2 k^2 / (a2b2 - t0) there, with a2b2 - t0 >= 2 |t0| > 0: no cancellation. Both forms
+   * are computed (branch-free, see compat.h); the fmax guards keep the unused one finite. */
+  real a_sum = sqrt(fmax(R(0.5) * (a2b2 + t0), R(0.0)));
+  real a_quot = fabs(eta * k) * sqrt(R(2.0) / fmax(a2b2 - t0, R(1e-30)));
+  real a = glint_select(a_quot, a_sum, t0 >= R(0.0));
   real t1 = a2b2 + c2;
   real t2 = R(2.0) * a * c;
   real rs = (t1 - t2) / (t1 + t2);
@@ -44,11 +50,11 @@ GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
 GLINT_FN real F_dielectric(real ior, real cos_theta) {
   real c = clamp(cos_theta, R(0.0), R(1.0));
   real sin2_t = (R(1.0) - c * c) / (ior * ior);
-  if (sin2_t >= R(1.0)) return R(1.0);
-  real cos_t = sqrt(R(1.0) - sin2_t);
+  glint_mask tir = sin2_t >= R(1.0); /* total internal reflection: F = 1 */
+  real cos_t = sqrt(glint_select(R(1.0) - sin2_t, R(0.0), tir));
   real rs = (c - ior * cos_t) / (c + ior * cos_t);
   real rp = (ior * c - cos_t) / (ior * c + cos_t);
-  return R(0.5) * (rs * rs + rp * rp);
+  return glint_select(R(0.5) * (rs * rs + rp * rp), R(1.0), tir);
 }
 
 /* params: schlick (f0.rgb), conductor (eta.rgb, k.rgb), dielectric (ior). */

@@ -17,7 +17,7 @@ GLINT_FN real3 light_load3(const GLINT_GLOBAL float *rec, int offset) {
 
 /* Direction (world or local, as given) towards a directional light. */
 GLINT_FN real3 directional_light_dir(const GLINT_GLOBAL float *rec) {
-  return normalize(light_load3(rec, 0));
+  return r3_normalize(light_load3(rec, 0));
 }
 
 GLINT_FN real3 directional_light_irradiance(const GLINT_GLOBAL float *rec) {
@@ -29,14 +29,13 @@ GLINT_FN real3 directional_light_irradiance(const GLINT_GLOBAL float *rec) {
  * nothing rather than infinity. */
 GLINT_FN real3 point_light_dir(const GLINT_GLOBAL float *rec, real3 p,
                                GLINT_PRIVATE real3 *irradiance) {
-  real3 d = light_load3(rec, 0) - p;
-  real d2 = dot(d, d);
-  if (!(d2 > R(0.0))) {
-    *irradiance = make_real3(R(0.0), R(0.0), R(0.0));
-    return make_real3(R(0.0), R(0.0), R(1.0));
-  }
-  *irradiance = light_load3(rec, 3) / d2;
-  return d / sqrt(d2);
+  real3 d = r3_sub(light_load3(rec, 0), p);
+  real d2 = r3_dot(d, d);
+  glint_mask at_light = !(d2 > R(0.0));
+  real d2_safe = glint_select(d2, R(1.0), at_light); /* keeps dead lanes finite */
+  *irradiance = r3_select(r3_div(light_load3(rec, 3), d2_safe),
+                          make_real3(R(0.0), R(0.0), R(0.0)), at_light);
+  return r3_select(r3_div(d, sqrt(d2_safe)), make_real3(R(0.0), R(0.0), R(1.0)), at_light);
 }
 
 #endif /* GLINT_LIGHTS_H */

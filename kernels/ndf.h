@@ -20,25 +20,28 @@
  * to two roughnesses (Heitz 2014 Eq. 85):
  *   D(h) = 1 / (pi ax ay (hx^2/ax^2 + hy^2/ay^2 + hz^2)^2),  hz > 0. */
 GLINT_FN real D_ggx_aniso(real3 h, real alpha_x, real alpha_y) {
-  if (h.z <= R(0.0)) return R(0.0);
   real sx = h.x / alpha_x;
   real sy = h.y / alpha_y;
   real q = sx * sx + sy * sy + h.z * h.z;
-  return R(1.0) / (GLINT_PI * alpha_x * alpha_y * q * q);
+  real d = R(1.0) / (GLINT_PI * alpha_x * alpha_y * q * q);
+  return glint_select(d, R(0.0), h.z <= R(0.0));
 }
 
 /* Beckmann, anisotropic (Heitz 2014 Eq. 84):
  *   D(h) = exp(-(tx^2 + ty^2)) / (pi ax ay hz^4),  t = slope / alpha. */
 GLINT_FN real D_beckmann_aniso(real3 h, real alpha_x, real alpha_y) {
-  if (h.z <= R(0.0)) return R(0.0);
-  real tx = h.x / (alpha_x * h.z);
-  real ty = h.y / (alpha_y * h.z);
-  real t2 = tx * tx + ty * ty;
-  /* exp(-80) ~ 1.8e-35: beyond it D is below any float result, and hz^4 may
-   * already have underflowed, which would turn 0/0 into NaN. */
-  if (t2 > R(80.0)) return R(0.0);
+  /* t2 = tx^2 + ty^2 with the division by hz^2 last: h.y / (alpha_y h.z) is 0/0 when h.y = 0
+   * and alpha_y h.z underflows (subnormal h.z), whereas hz^2 = 0 here gives t2 = +inf (a unit h
+   * with hz = 0 has sx^2 + sy^2 > 0), which the cut-off below turns into D = 0. */
+  real sx = h.x / alpha_x;
+  real sy = h.y / alpha_y;
   real hz2 = h.z * h.z;
-  return exp(-t2) / (GLINT_PI * alpha_x * alpha_y * hz2 * hz2);
+  real t2 = (sx * sx + sy * sy) / hz2;
+  /* exp(-80) ~ 1.8e-35: beyond it D is below any float result, and hz^4 may
+   * already have underflowed, which would turn 0/0 into NaN. The exponent is
+   * clamped only so that dead lanes (hz <= 0, t2 > 80 or NaN) stay tame. */
+  real d = exp(-fmin(t2, R(80.0))) / (GLINT_PI * alpha_x * alpha_y * hz2 * hz2);
+  return glint_select(d, R(0.0), (h.z <= R(0.0)) | (t2 > R(80.0)));
 }
 
 /* Projected roughness s = sqrt(ax^2 wx^2 + ay^2 wy^2): Lambda depends on the
@@ -60,7 +63,7 @@ GLINT_FN real z_lambda_ggx(real3 w, real alpha_x, real alpha_y) {
   real z = fmax(w.z, R(0.0));
   real root = sqrt(z * z + s * s);
   real denom = R(2.0) * (root + z);
-  return denom > R(0.0) ? s * s / denom : R(0.0);
+  return glint_select(R(0.0), s * s / denom, denom > R(0.0));
 }
 
 /* Beckmann: Lambda = (erf(a) - 1)/2 + exp(-a^2) / (2 a sqrt(pi)), a = wz/s
@@ -70,11 +73,14 @@ GLINT_FN real z_lambda_ggx(real3 w, real alpha_x, real alpha_y) {
 GLINT_FN real z_lambda_beckmann(real3 w, real alpha_x, real alpha_y) {
   real s = projected_roughness(w, alpha_x, alpha_y);
   real z = fmax(w.z, R(0.0));
-  if (s <= R(0.0)) return R(0.0);
   real a = z / s;
-  if (a > R(9.0)) return R(0.0); /* both terms < 1e-36 relative */
-  real v = (s * exp(-a * a) / GLINT_SQRT_PI - z * erfc(a)) * R(0.5);
-  return fmax(v, R(0.0)); /* rounding may leave a tiny negative */
+  /* s <= 0: no roughness seen from w, Lambda = 0. a > 9: both terms < 1e-36
+   * relative, Lambda = 0. Dead lanes evaluate at a = 0 (finite), then drop. */
+  glint_mask dead = (s <= R(0.0)) | (a > R(9.0));
+  real a_live = glint_select(a, R(0.0), dead);
+  real v = (s * exp(-a_live * a_live) / GLINT_SQRT_PI - z * erfc(a_live)) * R(0.5);
+  v = fmax(v, R(0.0)); /* rounding may leave a tiny negative */
+  return glint_select(v, R(0.0), dead);
 }
 
 GLINT_FN real ndf_D(int ndf, real3 h, real alpha_x, real alpha_y) {
@@ -93,11 +99,26 @@ GLINT_FN real ndf_z_lambda(int ndf, real3 w, real alpha_x, real alpha_y) {
  * so it stays finite at grazing angles. Returns 0 below either horizon. */
 GLINT_FN real smith_visibility_correlated(int ndf, real3 wo, real3 wi, real alpha_x,
                                           real alpha_y) {
-  if (wo.z <= R(0.0) || wi.z <= R(0.0)) return R(0.0);
   real zlo = ndf_z_lambda(ndf, wo, alpha_x, alpha_y);
   real zli = ndf_z_lambda(ndf, wi, alpha_x, alpha_y);
   real denom = R(4.0) * (wo.z * wi.z + wi.z * zlo + wo.z * zli);
-  return denom > R(0.0) ? R(1.0) / denom : R(0.0);
+  real v = glint_select(R(0.0), R(1.0) / denom, denom > R(0.0));
+  return glint_select(v, R(0.0), (wo.z <= R(0.0)) | (wi.z <= R(0.0)));
+}
+
+/* V cos_i = G2 / (4 cos_o), the factor smooth_reflect_cos needs. V itself overflows in fp32
+ * when both cosines are tiny (denominator < 1 / FLT_MAX: cos ~1e-36 at alpha 1e-4) although
+ * V cos_i stays moderate, so divide V's denominator by zi first:
+ *   V zi = 1 / (4 (zo + zo Lambda_o + zo Lambda_i)) = 1 / (4 (zo + zlo + zo (zli / zi))).
+ * zli / zi overflows only for subnormal zi, where the result correctly tends to 0. */
+GLINT_FN real smith_visibility_cos_i(int ndf, real3 wo, real3 wi, real alpha_x, real alpha_y) {
+  real zlo = ndf_z_lambda(ndf, wo, alpha_x, alpha_y);
+  real zli = ndf_z_lambda(ndf, wi, alpha_x, alpha_y);
+  glint_mask dead = (wo.z <= R(0.0)) | (wi.z <= R(0.0));
+  real zi = glint_select(wi.z, R(1.0), dead); /* dead lanes: no 0/0 */
+  real denom = R(4.0) * (wo.z + zlo + wo.z * (zli / zi));
+  real v = glint_select(R(0.0), R(1.0) / denom, denom > R(0.0));
+  return glint_select(v, R(0.0), dead);
 }
 
 #endif /* GLINT_NDF_H */

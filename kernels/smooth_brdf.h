@@ -37,15 +37,22 @@ GLINT_FN SmoothMaterial smooth_material_unpack(const GLINT_GLOBAL float *packed,
  * Directions are unit vectors in the local frame. Returns 0 when either is at
  * or below the horizon: a one-sided reflector has no transmission lobe. */
 GLINT_FN real3 smooth_reflect_cos(SmoothMaterial m, real3 wi, real3 wo) {
-  if (wi.z <= R(0.0) || wo.z <= R(0.0)) return make_real3(R(0.0), R(0.0), R(0.0));
-  real3 h = wi + wo;
-  real h_len = length(h);
-  if (!(h_len > R(0.0))) return make_real3(R(0.0), R(0.0), R(0.0));
-  h = h / h_len;
+  real3 h = r3_add(wi, wo);
+  real h_len = r3_length(h);
+  /* Branch-free: every lane computes, dead ones (either direction at or below
+   * the horizon, or wi = -wo) use h_len = 1 to stay finite and give 0. */
+  glint_mask dead = (wi.z <= R(0.0)) | (wo.z <= R(0.0)) | !(h_len > R(0.0));
+  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
+  /* No lane live: skip the rest (host: the early return). On the device this
+   * pays off for coherent batches, e.g. +30-50% for a lit sphere where a light
+   * is behind whole blocks, and costs ~10% on random queries (measured). */
+  if (!glint_any(!dead)) return zero;
+  h = r3_div(h, glint_select(h_len, R(1.0), dead));
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
-  real V = smith_visibility_correlated(m.ndf, wo, wi, m.alpha_x, m.alpha_y);
-  real3 F = fresnel_eval(m.fresnel, dot(wo, h));
-  return F * (D * V * wi.z);
+  /* V cos_i in one piece: V alone overflows fp32 at cosines ~1e-36 (see ndf.h). */
+  real V_cos_i = smith_visibility_cos_i(m.ndf, wo, wi, m.alpha_x, m.alpha_y);
+  real3 F = fresnel_eval(m.fresnel, r3_dot(wo, h));
+  return r3_select(r3_scale(F, D * V_cos_i), zero, dead);
 }
 
 #endif /* GLINT_SMOOTH_BRDF_H */

@@ -17,6 +17,18 @@ struct DeviceEngine::Lane {
 
 namespace {
 
+// Queries per work-item: the kernel evaluates them as the lanes of OpenCL
+// vectors (kernels/compat.h, GLINT_LANES), 8 x fp32 = AVX2 register, 8 x fp64 =
+// AVX-512 register. PoCL's own vectorisation across work-items does not
+// survive the kernel's math (see kernels/smooth.cl), so the width is explicit.
+constexpr cl_uint kQueriesPerWorkItem = 8;
+
+// The spec's options plus what only the device side decides. Also the key of
+// the lane's kernel map and of the program cache.
+std::string DeviceBuildOptions(const KernelSpec &spec) {
+  return spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(kQueriesPerWorkItem);
+}
+
 // Owns a cl_mem for the duration of one evaluation.
 class Buffer {
  public:
@@ -79,7 +91,7 @@ Status DeviceEngine::Create(const DeviceEngineOptions &options,
 DeviceEngine::~DeviceEngine() = default;
 
 Status DeviceEngine::KernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *out) {
-  const std::string options = spec.BuildOptions();
+  const std::string options = DeviceBuildOptions(spec);
   auto it = lane.kernels.find(options);
   if (it != lane.kernels.end()) {
     *out = it->second;
@@ -130,7 +142,10 @@ Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan, const glint:
     if (!s.ok()) return s;
   }
   cl_int err = CL_SUCCESS;
-  *out.out() = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY, size_t(n) * 3 * sizeof(float), nullptr, &err);
+  // The kernel writes the caller's array directly (CPU device: no separate
+  // allocation to fault in, no copy back); the map below synchronises it.
+  const size_t out_bytes = size_t(n) * 3 * sizeof(float);
+  *out.out() = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, out_bytes, out_rgb, &err);
   if (err != CL_SUCCESS)
     return Status::Internal("clCreateBuffer (output) failed: " + ClErrorName(err));
   cl_mem a_out = out.get();
@@ -146,11 +161,18 @@ Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan, const glint:
   GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_out));
 
   const size_t local = options_.local_size;
-  const size_t global = (size_t(n) + local - 1) / local * local;
+  const size_t work_items = (size_t(n) + kQueriesPerWorkItem - 1) / kQueriesPerWorkItem;
+  const size_t global = (work_items + local - 1) / local * local;
   GLINT_CL_CHECK(
       clEnqueueNDRangeKernel(lane.queue, kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr));
-  GLINT_CL_CHECK(clEnqueueReadBuffer(lane.queue, a_out, CL_TRUE, 0, size_t(n) * 3 * sizeof(float),
-                                     out_rgb, 0, nullptr, nullptr));
+  // Mapping a CL_MEM_USE_HOST_PTR buffer makes out_rgb hold the results (a
+  // no-op on PoCL's CPU device, a copy on devices that needed their own memory).
+  void *mapped = clEnqueueMapBuffer(lane.queue, a_out, CL_TRUE, CL_MAP_READ, 0, out_bytes, 0,
+                                    nullptr, nullptr, &err);
+  if (err != CL_SUCCESS)
+    return Status::Internal("clEnqueueMapBuffer (output) failed: " + ClErrorName(err));
+  GLINT_CL_CHECK(clEnqueueUnmapMemObject(lane.queue, a_out, mapped, 0, nullptr, nullptr));
+  GLINT_CL_CHECK(clFinish(lane.queue));
   return Status::Ok();
 }
 

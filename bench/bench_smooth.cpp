@@ -1,8 +1,9 @@
 // Smooth-model throughput for one batch of queries (default 1M), three ways:
 //   device  in-process on the OpenCL device (DeviceEngine, one lane)
 //   host    in-process on the host scalar path (one thread, same kernels/*.h)
-//   glintd  end to end through glintd on loopback (unary Evaluate, including
-//           protobuf encoding and the gRPC transfer both ways)
+//   glintd  end to end through glintd on loopback with the client library
+//           (protobuf encoding and the gRPC transfer both ways; the library
+//           streams batches that do not fit one message)
 // Reports the median of --repeat runs as evaluations per second.
 //
 //   build/bench/bench_smooth [--queries N] [--repeat R] [--fp64] [--lights]
@@ -20,6 +21,7 @@
 #include <string>
 #include <thread>
 
+#include "client/lib/glint_client.h"
 #include "glint/v1/glint.grpc.pb.h"
 #include "server/device_engine.h"
 #include "server/host_path.h"
@@ -128,16 +130,14 @@ int main(int argc, char **argv) {
     std::ifstream in(port_file);
     if (!(in >> port)) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
-  grpc::ChannelArguments ch;
-  ch.SetMaxReceiveMessageSize(256 << 20);
-  ch.SetMaxSendMessageSize(256 << 20);
-  auto stub = glint::v1::GlintService::NewStub(grpc::CreateCustomChannel(
-      "127.0.0.1:" + std::to_string(port), grpc::InsecureChannelCredentials(), ch));
+  // Through the client library, as a user would: unary when the batch fits
+  // a message, EvaluateStream chunks otherwise.
+  glint::client::GlintClient client("127.0.0.1:" + std::to_string(port));
   bool ok = true;
+  glint::client::EvaluateInfo info;
   auto call = [&] {
-    grpc::ClientContext ctx;
-    glint::v1::EvaluateResponse res;
-    grpc::Status st = stub->Evaluate(&ctx, request, &res);
+    std::vector<float> radiance;
+    grpc::Status st = client.Evaluate(request, &radiance, {}, &info);
     if (!st.ok()) {
       std::fprintf(stderr, "glintd: %s\n", st.error_message().c_str());
       ok = false;

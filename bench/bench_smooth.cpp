@@ -8,26 +8,20 @@
 //
 //   build/bench/bench_smooth [--queries N] [--repeat R] [--fp64] [--lights]
 #include <grpcpp/grpcpp.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
 #include <string>
 #include <thread>
 
 #include "client/lib/glint_client.h"
 #include "glint/v1/glint.grpc.pb.h"
+#include "glintd_process.h"
 #include "server/device_engine.h"
 #include "server/host_path.h"
 #include "test_queries.h"
-
-extern char **environ;
 
 namespace {
 
@@ -117,22 +111,16 @@ int main(int argc, char **argv) {
   engine.reset();
 
   // glintd on a free loopback port.
-  std::string port_file = "/tmp/bench_glintd_port_" + std::to_string(getpid());
-  std::vector<std::string> args = {GLINTD_PATH, "--listen", "127.0.0.1:0", "--port-file",
-                                   port_file,   "--quiet",  "--workers",   "1"};
-  std::vector<char *> argvv;
-  for (auto &a : args) argvv.push_back(a.data());
-  argvv.push_back(nullptr);
-  pid_t pid = -1;
-  if (posix_spawn(&pid, GLINTD_PATH, nullptr, nullptr, argvv.data(), environ) != 0) return 1;
-  int port = 0;
-  for (int i = 0; i < 600 && port == 0; ++i) {
-    std::ifstream in(port_file);
-    if (!(in >> port)) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  glint::test::TempDir dir("glint_bench");
+  std::string error;
+  auto server = glint::test::Glintd::Start(GLINTD_PATH, dir, "glintd", {"--workers", "1"}, &error);
+  if (!server) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return 1;
   }
   // Through the client library, as a user would: unary when the batch fits
   // a message, EvaluateStream chunks otherwise.
-  glint::client::GlintClient client("127.0.0.1:" + std::to_string(port));
+  glint::client::GlintClient client(server->address());
   bool ok = true;
   glint::client::EvaluateInfo info;
   auto call = [&] {
@@ -147,9 +135,7 @@ int main(int argc, char **argv) {
   double e2e = MedianSeconds(repeat, call);
   if (ok)
     std::printf("| glintd end to end (loopback, unary) | %.4f | %.1f M |\n", e2e, n / e2e / 1e6);
-  kill(pid, SIGTERM);
-  waitpid(pid, nullptr, 0);
-  std::remove(port_file.c_str());
+  server.reset();
   std::printf("\ndevice / host = %.1fx; end-to-end / device = %.2f\n", host / device, device / e2e);
   return ok ? 0 : 1;
 }

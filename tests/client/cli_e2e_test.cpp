@@ -28,6 +28,8 @@
 #include <thread>
 #include <vector>
 
+#include "glintd_process.h"
+
 #ifndef GLINT_CLI_PATH
 #error "GLINT_CLI_PATH must name the glint executable"
 #endif
@@ -38,20 +40,13 @@
 namespace {
 
 namespace fs = std::filesystem;
+using glint::test::Glintd;
+using glint::test::ReadFile;
+using glint::test::Spawn;
+using glint::test::TempDir;
 
 const std::string kGlint = GLINT_CLI_PATH;
 const std::string kGlintd = GLINTD_PATH;
-
-// How long glintd may take to compile and warm its kernels before it reports SERVING (PoCL
-// compiles on first use when the kernel cache is cold).
-constexpr auto kServerStartTimeout = std::chrono::seconds(240);
-
-std::string ReadFile(const std::string &path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 void WriteFile(const std::string &path, const std::string &contents) {
   std::ofstream(path, std::ios::binary) << contents;
@@ -59,47 +54,6 @@ void WriteFile(const std::string &path, const std::string &contents) {
 
 bool BitEqual(const std::vector<float> &a, const std::vector<float> &b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
-}
-
-class TempDir {
- public:
-  TempDir() {
-    std::string tmpl = (fs::temp_directory_path() / "glint_cli_test_XXXXXX").string();
-    path_ = mkdtemp(tmpl.data());
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string File(const std::string &name) const { return (fs::path(path_) / name).string(); }
-
- private:
-  std::string path_;
-};
-
-// fork + exec with stdout/stderr to files; the child dies with us (PR_SET_PDEATHSIG) so that a
-// crashing test never leaves a server behind.
-pid_t Spawn(const std::vector<std::string> &args, const std::string &out_path,
-            const std::string &err_path) {
-  std::vector<char *> argv;
-  for (const auto &a : args) argv.push_back(const_cast<char *>(a.c_str()));
-  argv.push_back(nullptr);
-  const pid_t parent = getpid();
-  const pid_t pid = fork();
-  if (pid == 0) {
-    prctl(PR_SET_PDEATHSIG, SIGKILL);
-    if (getppid() != parent) _exit(127);  // the parent died before prctl took effect
-    const int out = open(out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int err = open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int null = open("/dev/null", O_RDONLY);
-    if (out < 0 || err < 0 || null < 0) _exit(127);
-    dup2(null, STDIN_FILENO);
-    dup2(out, STDOUT_FILENO);
-    dup2(err, STDERR_FILENO);
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
-  return pid;
 }
 
 struct RunResult {
@@ -125,62 +79,6 @@ RunResult RunProcess(const TempDir &dir, const std::vector<std::string> &args) {
 std::string Describe(const RunResult &r) {
   return "exit " + std::to_string(r.exit_code) + "\nstdout:\n" + r.out + "\nstderr:\n" + r.err;
 }
-
-// One glintd process on a free loopback port; stopped (SIGTERM, then SIGKILL) on destruction.
-class Glintd {
- public:
-  static std::unique_ptr<Glintd> Start(const TempDir &dir, const std::string &name,
-                                       const std::vector<std::string> &extra, std::string *error) {
-    auto server = std::unique_ptr<Glintd>(new Glintd);
-    const std::string port_file = dir.File(name + ".port");
-    server->log_ = dir.File(name + ".log");
-    std::vector<std::string> args = {kGlintd,       "--listen", "127.0.0.1:0",
-                                     "--port-file", port_file,  "--quiet"};
-    args.insert(args.end(), extra.begin(), extra.end());
-    server->pid_ = Spawn(args, server->log_, server->log_ + ".err");
-    const auto deadline = std::chrono::steady_clock::now() + kServerStartTimeout;
-    while (std::chrono::steady_clock::now() < deadline) {
-      int status = 0;
-      if (waitpid(server->pid_, &status, WNOHANG) == server->pid_) {
-        server->pid_ = -1;
-        *error = "glintd exited before SERVING:\n" + ReadFile(server->log_ + ".err");
-        return nullptr;
-      }
-      const std::string port = ReadFile(port_file);
-      if (!port.empty() && std::atoi(port.c_str()) > 0) {
-        server->address_ = "127.0.0.1:" + std::to_string(std::atoi(port.c_str()));
-        return server;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    }
-    *error = "glintd did not write its port file within the timeout:\n" +
-             ReadFile(server->log_ + ".err");
-    return nullptr;  // the destructor kills it
-  }
-
-  ~Glintd() {
-    if (pid_ <= 0) return;
-    kill(pid_, SIGTERM);
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    int status = 0;
-    while (waitpid(pid_, &status, WNOHANG) == 0) {
-      if (std::chrono::steady_clock::now() > deadline) {
-        kill(pid_, SIGKILL);
-        waitpid(pid_, &status, 0);
-        break;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-  }
-
-  const std::string &address() const { return address_; }
-
- private:
-  Glintd() = default;
-  pid_t pid_ = -1;
-  std::string log_;
-  std::string address_;
-};
 
 // ---- Output readers, independent of the library's writers -----------------------------------
 
@@ -382,9 +280,10 @@ class CliEndToEnd : public ::testing::Test {
     if (kGlintd.empty() || !fs::exists(kGlintd)) return;
     dir_ = new TempDir;
     std::string error;
-    unary_server_ = Glintd::Start(*dir_, "default", {}, &error).release();
+    unary_server_ = Glintd::Start(kGlintd, *dir_, "default", {}, &error).release();
     if (unary_server_ != nullptr) {
-      stream_server_ = Glintd::Start(*dir_, "small", {"--max-batch", "256"}, &error).release();
+      stream_server_ =
+          Glintd::Start(kGlintd, *dir_, "small", {"--max-batch", "256"}, &error).release();
     }
     start_error_ = new std::string(error);
   }

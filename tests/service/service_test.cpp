@@ -3,10 +3,6 @@
 // unary), every refusal over the wire, and the server still serving after them.
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <cstring>
@@ -14,9 +10,8 @@
 #include <thread>
 
 #include "glint/v1/glint.grpc.pb.h"
+#include "glintd_process.h"
 #include "test_queries.h"
-
-extern char **environ;
 
 namespace {
 
@@ -27,55 +22,16 @@ using glint::v1::EvaluateResponse;
 
 constexpr uint32_t kMaxBatch = 5000;  // small, so the stream path is exercised
 
-class Glintd {
- public:
-  Glintd() {
-    port_file_ = ::testing::TempDir() + "glintd_port_" + std::to_string(getpid());
-    std::remove(port_file_.c_str());
-    std::string max_batch = std::to_string(kMaxBatch);
-    std::vector<std::string> args = {GLINTD_PATH, "--listen",    "127.0.0.1:0", "--port-file",
-                                     port_file_,  "--max-batch", max_batch,     "--quiet"};
-    std::vector<char *> argv;
-    for (auto &a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    if (posix_spawn(&pid_, GLINTD_PATH, nullptr, nullptr, argv.data(), environ) != 0) pid_ = -1;
-  }
-  ~Glintd() {
-    if (pid_ > 0) {
-      kill(pid_, SIGTERM);
-      int status = 0;
-      waitpid(pid_, &status, 0);
-    }
-    std::remove(port_file_.c_str());
-  }
-  // Waits for the port file (written once SERVING); "" on failure.
-  std::string Address() {
-    for (int i = 0; i < 1200 && pid_ > 0; ++i) {
-      std::ifstream in(port_file_);
-      int port = 0;
-      if (in >> port && port > 0) return "127.0.0.1:" + std::to_string(port);
-      int status = 0;
-      if (waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        break;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    }
-    return "";
-  }
-  bool Alive() { return pid_ > 0 && waitpid(pid_, nullptr, WNOHANG) == 0; }
-
- private:
-  pid_t pid_ = -1;
-  std::string port_file_;
-};
-
 class ServiceTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    server_ = new Glintd();
-    std::string address = server_->Address();
-    ASSERT_FALSE(address.empty()) << "glintd did not start";
+    dir_ = new glint::test::TempDir("glint_service_test");
+    std::string error;
+    server_ = glint::test::Glintd::Start(GLINTD_PATH, *dir_, "glintd",
+                                         {"--max-batch", std::to_string(kMaxBatch)}, &error)
+                  .release();
+    ASSERT_NE(server_, nullptr) << error;
+    const std::string address = server_->address();
     grpc::ChannelArguments args;
     args.SetMaxReceiveMessageSize(64 << 20);
     stub_ = glint::v1::GlintService::NewStub(
@@ -84,6 +40,7 @@ class ServiceTest : public ::testing::Test {
   static void TearDownTestSuite() {
     stub_.reset();
     delete server_;
+    delete dir_;
   }
 
   static EvaluateRequest Request(uint32_t n, uint32_t seed = 1) {
@@ -141,10 +98,12 @@ class ServiceTest : public ::testing::Test {
     return stream->Finish();
   }
 
-  static Glintd *server_;
+  static glint::test::TempDir *dir_;
+  static glint::test::Glintd *server_;
   static std::unique_ptr<glint::v1::GlintService::Stub> stub_;
 };
-Glintd *ServiceTest::server_ = nullptr;
+glint::test::TempDir *ServiceTest::dir_ = nullptr;
+glint::test::Glintd *ServiceTest::server_ = nullptr;
 std::unique_ptr<glint::v1::GlintService::Stub> ServiceTest::stub_;
 
 TEST_F(ServiceTest, CapabilitiesDescribeDeviceAndLimits) {

@@ -1,0 +1,79 @@
+/* Spherical-polygon geometry for polygonal area lights: clipping to the
+ * upper hemisphere and the exact integral of the clamped cosine over the
+ * polygon's solid angle (Lambert 1760; the "irradiance from a polygon" edge
+ * sum as written in Arvo 1995, "Applications of Irradiance Tensors to the
+ * Simulation of Non-Lambertian Phenomena", Eq. 4, and used by Heitz et al.
+ * 2016, LTC, Eq. 11).
+ *
+ * Vertices are positions relative to the shading point (any length). A
+ * polygon faces the receiver when its vertices are seen counter-clockwise
+ * from the receiver, i.e. its right-hand normal points at the receiver. */
+#ifndef GLINT_POLYGON_H
+#define GLINT_POLYGON_H
+
+#include "compat.h"
+
+/* Clipping branches on per-vertex values, so polygon kernels run one query
+ * per work-item (see compat.h on GLINT_LANES). */
+#if defined(__OPENCL_VERSION__) && GLINT_LANES != 1
+#error "kernels/polygon.h needs GLINT_LANES == 1"
+#endif
+
+#define GLINT_POLYGON_MAX_VERTICES 16
+/* Clipping a convex polygon against one plane adds at most one vertex. */
+#define GLINT_POLYGON_MAX_CLIPPED (GLINT_POLYGON_MAX_VERTICES + 1)
+
+/* Sutherland-Hodgman clip of a polygon (n vertices) to the half-space z >= 0.
+ * Returns the number of output vertices (0 when wholly below). Vertices exactly
+ * on the horizon are kept: they bound the integral but add nothing to it. */
+GLINT_FN int polygon_clip_to_horizon(const GLINT_PRIVATE real3 *in, int n,
+                                     GLINT_PRIVATE real3 *out) {
+  int m = 0;
+  for (int i = 0; i < n; ++i) {
+    real3 a = in[i];
+    real3 b = in[(i + 1) % n];
+    int a_in = a.z >= R(0.0);
+    int b_in = b.z >= R(0.0);
+    if (a_in) out[m++] = a;
+    if (a_in != b_in) {
+      real t = a.z / (a.z - b.z);
+      real3 p = r3_add(a, r3_scale(r3_sub(b, a), t));
+      p.z = R(0.0); /* exactly on the horizon despite rounding */
+      out[m++] = p;
+    }
+  }
+  return m;
+}
+
+/* One edge's contribution to the cosine integral, for unit vectors a, b:
+ *   theta(a, b) * normalize(a x b) . z, theta = angle between a and b,
+ * computed as atan2(|a x b|, a . b) * (a x b).z / |a x b|, which stays
+ * accurate for short edges (theta / sin(theta) -> 1) where acos loses digits. */
+GLINT_FN real polygon_edge_integral(real3 a, real3 b) {
+  real3 c = r3_cross(a, b);
+  real s = r3_length(c);
+  real theta = atan2(s, r3_dot(a, b));
+  real ratio = s > R(1e-30) ? theta / s : R(1.0);
+  return c.z * ratio;
+}
+
+/* Signed integral of cos(theta) over the solid angle of the polygon (in the
+ * local frame, +z = normal), divided by pi: the form factor. Positive when the
+ * polygon faces the receiver, negative when it is seen from behind. The
+ * polygon must already be clipped to z >= 0. */
+GLINT_FN real polygon_form_factor(const GLINT_PRIVATE real3 *v, int n) {
+  if (n < 3) return R(0.0);
+  real sum = R(0.0);
+  real3 first = r3_normalize(v[0]);
+  real3 a = first;
+  for (int i = 0; i < n; ++i) {
+    real3 b = (i + 1 < n) ? r3_normalize(v[i + 1]) : first;
+    /* b x a rather than a x b: counter-clockwise seen from the receiver
+     * (inside the sphere) is clockwise seen from outside. */
+    sum += polygon_edge_integral(b, a);
+    a = b;
+  }
+  return sum * R(0.5) * GLINT_INV_PI;
+}
+
+#endif /* GLINT_POLYGON_H */

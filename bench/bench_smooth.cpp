@@ -133,8 +133,11 @@ int main(int argc, char **argv) {
   };
   call();  // first call pays for connection set-up and any kernel compile
   double e2e = MedianSeconds(repeat, call);
+  const std::string transport =
+      info.streamed ? "stream, " + std::to_string(info.chunks) + " chunks" : "unary";
   if (ok)
-    std::printf("| glintd end to end (loopback, unary) | %.4f | %.1f M |\n", e2e, n / e2e / 1e6);
+    std::printf("| glintd end to end (loopback, %s) | %.4f | %.1f M |\n", transport.c_str(), e2e,
+                n / e2e / 1e6);
   server.reset();
   std::printf("\ndevice / host = %.1fx; end-to-end / device = %.2f\n", host / device, device / e2e);
   return ok ? 0 : 1;

@@ -62,11 +62,13 @@ void GlintServiceImpl::LogLine(const std::string &line) {
 
 Status GlintServiceImpl::RunBatch(int lane, const glint::v1::EvaluateRequest &settings,
                                   const glint::v1::QueryBatch &queries, uint64_t first_query,
-                                  bool streamed, glint::v1::EvaluateResponse *response) {
+                                  bool streamed, glint::v1::EvaluateResponse *response,
+                                  std::string *kernel) {
   Status s =
       ValidateQueries(queries, settings.lights_size() > 0, options_.limits, first_query, streamed);
   if (!s.ok()) return s;
   const EvalPlan plan = MakeEvalPlan(settings, queries);
+  if (kernel) *kernel = plan.spec.Describe();
   const auto start = Clock::now();
   response->set_count(queries.count());
   response->mutable_radiance()->Resize(int(queries.count()) * 3, 0.0f);
@@ -95,11 +97,12 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   }
   bool queued = scheduler_->TrySubmit([this, reactor, request, response, received](int lane) {
     const double queue_ms = MsSince(received);
-    Status st = RunBatch(lane, *request, request->queries(), 0, false, response);
+    std::string kernel = "-";
+    Status st = RunBatch(lane, *request, request->queries(), 0, false, response, &kernel);
     response->mutable_stats()->set_queue_ms(queue_ms);
     std::ostringstream line;
     line << "Evaluate n=" << request->queries().count() << " model=" << ModelName(*request)
-         << " kernel=" << MakeEvalPlan(*request, request->queries()).spec.Describe()
+         << " kernel=" << kernel
          << " queue_ms=" << queue_ms << " compute_ms=" << response->stats().compute_ms()
          << (st.ok() ? " ok" : " refused: " + st.message());
     LogLine(line.str());

@@ -29,10 +29,6 @@ Vec3 from_k(k64::real3 v) {
 
 constexpr double kTol = 1e-14;
 
-const char *ndf_name(int ndf) {
-  return ndf == kNdfBeckmann ? "Beckmann" : "GGX";
-}
-
 void expect_vec_near(Vec3 got, Vec3 expected, double tol, const std::string &what) {
   EXPECT_NEAR(got.x, expected.x, tol) << what << ": got " << got << " expected " << expected;
   EXPECT_NEAR(got.y, expected.y, tol) << what << ": got " << got << " expected " << expected;

@@ -28,6 +28,14 @@ inline constexpr int kFresnelSchlick = 1;
 inline constexpr int kFresnelConductor = 2;
 inline constexpr int kFresnelDielectric = 3;
 
+inline constexpr int kNdfs[] = {kNdfGgx, kNdfBeckmann};
+inline const char *ndf_name(int ndf) { return ndf == kNdfBeckmann ? "Beckmann" : "GGX"; }
+
+// An anisotropic roughness pair (alpha_x along the tangent, alpha_y along the bitangent).
+struct Alphas {
+  double x, y;
+};
+
 // SmoothMaterial / FresnelParams in double: a = f0 (schlick), eta (conductor) or ior in a.x
 // (dielectric); b = k (conductor).
 struct Material {

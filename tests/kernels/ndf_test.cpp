@@ -15,15 +15,6 @@ namespace {
 
 using ref::kPi;
 
-struct Alphas {
-  double x, y;
-};
-
-constexpr int kNdfs[] = {kNdfGgx, kNdfBeckmann};
-
-const char *ndf_name(int ndf) {
-  return ndf == kNdfBeckmann ? "Beckmann" : "GGX";
-}
 
 // Isotropic and anisotropic roughness pairs, both orientations of the anisotropy so that an
 // alpha_x / alpha_y swap in the kernel would show up in the pointwise tests.

@@ -16,14 +16,6 @@ namespace {
 
 using ref::kPi;
 
-struct Alphas {
-  double x, y;
-};
-
-constexpr int kNdfs[] = {kNdfGgx, kNdfBeckmann};
-const char *ndf_name(int ndf) {
-  return ndf == kNdfBeckmann ? "Beckmann" : "GGX";
-}
 
 // All material parameters float-representable, so both builds see the same material.
 std::vector<Material> materials(int ndf, Alphas a) {

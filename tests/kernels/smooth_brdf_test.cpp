@@ -16,14 +16,6 @@ namespace {
 
 using ref::kPi;
 
-struct Alphas {
-  double x, y;
-};
-
-constexpr int kNdfs[] = {kNdfGgx, kNdfBeckmann};
-const char *ndf_name(int ndf) {
-  return ndf == kNdfBeckmann ? "Beckmann" : "GGX";
-}
 
 constexpr Alphas kAlphas[] = {{0.05, 0.05}, {0.2, 0.2}, {0.5, 0.5},  {1.0, 1.0},
                               {0.1, 0.6},   {0.6, 0.1}, {0.02, 0.3}, {0.01, 0.01}};

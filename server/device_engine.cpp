@@ -72,6 +72,17 @@ Status DeviceEngine::Create(const DeviceEngineOptions &options,
   Status s = ClRuntime::Create(options.device, options.cache_dir, &engine->runtime_);
   if (!s.ok()) return s;
   engine->smooth_source_ = ExpandKernelSource("smooth.cl");
+  engine->area_source_ = ExpandKernelSource("area_lights.cl");
+  for (int t = 0; t < 2; ++t) {
+    cl_int err = CL_SUCCESS;
+    // The LTC tables go to the device as buffers, not __constant arrays in the program: 128 KiB
+    // each is above OpenCL's guaranteed constant memory.
+    engine->ltc_tables_[t] =
+        clCreateBuffer(engine->runtime_->context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                       kLtcTableFloats * sizeof(float), const_cast<float *>(LtcTable(t + 1)), &err);
+    if (err != CL_SUCCESS)
+      return Status::Internal("clCreateBuffer (LTC table) failed: " + ClErrorName(err));
+  }
   for (int i = 0; i < std::max(1, options.lanes); ++i) {
     auto lane = std::make_unique<Lane>();
     cl_int err = CL_SUCCESS;
@@ -88,7 +99,75 @@ Status DeviceEngine::Create(const DeviceEngineOptions &options,
   return Status::Ok();
 }
 
-DeviceEngine::~DeviceEngine() = default;
+DeviceEngine::~DeviceEngine() {
+  lanes_.clear();
+  for (cl_mem t : ltc_tables_)
+    if (t) clReleaseMemObject(t);
+}
+
+Status DeviceEngine::AreaKernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *out) {
+  // One query per work-item: polygon.h branches per query.
+  const std::string options = spec.BuildOptions() + " -DGLINT_LANES=1 -DGLINT_AREA_KERNEL=1";
+  auto it = lane.kernels.find(options);
+  if (it != lane.kernels.end()) {
+    *out = it->second;
+    return Status::Ok();
+  }
+  cl_program program = nullptr;
+  Status s = runtime_->GetProgram(area_source_, options, &program);
+  if (!s.ok()) return s;
+  cl_int err = CL_SUCCESS;
+  cl_kernel kernel = clCreateKernel(program, "glint_smooth_area", &err);
+  if (err != CL_SUCCESS) return Status::Internal("clCreateKernel failed: " + ClErrorName(err));
+  lane.kernels.emplace(options, kernel);
+  *out = kernel;
+  return Status::Ok();
+}
+
+Status DeviceEngine::EvaluateArea(Lane &lane, const EvalPlan &plan, const glint::v1::QueryBatch &q,
+                                  cl_mem a_out, bool accumulate) {
+  cl_kernel kernel = nullptr;
+  Status s = AreaKernelFor(lane, plan.spec, &kernel);
+  if (!s.ok()) return s;
+  const cl_uint n = q.count();
+  cl_context ctx = runtime_->context();
+  Buffer wo, pos, nrm, tan, mat, poly;
+  cl_mem a_wo, a_pos, a_nrm, a_tan, a_mat, a_poly;
+  const struct {
+    const float *data;
+    size_t count;
+    Buffer *buf;
+    cl_mem *arg;
+  } inputs[] = {{q.wo().data(), size_t(q.wo_size()), &wo, &a_wo},
+                {q.position().data(), size_t(q.position_size()), &pos, &a_pos},
+                {q.normal().data(), size_t(q.normal_size()), &nrm, &a_nrm},
+                {q.tangent().data(), size_t(q.tangent_size()), &tan, &a_tan},
+                {plan.material.data(), plan.material.size(), &mat, &a_mat},
+                {plan.polygon.data(), plan.polygon.size(), &poly, &a_poly}};
+  for (const auto &in : inputs) {
+    s = MakeInput(ctx, in.data, in.count, lane.dummy, in.buf, in.arg);
+    if (!s.ok()) return s;
+  }
+  cl_mem table = ltc_tables_[plan.spec.ndf == 2 ? 1 : 0];
+  const cl_uint n_poly = plan.n_polygon;
+  const cl_int method = plan.area_method, samples = plan.area_samples, acc = accumulate ? 1 : 0;
+  cl_uint arg = 0;
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n));
+  for (cl_mem *m : {&a_wo, &a_pos, &a_nrm, &a_tan, &a_mat, &a_poly})
+    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), m));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_poly));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &table));
+  for (const cl_int *v : {&method, &samples, &acc})
+    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_int), v));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_out));
+  const size_t local = options_.local_size;
+  const size_t global = (size_t(n) + local - 1) / local * local;
+  GLINT_CL_CHECK(
+      clEnqueueNDRangeKernel(lane.queue, kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr));
+  // The input buffers above wrap request memory and die with this call: wait for the kernel.
+  GLINT_CL_CHECK(clFinish(lane.queue));
+  return Status::Ok();
+}
 
 Status DeviceEngine::KernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *out) {
   const std::string options = DeviceBuildOptions(spec);
@@ -115,9 +194,15 @@ Status DeviceEngine::KernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *ou
 Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan, const glint::v1::QueryBatch &q,
                               float *out_rgb) {
   Lane &lane = *lanes_.at(size_t(lane_index));
+  const bool smooth_lights = plan.spec.probe || plan.n_directional > 0 || plan.n_point > 0;
   cl_kernel kernel = nullptr;
-  Status s = KernelFor(lane, plan.spec, &kernel);
+  Status s =
+      smooth_lights || plan.n_polygon == 0 ? KernelFor(lane, plan.spec, &kernel) : Status::Ok();
   if (!s.ok()) return s;
+  if (plan.spec.fp64 && !runtime_->info().fp64) {
+    return Status::InvalidArgument("precision: FP64 requested but " + runtime_->info().name +
+                                   " has no cl_khr_fp64");
+  }
   const cl_uint n = q.count();
   if (n == 0) return Status::Ok();
   cl_context ctx = runtime_->context();
@@ -145,26 +230,35 @@ Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan, const glint:
   // The kernel writes the caller's array directly (CPU device: no separate
   // allocation to fault in, no copy back); the map below synchronises it.
   const size_t out_bytes = size_t(n) * 3 * sizeof(float);
-  *out.out() = clCreateBuffer(ctx, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, out_bytes, out_rgb, &err);
+  // Read-write when the polygon kernel adds to what glint_smooth wrote.
+  const cl_mem_flags out_flags = plan.n_polygon > 0 ? CL_MEM_READ_WRITE : CL_MEM_WRITE_ONLY;
+  *out.out() = clCreateBuffer(ctx, out_flags | CL_MEM_USE_HOST_PTR, out_bytes, out_rgb, &err);
   if (err != CL_SUCCESS)
     return Status::Internal("clCreateBuffer (output) failed: " + ClErrorName(err));
   cl_mem a_out = out.get();
   const cl_uint n_dir = plan.n_directional, n_pnt = plan.n_point;
 
-  cl_uint arg = 0;
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n));
-  for (cl_mem *m : {&a_wo, &a_wi, &a_pos, &a_nrm, &a_tan, &a_mat, &a_dir})
-    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), m));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_dir));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_pnt));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_pnt));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_out));
+  if (kernel) {
+    cl_uint arg = 0;
+    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n));
+    for (cl_mem *m : {&a_wo, &a_wi, &a_pos, &a_nrm, &a_tan, &a_mat, &a_dir})
+      GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), m));
+    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_dir));
+    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_pnt));
+    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_pnt));
+    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_out));
 
-  const size_t local = options_.local_size;
-  const size_t work_items = (size_t(n) + kQueriesPerWorkItem - 1) / kQueriesPerWorkItem;
-  const size_t global = (work_items + local - 1) / local * local;
-  GLINT_CL_CHECK(
-      clEnqueueNDRangeKernel(lane.queue, kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr));
+    const size_t local = options_.local_size;
+    const size_t work_items = (size_t(n) + kQueriesPerWorkItem - 1) / kQueriesPerWorkItem;
+    const size_t global = (work_items + local - 1) / local * local;
+    GLINT_CL_CHECK(clEnqueueNDRangeKernel(lane.queue, kernel, 1, nullptr, &global, &local, 0,
+                                          nullptr, nullptr));
+  }
+  // In-order queue: the polygon kernel runs after glint_smooth and adds to its output.
+  if (plan.n_polygon > 0) {
+    s = EvaluateArea(lane, plan, q, a_out, kernel != nullptr);
+    if (!s.ok()) return s;
+  }
   // Mapping a CL_MEM_USE_HOST_PTR buffer makes out_rgb hold the results (a
   // no-op on PoCL's CPU device, a copy on devices that needed their own memory).
   void *mapped = clEnqueueMapBuffer(lane.queue, a_out, CL_TRUE, CL_MAP_READ, 0, out_bytes, 0,

@@ -46,10 +46,17 @@ class DeviceEngine {
   struct Lane;
   DeviceEngine() = default;
   Status KernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *out);
+  Status AreaKernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *out);
+  // Runs kernels/area_lights.cl for the plan's polygon lights on `out` (already bound), adding
+  // to it when `accumulate`.
+  Status EvaluateArea(Lane &lane, const EvalPlan &plan, const glint::v1::QueryBatch &q, cl_mem out,
+                      bool accumulate);
 
   DeviceEngineOptions options_;
   std::unique_ptr<ClRuntime> runtime_;
   std::string smooth_source_;
+  std::string area_source_;
+  cl_mem ltc_tables_[2] = {nullptr, nullptr};  // GGX, Beckmann (read-only, shared by lanes)
   std::vector<std::unique_ptr<Lane>> lanes_;
 };
 

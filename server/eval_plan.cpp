@@ -1,7 +1,10 @@
 #include "server/eval_plan.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
+
+#include "tools/ltc/ltc_table.h"
 
 namespace glint {
 namespace {
@@ -10,12 +13,20 @@ namespace {
 constexpr int kNdfGgx = 1, kNdfBeckmann = 2;
 constexpr int kFresnelSchlick = 1, kFresnelConductor = 2, kFresnelDielectric = 3;
 constexpr int kLightFloats = 8;  // GLINT_LIGHT_FLOATS
+// kernels/area_lights.h record: [n, two_sided, L.rgb, 0, 0, 0, 16 x xyz].
+constexpr int kPolygonFloats = 56, kPolygonVertexOffset = 8;
+constexpr int kAreaLtc = 1, kAreaReference = 5;
 
 void Append3(const google::protobuf::RepeatedField<float> &v, std::vector<float> *out) {
   out->insert(out->end(), v.begin(), v.begin() + 3);
 }
 
 }  // namespace
+
+const float *LtcTable(int ndf) {
+  static_assert(sizeof(ltc_table::data::glint_ltc_ggx) == kLtcTableFloats * sizeof(float));
+  return ltc_table::table(ndf == kNdfBeckmann ? ltc_table::Ndf::kBeckmann : ltc_table::Ndf::kGgx);
+}
 
 std::string KernelSpec::BuildOptions() const {
   std::ostringstream o;
@@ -36,6 +47,7 @@ std::string KernelSpec::Describe() const {
   if (probe) o << "/probe";
   if (has_directional) o << "/directional";
   if (has_point) o << "/point";
+  if (has_polygon) o << "/polygon";
   if (has_frame) o << "/frame";
   o << (fp64 ? "/fp64" : "/fp32");
   return o.str();
@@ -88,8 +100,20 @@ EvalPlan MakeEvalPlan(const glint::v1::EvaluateRequest &settings,
       plan.point.push_back(p.radius());
       plan.point.push_back(0.0f);
       ++plan.n_point;
+    } else if (light.has_polygon()) {
+      const auto &p = light.polygon();
+      std::vector<float> rec(kPolygonFloats, 0.0f);
+      rec[0] = float(p.vertices_size() / 3);
+      rec[1] = p.two_sided() ? 1.0f : 0.0f;
+      for (int c = 0; c < 3; ++c) rec[2 + c] = p.radiance(c);
+      std::copy(p.vertices().begin(), p.vertices().end(), rec.begin() + kPolygonVertexOffset);
+      plan.polygon.insert(plan.polygon.end(), rec.begin(), rec.end());
+      ++plan.n_polygon;
     }
   }
+  s.has_polygon = plan.n_polygon > 0;
+  plan.area_method = settings.area_method() == glint::v1::REFERENCE ? kAreaReference : kAreaLtc;
+  plan.area_samples = settings.area_samples() ? int(settings.area_samples()) : 64;
   static_assert(kLightFloats == 8, "light record layout of kernels/lights.h");
   s.has_directional = plan.n_directional > 0;
   s.has_point = plan.n_point > 0;

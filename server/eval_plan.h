@@ -20,6 +20,9 @@ struct KernelSpec {
   bool has_frame = false;
   bool has_directional = false;
   bool has_point = false;
+  // Request has polygon lights: they run in a separate kernel (kernels/area_lights.cl,
+  // one query per work-item) and do not change the smooth kernel's build options.
+  bool has_polygon = false;
   bool fp64 = false;
 
   bool operator==(const KernelSpec &) const = default;
@@ -36,7 +39,15 @@ struct EvalPlan {
   std::vector<float> point;
   uint32_t n_directional = 0;
   uint32_t n_point = 0;
+  std::vector<float> polygon;  // GLINT_POLYGON_FLOATS per light (kernels/area_lights.h)
+  uint32_t n_polygon = 0;
+  int area_method = 1;    // GLINT_AREA_LTC or GLINT_AREA_REFERENCE
+  int area_samples = 64;  // REFERENCE nodes per dimension per triangle
 };
+
+// The LTC table (64 x 64 x 8 floats, tools/ltc/README.md) for a GLINT_NDF_* value.
+const float *LtcTable(int ndf);
+constexpr size_t kLtcTableFloats = 64 * 64 * 8;
 
 // Builds the plan of a request that has passed ValidateRequest. `queries` may
 // differ from request.queries (stream chunks reuse the first chunk's settings).

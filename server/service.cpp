@@ -102,8 +102,8 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
     response->mutable_stats()->set_queue_ms(queue_ms);
     std::ostringstream line;
     line << "Evaluate n=" << request->queries().count() << " model=" << ModelName(*request)
-         << " kernel=" << kernel
-         << " queue_ms=" << queue_ms << " compute_ms=" << response->stats().compute_ms()
+         << " kernel=" << kernel << " queue_ms=" << queue_ms
+         << " compute_ms=" << response->stats().compute_ms()
          << (st.ok() ? " ok" : " refused: " + st.message());
     LogLine(line.str());
     if (!st.ok()) response->Clear();
@@ -221,7 +221,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::GetCapabilities(
   c->add_models("SMOOTH");
   for (const char *n : {"GGX", "BECKMANN"}) c->add_ndfs(n);
   for (const char *f : {"schlick", "conductor", "dielectric"}) c->add_fresnel_kinds(f);
-  for (const char *l : {"directional", "point"}) c->add_light_kinds(l);
+  for (const char *l : {"directional", "point", "polygon"}) c->add_light_kinds(l);
   c->set_max_batch(options_.limits.max_batch);
   c->set_max_message_bytes(options_.max_message_bytes);
   c->set_max_lights(options_.limits.max_lights);

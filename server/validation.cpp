@@ -1,5 +1,6 @@
 #include "server/validation.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <string>
@@ -111,6 +112,84 @@ Status CheckMaterial(const glint::v1::Material &m) {
   }
 }
 
+// A polygon light: 3..16 finite vertices, planar, convex, not degenerate; radiance 3 finite
+// values >= 0. Tolerances are relative to the polygon's size (its largest vertex distance from
+// the centroid, `size`): planar when every vertex is within 1e-3 * size of the plane through the
+// centroid with Newell's normal; degenerate (collinear or zero area) when the area is below
+// 1e-9 * size^2. Convex: every corner turns the same way about the normal (collinear corners,
+// within 1e-6 relative, are allowed) and the corners turn once in total, which also refuses
+// self-intersecting (star) outlines. Concave polygons are refused, not split.
+Status CheckPolygon(const glint::v1::PolygonLight &p, const std::string &f) {
+  const std::string fv = f + ".vertices";
+  const int nf = p.vertices_size();
+  if (nf % 3 != 0 || nf < 9 || nf > 48) {
+    return Status::InvalidArgument(fv + ": has " + std::to_string(nf) +
+                                   " values; expected 3 to 16 vertices of 3 values (x, y, z)");
+  }
+  const int n = nf / 3;
+  if (!AllFinite(p.vertices().data(), nf))
+    return Status::InvalidArgument(fv + ": a vertex is not finite");
+  Status s = CheckRange(p.radiance(), 3, f + ".radiance", 0.0f, 3e38f, "3 values >= 0");
+  if (!s.ok()) return s;
+  auto vert = [&](int i, int c) { return double(p.vertices((i % n) * 3 + c)); };
+  double centroid[3] = {0, 0, 0};
+  for (int i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) centroid[c] += vert(i, c) / n;
+  double size = 0, normal[3] = {0, 0, 0};
+  for (int i = 0; i < n; ++i) {
+    double a[3], b[3];
+    for (int c = 0; c < 3; ++c) {
+      a[c] = vert(i, c) - centroid[c];
+      b[c] = vert(i + 1, c) - centroid[c];
+    }
+    size = std::max(size, std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]));
+    normal[0] += a[1] * b[2] - a[2] * b[1];  // Newell: sum of a x b = 2 * area * unit normal
+    normal[1] += a[2] * b[0] - a[0] * b[2];
+    normal[2] += a[0] * b[1] - a[1] * b[0];
+  }
+  const double twice_area =
+      std::sqrt(normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2]);
+  if (!(size > 0) || !(twice_area > 2e-9 * size * size)) {
+    return Status::InvalidArgument(fv + ": degenerate polygon (zero area or collinear vertices)");
+  }
+  for (double &c : normal) c /= twice_area;
+  for (int i = 0; i < n; ++i) {
+    double d = 0;
+    for (int c = 0; c < 3; ++c) d += (vert(i, c) - centroid[c]) * normal[c];
+    if (std::fabs(d) > 1e-3 * size) {
+      std::ostringstream o;
+      o << fv << ": not planar (vertex " << i << " is " << std::fabs(d)
+        << " from the polygon's plane; tolerance 1e-3 x its size " << size << ")";
+      return Status::InvalidArgument(o.str());
+    }
+  }
+  double turning = 0;
+  for (int i = 0; i < n; ++i) {
+    double e0[3], e1[3];
+    for (int c = 0; c < 3; ++c) {
+      e0[c] = vert(i + 1, c) - vert(i, c);
+      e1[c] = vert(i + 2, c) - vert(i + 1, c);
+    }
+    double cr[3] = {e0[1] * e1[2] - e0[2] * e1[1], e0[2] * e1[0] - e0[0] * e1[2],
+                    e0[0] * e1[1] - e0[1] * e1[0]};
+    double sin_part = cr[0] * normal[0] + cr[1] * normal[1] + cr[2] * normal[2];
+    double cos_part = e0[0] * e1[0] + e0[1] * e1[1] + e0[2] * e1[2];
+    double l0 = std::sqrt(e0[0] * e0[0] + e0[1] * e0[1] + e0[2] * e0[2]);
+    double l1 = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+    if (sin_part < -1e-6 * l0 * l1) {
+      return Status::InvalidArgument(
+          fv + ": not convex at vertex " + std::to_string((i + 1) % n) +
+          "; concave polygons are refused (split them into convex ones)");
+    }
+    turning += std::atan2(sin_part, cos_part);
+  }
+  if (std::fabs(turning - 2 * 3.14159265358979323846) > 1e-3) {
+    return Status::InvalidArgument(
+        fv + ": not convex (the outline winds more than once); concave polygons are refused");
+  }
+  return Status::Ok();
+}
+
 Status CheckLight(const glint::v1::Light &light, const std::string &field, double tol) {
   if (light.has_directional()) {
     const auto &d = light.directional();
@@ -137,7 +216,9 @@ Status CheckLight(const glint::v1::Light &light, const std::string &field, doubl
     }
     return s;
   }
-  return Status::InvalidArgument(field + ": no light kind set; expected directional or point");
+  if (light.has_polygon()) return CheckPolygon(light.polygon(), field + ".polygon");
+  return Status::InvalidArgument(field +
+                                 ": no light kind set; expected directional, point or polygon");
 }
 
 // An optional per-query array: empty, or `per` values for each query.
@@ -171,6 +252,26 @@ Status ValidateSettings(const glint::v1::EvaluateRequest &request, const Validat
   for (int l = 0; l < request.lights_size(); ++l) {
     s = CheckLight(request.lights(l), Indexed("lights", uint64_t(l)), limits.unit_tolerance);
     if (!s.ok()) return s;
+  }
+  switch (request.area_method()) {
+    case glint::v1::AREA_METHOD_UNSPECIFIED:
+    case glint::v1::LTC:
+    case glint::v1::REFERENCE:
+      break;
+    case glint::v1::LECOCQ:
+    case glint::v1::LECOCQ_PEARSON:
+    case glint::v1::MONTE_CARLO:
+      return Status::InvalidArgument(
+          "area_method: " + glint::v1::AreaMethod_Name(request.area_method()) +
+          " not implemented yet; use LTC or REFERENCE");
+    default:
+      return Status::InvalidArgument("area_method: unknown value " +
+                                     std::to_string(request.area_method()) +
+                                     "; expected LTC or REFERENCE");
+  }
+  if (request.area_samples() > 1024) {
+    return Status::InvalidArgument("area_samples: " + std::to_string(request.area_samples()) +
+                                   "; expected at most 1024 (0 = default 64)");
   }
   switch (request.precision()) {
     case glint::v1::PRECISION_UNSPECIFIED:

@@ -16,9 +16,15 @@ namespace {
 struct V3 {
   double x, y, z;
 };
-V3 Sub(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-V3 Cross(V3 a, V3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-double Dot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+V3 Sub(V3 a, V3 b) {
+  return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+V3 Cross(V3 a, V3 b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+double Dot(V3 a, V3 b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
 
 double FormFactor(const std::vector<V3> &poly) {
   std::vector<k64::real3> in, out(GLINT_POLYGON_MAX_CLIPPED);
@@ -41,8 +47,10 @@ int Hit(const std::vector<V3> &poly, V3 d) {
     V3 e = Sub(poly[(i + 1) % poly.size()], poly[i]);
     double s = Dot(Cross(e, Sub(p, poly[i])), n);
     int si = s > 0 ? 1 : -1;
-    if (sign == 0) sign = si;
-    else if (si != sign) return 0;
+    if (sign == 0)
+      sign = si;
+    else if (si != sign)
+      return 0;
   }
   // The right-hand normal n points at the receiver (origin) for a front face.
   return Dot(n, poly[0]) < 0 ? 1 : -1;
@@ -69,10 +77,10 @@ TEST(Polygon, FormFactorMatchesBruteForce) {
   // Quads facing down (towards the receiver at the origin): vertices
   // counter-clockwise seen from below.
   const std::vector<std::vector<V3>> polys = {
-      {{-1, -1, 1}, {-1, 1, 1}, {1, 1, 1}, {1, -1, 1}},             // overhead
-      {{0.5, -1, 0.5}, {0.5, 1, 0.5}, {2, 1, 1.5}, {2, -1, 1.5}},   // tilted, off-axis
-      {{-1, -1, -0.5}, {-1, 1, -0.5}, {1, 1, 1.5}, {1, -1, 1.5}},   // partly below horizon
-      {{0.2, 0.4, 2}, {0.3, 0.1, 2}, {0, 0, 2}},                     // small triangle
+      {{-1, -1, 1}, {-1, 1, 1}, {1, 1, 1}, {1, -1, 1}},            // overhead
+      {{0.5, -1, 0.5}, {0.5, 1, 0.5}, {2, 1, 1.5}, {2, -1, 1.5}},  // tilted, off-axis
+      {{-1, -1, -0.5}, {-1, 1, -0.5}, {1, 1, 1.5}, {1, -1, 1.5}},  // partly below horizon
+      {{0.2, 0.4, 2}, {0.3, 0.1, 2}, {0, 0, 2}},                   // small triangle
   };
   for (size_t k = 0; k < polys.size(); ++k) {
     double ff = FormFactor(polys[k]);

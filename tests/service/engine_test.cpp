@@ -116,6 +116,43 @@ TEST_F(EngineTest, DeviceMatchesHostPathForEverySpecialisation) {
   EXPECT_EQ(combos, 48);
 }
 
+// Polygon lights (kernels/area_lights.cl, a second kernel whose output is added to
+// glint_smooth's) against the host path, both methods, with and without a frame and another
+// light kind. fp32 device and host libm differ (atan2, sin, cos in the clipping and quadrature),
+// hence 1e-3 relative; fp64 4e-6.
+TEST_F(EngineTest, DeviceMatchesHostPathWithPolygonLights) {
+  for (bool framed : {false, true})
+    for (v1::AreaMethod method : {v1::LTC, v1::REFERENCE})
+      for (bool with_directional : {false, true})
+        for (bool fp64 : {false, true}) {
+          EvaluateRequest settings = MakeSettings(v1::GGX, 0, with_directional, fp64);
+          if (!with_directional) settings.clear_lights();
+          settings.set_area_method(method);
+          settings.set_area_samples(8);
+          auto *p = settings.add_lights()->mutable_polygon();
+          for (float v :
+               {-3.0f, -3.0f, 3.0f, 3.0f, -3.0f, 3.0f, 3.0f, 3.0f, 3.0f, -3.0f, 3.0f, 3.0f})
+            p->add_vertices(v);
+          for (float v : {1.0f, 0.5f, 0.25f}) p->add_radiance(v);
+          p->set_two_sided(true);
+          v1::QueryBatch q = test::RandomQueries(300, false, framed, 17);
+          ASSERT_TRUE(ValidateSettings(settings, {}).ok());
+          EvalPlan plan = MakeEvalPlan(settings, q);
+          ASSERT_TRUE(plan.spec.has_polygon);
+          auto dev = Device(plan, q);
+          auto host = Host(plan, q);
+          const double rel = fp64 ? 4e-6 : 1e-3;
+          int nonzero = 0;
+          for (size_t i = 0; i < dev.size(); ++i) {
+            ASSERT_TRUE(std::isfinite(dev[i]) && dev[i] >= 0.0f) << plan.spec.Describe();
+            ASSERT_NEAR(dev[i], host[i], rel * std::fabs(host[i]) + 1e-7)
+                << plan.spec.Describe() << " method " << method << " query " << i / 3;
+            nonzero += dev[i] > 0.0f;
+          }
+          EXPECT_GT(nonzero, int(dev.size()) / 5) << plan.spec.Describe();
+        }
+}
+
 // The same queries expressed in a random world frame or in the local frame
 // give the same radiance: the frame is only a change of basis.
 TEST_F(EngineTest, WorldFrameIsAChangeOfBasis) {

@@ -132,6 +132,35 @@ TEST_F(ServiceTest, UnaryReturnsFiniteRadiancePerQuery) {
   EXPECT_GT(positive, 1500);
 }
 
+TEST_F(ServiceTest, PolygonLightEndToEnd) {
+  EvaluateRequest r = Request(200);
+  r.mutable_queries()->clear_wi();  // lit, not a BRDF probe
+  auto *p = r.add_lights()->mutable_polygon();
+  for (float v : {-2.0f, -2.0f, 3.0f, -2.0f, 2.0f, 3.0f, 2.0f, 2.0f, 3.0f, 2.0f, -2.0f, 3.0f})
+    p->add_vertices(v);  // overhead, counter-clockwise seen from below: faces the surface
+  for (float v : {1.0f, 1.0f, 1.0f}) p->add_radiance(v);
+  EvaluateResponse ltc, ref;
+  grpc::Status s = Unary(r, &ltc);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  r.set_area_method(glint::v1::REFERENCE);
+  s = Unary(r, &ref);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  ASSERT_EQ(ltc.radiance_size(), 600);
+  ASSERT_EQ(ref.radiance_size(), 600);
+  int positive = 0;
+  for (int i = 0; i < 600; ++i) {
+    ASSERT_TRUE(std::isfinite(ltc.radiance(i)) && ltc.radiance(i) >= 0.0f);
+    ASSERT_TRUE(std::isfinite(ref.radiance(i)) && ref.radiance(i) >= 0.0f);
+    positive += ref.radiance(i) > 0.0f;
+  }
+  EXPECT_GT(positive, 300);
+  // Unimplemented methods are refused over the wire.
+  r.set_area_method(glint::v1::LECOCQ);
+  s = Unary(r, &ref);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("LECOCQ not implemented yet"), std::string::npos);
+}
+
 TEST_F(ServiceTest, StreamIsBitIdenticalToUnaryForAnyChunking) {
   EvaluateRequest r = Request(kMaxBatch, 2);
   EvaluateResponse unary;

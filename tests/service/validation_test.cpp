@@ -152,7 +152,7 @@ TEST(Validation, RefusalsNameFieldIndexAndExpectation) {
          r.mutable_queries()->clear_wi();
          r.add_lights();
        },
-       {"lights[0]", "directional or point"}},
+       {"lights[0]", "directional, point or polygon"}},
       {"directional not unit",
        [](auto &r) {
          r.mutable_queries()->clear_wi();
@@ -189,6 +189,78 @@ TEST(Validation, RefusalsNameFieldIndexAndExpectation) {
     for (const char *part : c.must_contain)
       EXPECT_NE(s.message().find(part), std::string::npos)
           << c.name << ": '" << s.message() << "' lacks '" << part << "'";
+  }
+}
+
+// A lit request with one polygon light (a unit square overhead, facing down).
+EvaluateRequest GoodPolygon(std::vector<float> vertices = {-1, -1, 2, -1, 1, 2, 1, 1, 2, 1, -1,
+                                                           2}) {
+  EvaluateRequest r = GoodProbe();
+  r.mutable_queries()->clear_wi();
+  auto *p = r.add_lights()->mutable_polygon();
+  for (float v : vertices) p->add_vertices(v);
+  for (float v : {1.0f, 2.0f, 3.0f}) p->add_radiance(v);
+  return r;
+}
+
+TEST(Validation, PolygonLights) {
+  EXPECT_TRUE(Validate(GoodPolygon()).ok());
+  EXPECT_TRUE(Validate(GoodPolygon({0, 0, 1, 1, 0, 1, 0, 1, 1})).ok());  // triangle
+  // Collinear corners are allowed (a square with an extra vertex mid-edge).
+  EXPECT_TRUE(Validate(GoodPolygon({-1, -1, 2, -1, 0, 2, -1, 1, 2, 1, 1, 2, 1, -1, 2})).ok());
+  EvaluateRequest ref = GoodPolygon();
+  ref.set_area_method(v1::REFERENCE);
+  ref.set_area_samples(32);
+  EXPECT_TRUE(Validate(ref).ok());
+
+  constexpr float nan = std::numeric_limits<float>::quiet_NaN();
+  struct PolyCase {
+    const char *name;
+    std::vector<float> vertices;
+    std::vector<const char *> must_contain;
+  };
+  std::vector<float> many;
+  for (int i = 0; i < 17; ++i) {
+    double a = 2 * 3.14159265358979 * i / 17;
+    for (double v : {std::cos(a), std::sin(a), 1.0}) many.push_back(float(v));
+  }
+  const std::vector<PolyCase> cases = {
+      {"two vertices", {0, 0, 1, 1, 0, 1}, {"lights[0].polygon.vertices", "3 to 16"}},
+      {"not xyz", {0, 0, 1, 1, 0, 1, 0, 1, 1, 5}, {"lights[0].polygon.vertices", "3 to 16"}},
+      {"17 vertices", many, {"lights[0].polygon.vertices", "3 to 16"}},
+      {"nan", {0, 0, 1, 1, nan, 1, 0, 1, 1}, {"lights[0].polygon.vertices", "not finite"}},
+      {"collinear", {0, 0, 1, 1, 0, 1, 2, 0, 1}, {"lights[0].polygon.vertices", "degenerate"}},
+      {"zero area", {1, 1, 1, 1, 1, 1, 1, 1, 1}, {"lights[0].polygon.vertices", "degenerate"}},
+      {"not planar",
+       {-1, -1, 2, -1, 1, 2, 1, 1, 2.5, 1, -1, 2},
+       {"lights[0].polygon.vertices", "not planar"}},
+      {"concave",
+       {-1, -1, 2, 0, -0.2f, 2, 1, -1, 2, 0, 1, 2},
+       {"lights[0].polygon.vertices", "concave polygons are refused"}},
+      {"star",
+       {1, 0, 2, -0.81f, 0.59f, 2, 0.31f, -0.95f, 2, 0.31f, 0.95f, 2, -0.81f, -0.59f, 2},
+       {"lights[0].polygon.vertices", "concave polygons are refused"}},
+  };
+  for (const PolyCase &c : cases) {
+    Status s = Validate(GoodPolygon(c.vertices));
+    ASSERT_FALSE(s.ok()) << c.name;
+    EXPECT_EQ(s.code(), Status::Code::kInvalidArgument) << c.name;
+    for (const char *part : c.must_contain)
+      EXPECT_NE(s.message().find(part), std::string::npos)
+          << c.name << ": '" << s.message() << "' lacks '" << part << "'";
+  }
+  EvaluateRequest neg = GoodPolygon();
+  neg.mutable_lights(0)->mutable_polygon()->set_radiance(1, -1.0f);
+  Status s = Validate(neg);
+  EXPECT_NE(s.message().find("lights[0].polygon.radiance"), std::string::npos) << s.message();
+  for (v1::AreaMethod m : {v1::LECOCQ, v1::LECOCQ_PEARSON, v1::MONTE_CARLO}) {
+    EvaluateRequest r = GoodPolygon();
+    r.set_area_method(m);
+    s = Validate(r);
+    EXPECT_NE(s.message().find("area_method: " + v1::AreaMethod_Name(m) +
+                               " not implemented yet; use LTC or REFERENCE"),
+              std::string::npos)
+        << s.message();
   }
 }
 

@@ -1,0 +1,279 @@
+/* Polygonal area lights for the smooth model: the LTC approximation (Heitz,
+ * Dupuy, Hill, Neubelt 2016, "Real-Time Polygonal-Light Shading with Linearly
+ * Transformed Cosines", here HDHN16) with our own tables (tools/ltc/,
+ * data/ltc/), and a deterministic reference quadrature of
+ *   L_o(wo) = L * int_P f(wi, wo) cos(theta_i) dwi
+ * over the polygon's solid angle P (clipped to the upper hemisphere).
+ *
+ * Shared by the OpenCL entry point kernels/area_lights.cl (GLINT_LANES == 1:
+ * clipping and the per-query quadrature branch on per-query values) and the
+ * host path. The LTC table is a plain float array (64 x 64 entries of 8
+ * floats, layout in tools/ltc/README.md): a `__global const float *` buffer
+ * argument on the device (portable beyond PoCL's large __constant space), the
+ * checked-in data/ltc arrays (.inc files) on the host. */
+#ifndef GLINT_AREA_LIGHTS_H
+#define GLINT_AREA_LIGHTS_H
+
+#include "compat.h"
+#include "frame.h"
+#include "polygon.h"
+#include "smooth_brdf.h"
+
+/* Polygon record as the host packs it (server/eval_plan.cpp):
+ * [n_vertices, two_sided, L.r, L.g, L.b, 0, 0, 0, x0, y0, z0, ..., x15, y15, z15]. */
+#define GLINT_POLYGON_FLOATS 56
+#define GLINT_POLYGON_VERTEX_OFFSET 8
+
+/* area_method values (same numbers as glint.v1.AreaMethod). */
+#define GLINT_AREA_LTC 1
+#define GLINT_AREA_REFERENCE 5
+
+#define GLINT_LTC_GRID 64
+#define GLINT_LTC_ENTRY 8
+
+/* Two clips (shading horizon, then the cosine's support after M^-1) add at
+ * most one vertex each to a convex polygon. */
+#define GLINT_AREA_MAX_VERTICES (GLINT_POLYGON_MAX_VERTICES + 2)
+
+/* Vertex count of a record, and its vertices relative to the shading point p
+ * in the local frame (world = local when the queries carry no frame). */
+GLINT_FN int area_polygon_load(const GLINT_GLOBAL float *rec, int has_frame, ShadingFrame frame,
+                               real3 p, GLINT_PRIVATE real3 *v) {
+  int n = (int)rec[0];
+  for (int i = 0; i < n; ++i) {
+    const GLINT_GLOBAL float *q = rec + GLINT_POLYGON_VERTEX_OFFSET + 3 * i;
+    real3 w = r3_sub(make_real3((real)q[0], (real)q[1], (real)q[2]), p);
+    v[i] = has_frame ? frame_to_local(frame, w) : w;
+  }
+  return n;
+}
+
+/* 1 if the polygon (relative to the shading point) emits towards it: its
+ * right-hand (Newell) normal points at the receiver, i.e. the vertices are
+ * counter-clockwise seen from the receiver (the convention of polygon.h).
+ * Two-sided polygons always emit; a receiver in the polygon's plane sees zero
+ * solid angle either way. */
+GLINT_FN real area_polygon_weight(const GLINT_PRIVATE real3 *v, int n, int two_sided) {
+  real3 nn = make_real3(R(0.0), R(0.0), R(0.0));
+  for (int i = 0; i < n; ++i) nn = r3_add(nn, r3_cross(v[i], v[(i + 1) % n]));
+  /* nn . v0 = 2 * area * (signed distance of the plane along nn): negative
+   * when nn points from the plane towards the origin. */
+  return (two_sided || r3_dot(nn, v[0]) < R(0.0)) ? R(1.0) : R(0.0);
+}
+
+/* Bilinear lookup of one LTC table entry (tools/ltc/ltc_table.h lookup):
+ * x = sqrt(alpha) * 63, y = sqrt(1 - cos(theta_o)) * 63, clamped to the grid. */
+GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real cos_o,
+                              GLINT_PRIVATE real *e) {
+  const real last = (real)(GLINT_LTC_GRID - 1);
+  real x = clamp(sqrt(fmax(alpha, R(0.0))), R(0.0), R(1.0)) * last;
+  real y = clamp(sqrt(fmax(R(1.0) - cos_o, R(0.0))), R(0.0), R(1.0)) * last;
+  int a0 = (int)x, t0 = (int)y;
+  a0 = a0 > GLINT_LTC_GRID - 2 ? GLINT_LTC_GRID - 2 : a0;
+  t0 = t0 > GLINT_LTC_GRID - 2 ? GLINT_LTC_GRID - 2 : t0;
+  real fx = x - (real)a0, fy = y - (real)t0;
+  const GLINT_GLOBAL float *e00 = table + (t0 * GLINT_LTC_GRID + a0) * GLINT_LTC_ENTRY;
+  const GLINT_GLOBAL float *e10 = e00 + GLINT_LTC_ENTRY;
+  const GLINT_GLOBAL float *e01 = e00 + GLINT_LTC_GRID * GLINT_LTC_ENTRY;
+  const GLINT_GLOBAL float *e11 = e01 + GLINT_LTC_ENTRY;
+  for (int k = 0; k < GLINT_LTC_ENTRY; ++k) {
+    e[k] = (R(1.0) - fy) * ((R(1.0) - fx) * (real)e00[k] + fx * (real)e10[k]) +
+           fy * ((R(1.0) - fx) * (real)e01[k] + fx * (real)e11[k]);
+  }
+}
+
+/* int_P f cos_i dwi per unit radiance by LTC (HDHN16 Sec. 3-4), RGB.
+ *  1. clip the polygon to the shading horizon, so that light from below the
+ *     surface never contributes (the LTC leaks below the horizon at grazing
+ *     views; tools/ltc/README.md "Fit quality");
+ *  2. rotate into the view-aligned frame of the fit: x = projection of wo on
+ *     the tangent plane, z = n (tools/ltc/README.md "Grid");
+ *  3. transform by M^-1 and clip to o.z >= 0, the clamped cosine's support;
+ *  4. integrate the clamped cosine with the edge formula (HDHN16 Eq. 11,
+ *     polygon_form_factor): = int_P D_ltc dw (HDHN16 Eq. 3-5);
+ *  5. scale by the Fresnel-weighted albedo: Schlick int f cos F = f0 * mag +
+ *     (1 - f0) * moment (exact for the albedo). Conductor and dielectric:
+ *     APPROXIMATION, the exact Fresnel is replaced by Schlick's through its
+ *     normal-incidence value F(1) (Schlick 1994 Eq. 15); the tables hold no
+ *     moment for exact Fresnel.
+ * Anisotropic alpha: APPROXIMATION, the tables are isotropic and we look up
+ * alpha = sqrt(alpha_x alpha_y) (the lobe of equal solid-angle footprint). */
+GLINT_FN real3 area_ltc_polygon(SmoothMaterial m, const GLINT_GLOBAL float *table, real3 wo,
+                                const GLINT_PRIVATE real3 *v, int n) {
+  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
+  if (!(wo.z > R(0.0))) return zero; /* as smooth_reflect_cos: no transmission */
+  real3 clipped[GLINT_AREA_MAX_VERTICES];
+  int nc = polygon_clip_to_horizon(v, n, clipped);
+  if (nc < 3) return zero;
+
+  real sxy = sqrt(wo.x * wo.x + wo.y * wo.y);
+  /* At normal view the lobe is isotropic about n (t = 0 entries are), so any
+   * tangent will do. */
+  real tx = sxy > R(1e-7) ? wo.x / sxy : R(1.0);
+  real ty = sxy > R(1e-7) ? wo.y / sxy : R(0.0);
+  real e[GLINT_LTC_ENTRY];
+  area_ltc_lookup(table, sqrt(m.alpha_x * m.alpha_y), wo.z, e);
+
+  real3 o[GLINT_AREA_MAX_VERTICES];
+  for (int i = 0; i < nc; ++i) {
+    real3 c = clipped[i];
+    real x = c.x * tx + c.y * ty;  /* . T1 */
+    real y = -c.x * ty + c.y * tx; /* . T2 = n x T1 */
+    o[i] = make_real3(e[0] * x + e[1] * c.z, y, e[2] * x + e[3] * c.z);
+  }
+  real3 oc[GLINT_AREA_MAX_VERTICES];
+  int no = polygon_clip_to_horizon(o, nc, oc);
+  /* det M^-1 > 0 keeps the orientation, so the sign is the facing side; the
+   * caller's weight decides whether a back face counts. */
+  real ff = fabs(polygon_form_factor(oc, no));
+
+  real3 f0 = m.fresnel.a;
+  if (m.fresnel.kind != GLINT_FRESNEL_SCHLICK) f0 = fresnel_eval(m.fresnel, R(1.0));
+  real3 albedo =
+      make_real3(f0.x * e[4] + (R(1.0) - f0.x) * e[5], f0.y * e[4] + (R(1.0) - f0.y) * e[5],
+                 f0.z * e[4] + (R(1.0) - f0.z) * e[5]);
+  return r3_scale(albedo, ff);
+}
+
+/* One Gauss-Legendre panel rule: 4 nodes on [0, 1] (Abramowitz & Stegun
+ * 25.4.30 mapped from [-1, 1]); composite rules use it on equal panels. */
+GLINT_FN real area_gl4_node(int k) {
+  const real a = R(0.3399810435848562648), b = R(0.8611363115940525752);
+  real x = k == 0 ? -b : k == 1 ? -a : k == 2 ? a : b;
+  return R(0.5) * (x + R(1.0));
+}
+GLINT_FN real area_gl4_weight(int k) {
+  const real wa = R(0.6521451548625461426), wb = R(0.3478548451374438574);
+  return R(0.5) * ((k == 0 || k == 3) ? wb : wa);
+}
+
+/* Angle of the spherical triangle (a, b, c) at vertex a: the angle between
+ * the tangents towards b and c (atan2 form, accurate for thin triangles). */
+GLINT_FN real area_vertex_angle(real3 a, real3 b, real3 c) {
+  real3 tb = r3_sub(b, r3_scale(a, r3_dot(a, b)));
+  real3 tc = r3_sub(c, r3_scale(a, r3_dot(a, c)));
+  return atan2(r3_length(r3_cross(tb, tc)), r3_dot(tb, tc));
+}
+
+GLINT_FN real3 area_safe_normalize(real3 v, real3 fallback) {
+  real l = r3_length(v);
+  return l > R(1e-30) ? r3_div(v, l) : fallback;
+}
+
+/* int over the spherical triangle (a, b, c) (unit vectors) of f cos_i dwi,
+ * RGB, by a tensor composite Gauss-Legendre rule (`panels` panels of 4 nodes
+ * per dimension) in Arvo's area-preserving parameterisation (Arvo 1995,
+ * "Stratified Sampling of Spherical Triangles", Sec. 2-3): (u1, u2) in
+ * [0, 1]^2 -> direction with constant Jacobian = the triangle's solid angle.
+ * Near vertex b the map goes like sqrt(u2) (z = 1 - u2 (1 - c'.b) is a
+ * cosine of the arc), so u2 = s^2 makes the integrand smooth for the rule. */
+GLINT_FN real3 area_reference_triangle(SmoothMaterial m, real3 wo, real3 a, real3 b, real3 c,
+                                       int panels) {
+  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
+  /* Solid angle by Van Oosterom & Strackee 1983: tan(Omega / 2) =
+   * |a . (b x c)| / (1 + a.b + b.c + c.a); accurate for small triangles where
+   * the angle excess alpha + beta + gamma - pi cancels. */
+  real triple = fabs(r3_dot(a, r3_cross(b, c)));
+  real area = R(2.0) * atan2(triple, R(1.0) + r3_dot(a, b) + r3_dot(b, c) + r3_dot(c, a));
+  if (!(area > R(1e-20))) return zero;
+  real alpha = area_vertex_angle(a, b, c);
+  real sin_alpha = sin(alpha), cos_alpha = cos(alpha);
+  real cos_c = r3_dot(a, b);
+  real3 c_perp = area_safe_normalize(r3_sub(c, r3_scale(a, r3_dot(c, a))), b);
+  real3 sum = zero;
+  real h = R(1.0) / (real)panels;
+  for (int i = 0; i < panels; ++i) {
+    for (int ki = 0; ki < 4; ++ki) {
+      real u1 = ((real)i + area_gl4_node(ki)) * h;
+      real w1 = area_gl4_weight(ki) * h;
+      /* Arvo 1995 Fig. 2: the point c' on arc ac that cuts off area u1 * A. */
+      real s = sin(u1 * area - alpha), t = cos(u1 * area - alpha);
+      real u = t - cos_alpha;
+      real vv = s + sin_alpha * cos_c;
+      real den = (vv * s + u * t) * sin_alpha;
+      real q = den != R(0.0) ? ((vv * t - u * s) * cos_alpha - vv) / den : R(1.0);
+      q = clamp(q, R(-1.0), R(1.0));
+      real3 cp = r3_add(r3_scale(a, q), r3_scale(c_perp, sqrt(fmax(R(1.0) - q * q, R(0.0)))));
+      real one_minus_cb = fmax(R(1.0) - r3_dot(cp, b), R(0.0));
+      real3 axis = area_safe_normalize(r3_sub(cp, r3_scale(b, r3_dot(cp, b))), cp);
+      for (int j = 0; j < panels; ++j) {
+        for (int kj = 0; kj < 4; ++kj) {
+          real sj = ((real)j + area_gl4_node(kj)) * h;
+          real w = w1 * area_gl4_weight(kj) * h * R(2.0) * sj;
+          real omz = sj * sj * one_minus_cb; /* 1 - z, z = cos(arc from b) */
+          real sin_arc = sqrt(fmax(omz * (R(2.0) - omz), R(0.0)));
+          real3 wi = r3_add(r3_scale(b, R(1.0) - omz), r3_scale(axis, sin_arc));
+          sum = r3_add(sum, r3_scale(smooth_reflect_cos(m, wi, wo), w));
+        }
+      }
+    }
+  }
+  return r3_scale(sum, area);
+}
+
+/* int_P f cos_i dwi per unit radiance, RGB, by quadrature (the REFERENCE
+ * method): the polygon clipped to the horizon, projected to the sphere, fan
+ * triangulated (exact for a convex spherical polygon), and each triangle
+ * integrated by area_reference_triangle with `samples` nodes per dimension
+ * (rounded up to a multiple of 4). */
+GLINT_FN real3 area_reference_polygon(SmoothMaterial m, real3 wo, const GLINT_PRIVATE real3 *v,
+                                      int n, int samples) {
+  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
+  if (!(wo.z > R(0.0))) return zero;
+  real3 clipped[GLINT_AREA_MAX_VERTICES];
+  int nc = polygon_clip_to_horizon(v, n, clipped);
+  if (nc < 3) return zero;
+  for (int i = 0; i < nc; ++i) clipped[i] = area_safe_normalize(clipped[i], clipped[i]);
+  int panels = (samples + 3) / 4;
+  panels = panels < 1 ? 1 : panels;
+  real3 sum = zero;
+  for (int i = 1; i + 1 < nc; ++i) {
+    sum =
+        r3_add(sum, area_reference_triangle(m, wo, clipped[0], clipped[i], clipped[i + 1], panels));
+  }
+  return sum;
+}
+
+/* Reflected radiance towards wo from every polygon light (RGB), by `method`
+ * (GLINT_AREA_LTC or GLINT_AREA_REFERENCE). `wo` is local; `p` the shading
+ * point in the lights' space (world with a frame, else the origin). */
+GLINT_FN real3 area_shade(SmoothMaterial m, const GLINT_GLOBAL float *table, int method,
+                          int samples, real3 wo, int has_frame, ShadingFrame frame, real3 p,
+                          const GLINT_GLOBAL float *polygons, uint n_polygon) {
+  real3 radiance = make_real3(R(0.0), R(0.0), R(0.0));
+  for (uint l = 0; l < n_polygon; ++l) {
+    const GLINT_GLOBAL float *rec = polygons + GLINT_POLYGON_FLOATS * l;
+    real3 v[GLINT_POLYGON_MAX_VERTICES];
+    int n = area_polygon_load(rec, has_frame, frame, p, v);
+    real weight = area_polygon_weight(v, n, rec[1] != 0.0f);
+    if (weight == R(0.0)) continue;
+    real3 L = make_real3((real)rec[2], (real)rec[3], (real)rec[4]);
+    real3 g = method == GLINT_AREA_REFERENCE ? area_reference_polygon(m, wo, v, n, samples)
+                                             : area_ltc_polygon(m, table, wo, v, n);
+    radiance = r3_add(radiance, r3_mul(g, L));
+  }
+  return radiance;
+}
+
+/* One query's polygon-light radiance from its raw inputs, building the local
+ * frame exactly as smooth_shade (kernels/smooth_eval.h) does, so that the
+ * result adds to the other light kinds' consistently. */
+GLINT_FN real3 area_shade_inputs(SmoothMaterial m, const GLINT_GLOBAL float *table, int method,
+                                 int samples, int has_frame, real3 wo_in, real3 position,
+                                 real3 normal, real3 tangent, const GLINT_GLOBAL float *polygons,
+                                 uint n_polygon) {
+  real3 wo = r3_normalize(wo_in);
+  real3 p = make_real3(R(0.0), R(0.0), R(0.0));
+  ShadingFrame frame;
+  frame.t = make_real3(R(1.0), R(0.0), R(0.0));
+  frame.b = make_real3(R(0.0), R(1.0), R(0.0));
+  frame.n = make_real3(R(0.0), R(0.0), R(1.0));
+  if (has_frame) {
+    frame = frame_from_normal_tangent(normal, tangent);
+    p = position;
+    wo = frame_to_local(frame, wo);
+  }
+  return area_shade(m, table, method, samples, wo, has_frame, frame, p, polygons, n_polygon);
+}
+
+#endif /* GLINT_AREA_LIGHTS_H */

@@ -25,6 +25,10 @@ for scene in sphere plane; do
     --lights examples/lights/studio.json --scene "$scene" --size 512x384 \
     --out "$OUT/preview_$scene.exr"
 done
+# An area light: a two-sided softbox quad (LTC integration) plus a point light.
+"$GLINT" preview --server "$SERVER" --material examples/materials/gold_aniso.json \
+  --lights examples/lights/softbox.json --scene sphere --size 512x384 \
+  --out "$OUT/preview_softbox.exr"
 echo
 echo "Preview images are in $OUT:"
 ls -1 "$OUT"/preview_*

@@ -53,6 +53,7 @@ server is unreachable or not SERVING in time.
 constexpr const char *kEvalUsage =
     R"(usage: glint eval --server ADDR --material M.json [--lights L.json] --queries Q.csv
                   --out OUT.{csv,npy,exr} [--precision fp32|fp64] [--seed N] [--width W] [--half]
+                  [--area-method ltc|reference|lecocq|lecocq-pearson|mc] [--samples N]
 
 Evaluates every query of Q.csv and writes the reflected radiance (RGB per query, in input
 order). Batches larger than the server's limits are streamed in chunks automatically.
@@ -70,6 +71,9 @@ order). Batches larger than the server's limits are streamed in chunks automatic
   --out PATH          .csv (header r,g,b), .npy (float32, shape (N, 3)) or .exr (RGB image)
   --precision P       fp32 (default) or fp64
   --seed N            seed of the stochastic glint models (default 0)
+  --area-method M     polygon lights: ltc (default) or reference; lecocq, lecocq-pearson and
+                      mc are named but not implemented by the server yet
+  --samples N         reference quadrature nodes per dimension per triangle (default 64)
   --width W           .exr only: image width; rows follow query order, the tail is black
                       (default: all queries in one row)
   --half              .exr only: store half floats instead of float32
@@ -81,6 +85,7 @@ constexpr const char *kPreviewUsage =
     R"(usage: glint preview --server ADDR --material M.json --lights L.json --out IMG.exr
                      [--scene sphere|plane] [--size WxH] [--exposure STOPS]
                      [--precision fp32|fp64] [--seed N] [--half]
+                     [--area-method ltc|reference|lecocq|lecocq-pearson|mc] [--samples N]
 
 Renders the material on a unit sphere or a ground plane seen by a fixed pinhole camera (one
 query per covered pixel, with ray-differential footprints) under world-space lights. Writes
@@ -95,6 +100,9 @@ IMG.exr (linear radiance) and IMG.png next to it (tone-mapped sRGB) and prints b
   --exposure STOPS    PNG exposure in stops, scale 2^STOPS (default 0)
   --precision P       fp32 (default) or fp64
   --seed N            seed of the stochastic glint models (default 0)
+  --area-method M     polygon lights: ltc (default) or reference; lecocq, lecocq-pearson and
+                      mc are named but not implemented by the server yet
+  --samples N         reference quadrature nodes per dimension per triangle (default 64)
   --half              store half floats in the EXR instead of float32
 )";
 
@@ -177,6 +185,16 @@ glint::v1::Precision ParsePrecision(const std::string &text) {
   if (text == "fp32") return glint::v1::FP32;
   if (text == "fp64") return glint::v1::FP64;
   throw UsageError{"--precision: '" + text + "' is neither fp32 nor fp64"};
+}
+
+glint::v1::AreaMethod ParseAreaMethod(const std::string &text) {
+  if (text == "ltc") return glint::v1::LTC;
+  if (text == "reference") return glint::v1::REFERENCE;
+  if (text == "lecocq") return glint::v1::LECOCQ;
+  if (text == "lecocq-pearson") return glint::v1::LECOCQ_PEARSON;
+  if (text == "mc") return glint::v1::MONTE_CARLO;
+  throw UsageError{"--area-method: '" + text +
+                   "' is not one of ltc, reference, lecocq, lecocq-pearson, mc"};
 }
 
 // Draws "[=====>     ]  45%  450000/1000000 queries" on stderr, only when stderr is a
@@ -283,6 +301,9 @@ int RunInfo(const Options &options) {
 void FillSettings(const Options &options, glint::v1::EvaluateRequest *request) {
   request->set_precision(ParsePrecision(options.Get("precision", "fp32")));
   request->set_seed(ParseNumber<uint64_t>("seed", options.Get("seed", "0")));
+  request->set_area_method(ParseAreaMethod(options.Get("area-method", "ltc")));
+  if (options.Has("samples"))
+    request->set_area_samples(ParseNumber<uint32_t>("samples", options.Get("samples", "")));
 }
 
 // Evaluates with a progress bar and returns the wall time in seconds, or nullopt after
@@ -450,12 +471,14 @@ int main(int argc, char **argv) {
       {"info", kInfoUsage, {"server", "timeout-ms"}, {}, RunInfo},
       {"eval",
        kEvalUsage,
-       {"server", "material", "lights", "queries", "out", "precision", "seed", "width"},
+       {"server", "material", "lights", "queries", "out", "precision", "seed", "width",
+        "area-method", "samples"},
        {"half"},
        RunEval},
       {"preview",
        kPreviewUsage,
-       {"server", "material", "lights", "out", "scene", "size", "exposure", "precision", "seed"},
+       {"server", "material", "lights", "out", "scene", "size", "exposure", "precision", "seed",
+        "area-method", "samples"},
        {"half"},
        RunPreview},
   };

@@ -7,7 +7,7 @@ namespace glint {
 struct DeviceEngine::Lane {
   cl_command_queue queue = nullptr;
   cl_mem dummy = nullptr;                    // bound to kernel arguments the request does not use
-  std::map<std::string, cl_kernel> kernels;  // by build options
+  std::map<std::string, cl_kernel> kernels;  // by kernel name + build options
   ~Lane() {
     for (auto &k : kernels) clReleaseKernel(k.second);
     if (dummy) clReleaseMemObject(dummy);
@@ -105,23 +105,29 @@ DeviceEngine::~DeviceEngine() {
     if (t) clReleaseMemObject(t);
 }
 
-Status DeviceEngine::AreaKernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *out) {
-  // One query per work-item: polygon.h branches per query.
-  const std::string options = spec.BuildOptions() + " -DGLINT_LANES=1 -DGLINT_AREA_KERNEL=1";
-  auto it = lane.kernels.find(options);
+Status DeviceEngine::CachedKernel(Lane &lane, const std::string &source, const char *name,
+                                  const std::string &options, cl_kernel *out) {
+  const std::string key = std::string(name) + '\n' + options;
+  auto it = lane.kernels.find(key);
   if (it != lane.kernels.end()) {
     *out = it->second;
     return Status::Ok();
   }
   cl_program program = nullptr;
-  Status s = runtime_->GetProgram(area_source_, options, &program);
+  Status s = runtime_->GetProgram(source, options, &program);
   if (!s.ok()) return s;
   cl_int err = CL_SUCCESS;
-  cl_kernel kernel = clCreateKernel(program, "glint_smooth_area", &err);
+  cl_kernel kernel = clCreateKernel(program, name, &err);
   if (err != CL_SUCCESS) return Status::Internal("clCreateKernel failed: " + ClErrorName(err));
-  lane.kernels.emplace(options, kernel);
+  lane.kernels.emplace(key, kernel);
   *out = kernel;
   return Status::Ok();
+}
+
+Status DeviceEngine::AreaKernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *out) {
+  // One query per work-item: polygon.h branches per query.
+  return CachedKernel(lane, area_source_, "glint_smooth_area",
+                      spec.BuildOptions() + " -DGLINT_LANES=1 -DGLINT_AREA_KERNEL=1", out);
 }
 
 Status DeviceEngine::EvaluateArea(Lane &lane, const EvalPlan &plan, const glint::v1::QueryBatch &q,
@@ -170,25 +176,11 @@ Status DeviceEngine::EvaluateArea(Lane &lane, const EvalPlan &plan, const glint:
 }
 
 Status DeviceEngine::KernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *out) {
-  const std::string options = DeviceBuildOptions(spec);
-  auto it = lane.kernels.find(options);
-  if (it != lane.kernels.end()) {
-    *out = it->second;
-    return Status::Ok();
-  }
   if (spec.fp64 && !runtime_->info().fp64) {
     return Status::InvalidArgument("precision: FP64 requested but " + runtime_->info().name +
                                    " has no cl_khr_fp64");
   }
-  cl_program program = nullptr;
-  Status s = runtime_->GetProgram(smooth_source_, options, &program);
-  if (!s.ok()) return s;
-  cl_int err = CL_SUCCESS;
-  cl_kernel kernel = clCreateKernel(program, "glint_smooth", &err);
-  if (err != CL_SUCCESS) return Status::Internal("clCreateKernel failed: " + ClErrorName(err));
-  lane.kernels.emplace(options, kernel);
-  *out = kernel;
-  return Status::Ok();
+  return CachedKernel(lane, smooth_source_, "glint_smooth", DeviceBuildOptions(spec), out);
 }
 
 Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan, const glint::v1::QueryBatch &q,

@@ -47,6 +47,9 @@ class DeviceEngine {
   DeviceEngine() = default;
   Status KernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *out);
   Status AreaKernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *out);
+  // The lane's kernel `name` of `source` built with `options` (built on first use).
+  Status CachedKernel(Lane &lane, const std::string &source, const char *name,
+                      const std::string &options, cl_kernel *out);
   // Runs kernels/area_lights.cl for the plan's polygon lights on `out` (already bound), adding
   // to it when `accumulate`.
   Status EvaluateArea(Lane &lane, const EvalPlan &plan, const glint::v1::QueryBatch &q, cl_mem out,

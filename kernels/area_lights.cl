@@ -11,7 +11,8 @@ __kernel void glint_smooth_area(uint n, __global const float *wo, __global const
                                 __global const float *normal, __global const float *tangent,
                                 __global const float *material, __global const float *polygons,
                                 uint n_polygon, __global const float *ltc_table, int method,
-                                int samples, int accumulate, __global float *out) {
+                                int samples, uint seed_lo, uint seed_hi, int accumulate,
+                                __global float *out) {
   uint i = (uint)get_global_id(0);
   if (i >= n) return;
   real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
@@ -23,8 +24,9 @@ __kernel void glint_smooth_area(uint n, __global const float *wo, __global const
   }
   real3 w = make_real3((real)wo[3 * i], (real)wo[3 * i + 1], (real)wo[3 * i + 2]);
   SmoothMaterial m = smooth_material_unpack(material, GLINT_NDF, GLINT_FRESNEL);
+  uint key = area_query_key(seed_lo, seed_hi, wo + 3 * i, GLINT_HAS_FRAME ? position + 3 * i : 0);
   real3 L = area_shade_inputs(m, ltc_table, method, samples, GLINT_HAS_FRAME, w, pos, nrm, tan,
-                              polygons, n_polygon);
+                              polygons, n_polygon, key);
   /* Sum in float, as the host path does (server/host_path_impl.inc). */
   float r = (float)L.x, g = (float)L.y, b = (float)L.z;
   if (accumulate) {

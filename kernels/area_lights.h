@@ -14,9 +14,13 @@
 #ifndef GLINT_AREA_LIGHTS_H
 #define GLINT_AREA_LIGHTS_H
 
+#include "area_lecocq.h"
+#include "area_monte_carlo.h"
 #include "compat.h"
 #include "frame.h"
+#include "ltc_lookup.h"
 #include "polygon.h"
+#include "rng.h"
 #include "smooth_brdf.h"
 
 /* Polygon record as the host packs it (server/eval_plan.cpp):
@@ -26,10 +30,10 @@
 
 /* area_method values (same numbers as glint.v1.AreaMethod). */
 #define GLINT_AREA_LTC 1
+#define GLINT_AREA_LECOCQ 2
+#define GLINT_AREA_LECOCQ_PEARSON 3
+#define GLINT_AREA_MONTE_CARLO 4
 #define GLINT_AREA_REFERENCE 5
-
-#define GLINT_LTC_GRID 64
-#define GLINT_LTC_ENTRY 8
 
 /* Two clips (shading horizon, then the cosine's support after M^-1) add at
  * most one vertex each to a convex polygon. */
@@ -61,28 +65,11 @@ GLINT_FN real area_polygon_weight(const GLINT_PRIVATE real3 *v, int n, int two_s
   return (two_sided || r3_dot(nn, v[0]) < R(0.0)) ? R(1.0) : R(0.0);
 }
 
-/* Bilinear lookup of one LTC table entry (tools/ltc/ltc_table.h lookup):
- * x = sqrt(alpha) * 63, y = sqrt(1 - cos(theta_o)) * 63, clamped to the grid. */
-GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real cos_o,
-                              GLINT_PRIVATE real *e) {
-  const real last = (real)(GLINT_LTC_GRID - 1);
-  real x = clamp(sqrt(fmax(alpha, R(0.0))), R(0.0), R(1.0)) * last;
-  real y = clamp(sqrt(fmax(R(1.0) - cos_o, R(0.0))), R(0.0), R(1.0)) * last;
-  int a0 = (int)x, t0 = (int)y;
-  a0 = a0 > GLINT_LTC_GRID - 2 ? GLINT_LTC_GRID - 2 : a0;
-  t0 = t0 > GLINT_LTC_GRID - 2 ? GLINT_LTC_GRID - 2 : t0;
-  real fx = x - (real)a0, fy = y - (real)t0;
-  const GLINT_GLOBAL float *e00 = table + (t0 * GLINT_LTC_GRID + a0) * GLINT_LTC_ENTRY;
-  const GLINT_GLOBAL float *e10 = e00 + GLINT_LTC_ENTRY;
-  const GLINT_GLOBAL float *e01 = e00 + GLINT_LTC_GRID * GLINT_LTC_ENTRY;
-  const GLINT_GLOBAL float *e11 = e01 + GLINT_LTC_ENTRY;
-  for (int k = 0; k < GLINT_LTC_ENTRY; ++k) {
-    e[k] = (R(1.0) - fy) * ((R(1.0) - fx) * (real)e00[k] + fx * (real)e10[k]) +
-           fy * ((R(1.0) - fx) * (real)e01[k] + fx * (real)e11[k]);
-  }
-}
-
-/* int_P f cos_i dwi per unit radiance by LTC (HDHN16 Sec. 3-4), RGB.
+/* int_P f cos_i dwi per unit radiance by LTC (HDHN16 Sec. 3-4), RGB, in two
+ * steps: area_ltc_form_factor does 1-4 (the normalised lobe's integral over
+ * the polygon, which the binomial glint model also needs for its reflection
+ * probability, KK24 Sec. 4) and fills the table entry e; area_ltc_polygon
+ * scales it (5).
  *  1. clip the polygon to the shading horizon, so that light from below the
  *     surface never contributes (the LTC leaks below the horizon at grazing
  *     views; tools/ltc/README.md "Fit quality");
@@ -98,21 +85,20 @@ GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real 
  *     moment for exact Fresnel.
  * Anisotropic alpha: APPROXIMATION, the tables are isotropic and we look up
  * alpha = sqrt(alpha_x alpha_y) (the lobe of equal solid-angle footprint). */
-GLINT_FN real3 area_ltc_polygon(SmoothMaterial m, const GLINT_GLOBAL float *table, real3 wo,
-                                const GLINT_PRIVATE real3 *v, int n) {
-  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
-  if (!(wo.z > R(0.0))) return zero; /* as smooth_reflect_cos: no transmission */
+GLINT_FN real area_ltc_form_factor(const GLINT_GLOBAL float *table, real alpha, real3 wo,
+                                   const GLINT_PRIVATE real3 *v, int n, GLINT_PRIVATE real *e) {
+  for (int k = 0; k < GLINT_LTC_ENTRY; ++k) e[k] = R(0.0);
+  if (!(wo.z > R(0.0))) return R(0.0); /* as smooth_reflect_cos: no transmission */
   real3 clipped[GLINT_AREA_MAX_VERTICES];
   int nc = polygon_clip_to_horizon(v, n, clipped);
-  if (nc < 3) return zero;
+  if (nc < 3) return R(0.0);
 
   real sxy = sqrt(wo.x * wo.x + wo.y * wo.y);
   /* At normal view the lobe is isotropic about n (t = 0 entries are), so any
    * tangent will do. */
   real tx = sxy > R(1e-7) ? wo.x / sxy : R(1.0);
   real ty = sxy > R(1e-7) ? wo.y / sxy : R(0.0);
-  real e[GLINT_LTC_ENTRY];
-  area_ltc_lookup(table, sqrt(m.alpha_x * m.alpha_y), wo.z, e);
+  area_ltc_lookup(table, alpha, wo.z, e);
 
   real3 o[GLINT_AREA_MAX_VERTICES];
   for (int i = 0; i < nc; ++i) {
@@ -125,14 +111,14 @@ GLINT_FN real3 area_ltc_polygon(SmoothMaterial m, const GLINT_GLOBAL float *tabl
   int no = polygon_clip_to_horizon(o, nc, oc);
   /* det M^-1 > 0 keeps the orientation, so the sign is the facing side; the
    * caller's weight decides whether a back face counts. */
-  real ff = fabs(polygon_form_factor(oc, no));
+  return fabs(polygon_form_factor(oc, no));
+}
 
-  real3 f0 = m.fresnel.a;
-  if (m.fresnel.kind != GLINT_FRESNEL_SCHLICK) f0 = fresnel_eval(m.fresnel, R(1.0));
-  real3 albedo =
-      make_real3(f0.x * e[4] + (R(1.0) - f0.x) * e[5], f0.y * e[4] + (R(1.0) - f0.y) * e[5],
-                 f0.z * e[4] + (R(1.0) - f0.z) * e[5]);
-  return r3_scale(albedo, ff);
+GLINT_FN real3 area_ltc_polygon(SmoothMaterial m, const GLINT_GLOBAL float *table, real3 wo,
+                                const GLINT_PRIVATE real3 *v, int n) {
+  real e[GLINT_LTC_ENTRY];
+  real ff = area_ltc_form_factor(table, sqrt(m.alpha_x * m.alpha_y), wo, v, n, e);
+  return r3_scale(area_ltc_albedo(m, e), ff);
 }
 
 /* One Gauss-Legendre panel rule: 4 nodes on [0, 1] (Abramowitz & Stegun
@@ -234,12 +220,38 @@ GLINT_FN real3 area_reference_polygon(SmoothMaterial m, real3 wo, const GLINT_PR
   return sum;
 }
 
+/* int_P f cos_i dwi per unit radiance (RGB) of one polygon (vertices relative
+ * to the shading point, local frame) by `method`. `key` seeds the stochastic
+ * methods (kernels/rng.h); the others ignore it. */
+GLINT_FN real3 area_polygon_integral(SmoothMaterial m, const GLINT_GLOBAL float *table, int method,
+                                     int samples, real3 wo, const GLINT_PRIVATE real3 *v, int n,
+                                     uint key) {
+  if (method == GLINT_AREA_REFERENCE) return area_reference_polygon(m, wo, v, n, samples);
+  if (method == GLINT_AREA_MONTE_CARLO) return area_mc_polygon(m, wo, v, n, samples, key);
+  if (method == GLINT_AREA_LECOCQ || method == GLINT_AREA_LECOCQ_PEARSON)
+    return area_lecocq_polygon(m, table, wo, v, n, method == GLINT_AREA_LECOCQ_PEARSON);
+  return area_ltc_polygon(m, table, wo, v, n);
+}
+
+/* The random-number key of one query for the stochastic area methods: the
+ * request seed and the query's own inputs (wo, and the position when the
+ * queries carry a frame), never its index, so that an estimate does not
+ * depend on how the batch is split (DESIGN.md "Determinism"). */
+GLINT_FN uint area_query_key(uint seed_lo, uint seed_hi, const GLINT_GLOBAL float *wo3,
+                             const GLINT_GLOBAL float *position3) {
+  uint key = rng_hash2(seed_lo, seed_hi);
+  for (int k = 0; k < 3; ++k) key = rng_absorb(key, rng_float_key(wo3[k]));
+  if (position3)
+    for (int k = 0; k < 3; ++k) key = rng_absorb(key, rng_float_key(position3[k]));
+  return key;
+}
+
 /* Reflected radiance towards wo from every polygon light (RGB), by `method`
- * (GLINT_AREA_LTC or GLINT_AREA_REFERENCE). `wo` is local; `p` the shading
- * point in the lights' space (world with a frame, else the origin). */
-GLINT_FN real3 area_shade(SmoothMaterial m, const GLINT_GLOBAL float *table, int method,
-                          int samples, real3 wo, int has_frame, ShadingFrame frame, real3 p,
-                          const GLINT_GLOBAL float *polygons, uint n_polygon) {
+ * (GLINT_AREA_*). `wo` is local; `p` the shading point in the lights' space
+ * (world with a frame, else the origin); `key` from area_query_key. */
+GLINT_FN real3 area_shade_keyed(SmoothMaterial m, const GLINT_GLOBAL float *table, int method,
+                                int samples, real3 wo, int has_frame, ShadingFrame frame, real3 p,
+                                const GLINT_GLOBAL float *polygons, uint n_polygon, uint key) {
   real3 radiance = make_real3(R(0.0), R(0.0), R(0.0));
   for (uint l = 0; l < n_polygon; ++l) {
     const GLINT_GLOBAL float *rec = polygons + GLINT_POLYGON_FLOATS * l;
@@ -248,11 +260,27 @@ GLINT_FN real3 area_shade(SmoothMaterial m, const GLINT_GLOBAL float *table, int
     real weight = area_polygon_weight(v, n, rec[1] != 0.0f);
     if (weight == R(0.0)) continue;
     real3 L = make_real3((real)rec[2], (real)rec[3], (real)rec[4]);
-    real3 g = method == GLINT_AREA_REFERENCE ? area_reference_polygon(m, wo, v, n, samples)
-                                             : area_ltc_polygon(m, table, wo, v, n);
+    real3 g = area_polygon_integral(m, table, method, samples, wo, v, n, rng_absorb(key, l));
     radiance = r3_add(radiance, r3_mul(g, L));
   }
   return radiance;
+}
+
+/* area_shade_keyed with a fixed key (deterministic methods, tests). */
+GLINT_FN real3 area_shade(SmoothMaterial m, const GLINT_GLOBAL float *table, int method,
+                          int samples, real3 wo, int has_frame, ShadingFrame frame, real3 p,
+                          const GLINT_GLOBAL float *polygons, uint n_polygon) {
+  return area_shade_keyed(m, table, method, samples, wo, has_frame, frame, p, polygons, n_polygon,
+                          0u);
+}
+
+/* The identity frame: the local frame of queries that carry none. */
+GLINT_FN ShadingFrame area_identity_frame(void) {
+  ShadingFrame frame;
+  frame.t = make_real3(R(1.0), R(0.0), R(0.0));
+  frame.b = make_real3(R(0.0), R(1.0), R(0.0));
+  frame.n = make_real3(R(0.0), R(0.0), R(1.0));
+  return frame;
 }
 
 /* One query's polygon-light radiance from its raw inputs, building the local
@@ -261,19 +289,17 @@ GLINT_FN real3 area_shade(SmoothMaterial m, const GLINT_GLOBAL float *table, int
 GLINT_FN real3 area_shade_inputs(SmoothMaterial m, const GLINT_GLOBAL float *table, int method,
                                  int samples, int has_frame, real3 wo_in, real3 position,
                                  real3 normal, real3 tangent, const GLINT_GLOBAL float *polygons,
-                                 uint n_polygon) {
+                                 uint n_polygon, uint key) {
   real3 wo = r3_normalize(wo_in);
   real3 p = make_real3(R(0.0), R(0.0), R(0.0));
-  ShadingFrame frame;
-  frame.t = make_real3(R(1.0), R(0.0), R(0.0));
-  frame.b = make_real3(R(0.0), R(1.0), R(0.0));
-  frame.n = make_real3(R(0.0), R(0.0), R(1.0));
+  ShadingFrame frame = area_identity_frame();
   if (has_frame) {
     frame = frame_from_normal_tangent(normal, tangent);
     p = position;
     wo = frame_to_local(frame, wo);
   }
-  return area_shade(m, table, method, samples, wo, has_frame, frame, p, polygons, n_polygon);
+  return area_shade_keyed(m, table, method, samples, wo, has_frame, frame, p, polygons, n_polygon,
+                          key);
 }
 
 #endif /* GLINT_AREA_LIGHTS_H */

@@ -7,7 +7,7 @@
 
 #include "compat.h"
 
-/* Directional: [dir.xyz (unit, towards the light), E.rgb, cos(gamma), 0]. */
+/* Directional: [dir.xyz (unit, towards the light), E.rgb, cone solid angle 2 pi (1 - cos gamma), 0]. */
 /* Point:       [pos.xyz, I.rgb, radius, 0]. */
 #define GLINT_LIGHT_FLOATS 8
 

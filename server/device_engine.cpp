@@ -1,5 +1,8 @@
 #include "server/device_engine.h"
 
+#include <algorithm>
+#include <iterator>
+
 #include "server/kernel_source.h"
 
 namespace glint {
@@ -73,6 +76,7 @@ Status DeviceEngine::Create(const DeviceEngineOptions &options,
   if (!s.ok()) return s;
   engine->smooth_source_ = ExpandKernelSource("smooth.cl");
   engine->area_source_ = ExpandKernelSource("area_lights.cl");
+  engine->binomial_source_ = ExpandKernelSource("binomial.cl");
   for (int t = 0; t < 2; ++t) {
     cl_int err = CL_SUCCESS;
     // The LTC tables go to the device as buffers, not __constant arrays in the program: 128 KiB
@@ -163,13 +167,86 @@ Status DeviceEngine::EvaluateArea(Lane &lane, const EvalPlan &plan, const glint:
     GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), m));
   GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_poly));
   GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &table));
-  for (const cl_int *v : {&method, &samples, &acc})
+  for (const cl_int *v : {&method, &samples})
     GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_int), v));
+  for (const cl_uint *v : {&plan.seed_lo, &plan.seed_hi})
+    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), v));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_int), &acc));
   GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_out));
   const size_t local = options_.local_size;
   const size_t global = (size_t(n) + local - 1) / local * local;
   GLINT_CL_CHECK(
       clEnqueueNDRangeKernel(lane.queue, kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr));
+  // The input buffers above wrap request memory and die with this call: wait for the kernel.
+  GLINT_CL_CHECK(clFinish(lane.queue));
+  return Status::Ok();
+}
+
+Status DeviceEngine::EvaluateBinomial(Lane &lane, const EvalPlan &plan,
+                                      const glint::v1::QueryBatch &q, float *out_rgb) {
+  cl_kernel kernel = nullptr;
+  // One query per work-item: the counting loops branch per query.
+  Status s = CachedKernel(lane, binomial_source_, "glint_binomial",
+                          plan.spec.BuildOptions() + " -DGLINT_LANES=1", &kernel);
+  if (!s.ok()) return s;
+  const cl_uint n = q.count();
+  cl_context ctx = runtime_->context();
+  Buffer uv, fp, wo, pos, nrm, tan, mat, bin, dir, pnt, poly, out;
+  cl_mem a_uv, a_fp, a_wo, a_pos, a_nrm, a_tan, a_mat, a_bin, a_dir, a_pnt, a_poly;
+  const struct {
+    const float *data;
+    size_t count;
+    Buffer *buf;
+    cl_mem *arg;
+  } inputs[] = {{q.uv().data(), size_t(q.uv_size()), &uv, &a_uv},
+                {q.footprint().data(), size_t(q.footprint_size()), &fp, &a_fp},
+                {q.wo().data(), size_t(q.wo_size()), &wo, &a_wo},
+                {q.position().data(), size_t(q.position_size()), &pos, &a_pos},
+                {q.normal().data(), size_t(q.normal_size()), &nrm, &a_nrm},
+                {q.tangent().data(), size_t(q.tangent_size()), &tan, &a_tan},
+                {plan.material.data(), plan.material.size(), &mat, &a_mat},
+                {plan.binomial.data(), plan.binomial.size(), &bin, &a_bin},
+                {plan.directional.data(), plan.directional.size(), &dir, &a_dir},
+                {plan.point.data(), plan.point.size(), &pnt, &a_pnt},
+                {plan.polygon.data(), plan.polygon.size(), &poly, &a_poly}};
+  for (const auto &in : inputs) {
+    s = MakeInput(ctx, in.data, in.count, lane.dummy, in.buf, in.arg);
+    if (!s.ok()) return s;
+  }
+  cl_int err = CL_SUCCESS;
+  const size_t out_bytes = size_t(n) * 3 * sizeof(float);
+  *out.out() =
+      clCreateBuffer(ctx, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, out_bytes, out_rgb, &err);
+  if (err != CL_SUCCESS)
+    return Status::Internal("clCreateBuffer (output) failed: " + ClErrorName(err));
+  cl_mem a_out = out.get();
+  cl_mem table = ltc_tables_[plan.spec.ndf == 2 ? 1 : 0];
+  const cl_uint n_dir = plan.n_directional, n_pnt = plan.n_point, n_poly = plan.n_polygon;
+  const cl_int method = plan.area_method, samples = plan.area_samples;
+  cl_uint arg = 0;
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n));
+  for (cl_mem *m : {&a_uv, &a_fp, &a_wo, &a_pos, &a_nrm, &a_tan, &a_mat, &a_bin, &a_dir})
+    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), m));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_dir));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_pnt));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_pnt));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_poly));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_poly));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &table));
+  for (const cl_int *v : {&method, &samples})
+    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_int), v));
+  for (const cl_uint *v : {&plan.seed_lo, &plan.seed_hi})
+    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), v));
+  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_out));
+  const size_t local = options_.local_size;
+  const size_t global = (size_t(n) + local - 1) / local * local;
+  GLINT_CL_CHECK(
+      clEnqueueNDRangeKernel(lane.queue, kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr));
+  void *mapped = clEnqueueMapBuffer(lane.queue, a_out, CL_TRUE, CL_MAP_READ, 0, out_bytes, 0,
+                                    nullptr, nullptr, &err);
+  if (err != CL_SUCCESS)
+    return Status::Internal("clEnqueueMapBuffer (output) failed: " + ClErrorName(err));
+  GLINT_CL_CHECK(clEnqueueUnmapMemObject(lane.queue, a_out, mapped, 0, nullptr, nullptr));
   // The input buffers above wrap request memory and die with this call: wait for the kernel.
   GLINT_CL_CHECK(clFinish(lane.queue));
   return Status::Ok();
@@ -186,6 +263,12 @@ Status DeviceEngine::KernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *ou
 Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan, const glint::v1::QueryBatch &q,
                               float *out_rgb) {
   Lane &lane = *lanes_.at(size_t(lane_index));
+  if (plan.spec.fp64 && !runtime_->info().fp64) {
+    return Status::InvalidArgument("precision: FP64 requested but " + runtime_->info().name +
+                                   " has no cl_khr_fp64");
+  }
+  if (plan.spec.model == 2)
+    return q.count() ? EvaluateBinomial(lane, plan, q, out_rgb) : Status::Ok();
   const bool smooth_lights = plan.spec.probe || plan.n_directional > 0 || plan.n_point > 0;
   cl_kernel kernel = nullptr;
   Status s =
@@ -282,8 +365,19 @@ Status DeviceEngine::Warm(const KernelSpec &spec) {
     plan.n_directional = 1;
   }
   if (spec.has_point) {
-    plan.point = {0, 0, 1, 1, 1, 1, 0, 0};
+    plan.point = {0, 0, 1, 1, 1, 1, 0.1f, 0};
     plan.n_point = 1;
+  }
+  if (spec.has_polygon) {
+    plan.polygon.assign(56, 0.0f);  // GLINT_POLYGON_FLOATS: a unit-radiance triangle overhead
+    const float record[] = {3, 1, 1, 1, 1, 0, 0, 0, -1, -1, 2, 1, -1, 2, 0, 1, 2};
+    std::copy(std::begin(record), std::end(record), plan.polygon.begin());
+    plan.n_polygon = 1;
+  }
+  if (spec.model == 2) {
+    for (float v : {0.5f, 0.5f}) q.add_uv(v);
+    for (float v : {1e-3f, 0.0f, 0.0f, 1e-3f}) q.add_footprint(v);
+    plan.binomial = {1e6f, 1, 1, 9, 0.05f, 0, 0, 0};
   }
   float rgb[3];
   for (int lane = 0; lane < lanes(); ++lane) {

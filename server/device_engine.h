@@ -55,10 +55,15 @@ class DeviceEngine {
   Status EvaluateArea(Lane &lane, const EvalPlan &plan, const glint::v1::QueryBatch &q, cl_mem out,
                       bool accumulate);
 
+  // Runs kernels/binomial.cl (all light kinds in one kernel) into out_rgb.
+  Status EvaluateBinomial(Lane &lane, const EvalPlan &plan, const glint::v1::QueryBatch &q,
+                          float *out_rgb);
+
   DeviceEngineOptions options_;
   std::unique_ptr<ClRuntime> runtime_;
   std::string smooth_source_;
   std::string area_source_;
+  std::string binomial_source_;
   cl_mem ltc_tables_[2] = {nullptr, nullptr};  // GGX, Beckmann (read-only, shared by lanes)
   std::vector<std::unique_ptr<Lane>> lanes_;
 };

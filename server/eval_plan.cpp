@@ -15,7 +15,11 @@ constexpr int kFresnelSchlick = 1, kFresnelConductor = 2, kFresnelDielectric = 3
 constexpr int kLightFloats = 8;  // GLINT_LIGHT_FLOATS
 // kernels/area_lights.h record: [n, two_sided, L.rgb, 0, 0, 0, 16 x xyz].
 constexpr int kPolygonFloats = 56, kPolygonVertexOffset = 8;
-constexpr int kAreaLtc = 1, kAreaReference = 5;
+constexpr int kAreaLtc = 1;
+constexpr int kModelSmooth = 1, kModelBinomial = 2;
+// kernels/binomial_count.h
+constexpr int kPModeArea = 1, kPModeHeuristicR = 2;
+constexpr float kDefaultNormalThreshold = 9.0f, kDefaultSlopeCell = 0.05f;
 
 void Append3(const google::protobuf::RepeatedField<float> &v, std::vector<float> *out) {
   out->insert(out->end(), v.begin(), v.begin() + 3);
@@ -40,6 +44,7 @@ std::string KernelSpec::BuildOptions() const {
 
 std::string KernelSpec::Describe() const {
   std::ostringstream o;
+  if (model == kModelBinomial) o << "binomial/";
   o << (ndf == kNdfBeckmann ? "beckmann" : "ggx") << '/'
     << (fresnel == kFresnelConductor    ? "conductor"
         : fresnel == kFresnelDielectric ? "dielectric"
@@ -59,6 +64,7 @@ EvalPlan MakeEvalPlan(const glint::v1::EvaluateRequest &settings,
   const Material &m = settings.material();
   EvalPlan plan;
   KernelSpec &s = plan.spec;
+  s.model = m.model() == glint::v1::BINOMIAL ? kModelBinomial : kModelSmooth;
   s.ndf = m.ndf() == glint::v1::BECKMANN ? kNdfBeckmann : kNdfGgx;
   s.probe = queries.wi_size() > 0;
   s.has_frame = queries.normal_size() > 0;
@@ -90,7 +96,11 @@ EvalPlan MakeEvalPlan(const glint::v1::EvaluateRequest &settings,
       Append3(d.direction(), &plan.directional);
       Append3(d.irradiance(), &plan.directional);
       constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
-      plan.directional.push_back(static_cast<float>(std::cos(d.cone_half_angle_deg() * kDegToRad)));
+      // The cone's solid angle 2 pi (1 - cos gamma) = 4 pi sin^2(gamma / 2), in double: the
+      // sun's 6.8e-5 sr would lose digits to 1 - cos in float.
+      const double half = 0.5 * d.cone_half_angle_deg() * kDegToRad;
+      plan.directional.push_back(
+          static_cast<float>(4.0 * 3.14159265358979323846 * std::sin(half) * std::sin(half)));
       plan.directional.push_back(0.0f);
       ++plan.n_directional;
     } else if (light.has_point()) {
@@ -112,7 +122,20 @@ EvalPlan MakeEvalPlan(const glint::v1::EvaluateRequest &settings,
     }
   }
   s.has_polygon = plan.n_polygon > 0;
-  plan.area_method = settings.area_method() == glint::v1::REFERENCE ? kAreaReference : kAreaLtc;
+  // GLINT_AREA_* share glint.v1.AreaMethod's numbers.
+  plan.area_method = settings.area_method() == glint::v1::AREA_METHOD_UNSPECIFIED
+                         ? kAreaLtc
+                         : int(settings.area_method());
+  plan.seed_lo = uint32_t(settings.seed() & 0xffffffffu);
+  plan.seed_hi = uint32_t(settings.seed() >> 32);
+  if (s.model == kModelBinomial) {
+    const auto &b = m.binomial();
+    plan.binomial[0] = static_cast<float>(b.density());
+    plan.binomial[1] = b.p_mode() == glint::v1::HEURISTIC_R ? kPModeHeuristicR : kPModeArea;
+    plan.binomial[2] = b.r() > 0.0f ? b.r() : 1.0f;
+    plan.binomial[3] = b.normal_threshold() > 0.0f ? b.normal_threshold() : kDefaultNormalThreshold;
+    plan.binomial[4] = b.slope_cell() > 0.0f ? b.slope_cell() : kDefaultSlopeCell;
+  }
   plan.area_samples = settings.area_samples() ? int(settings.area_samples()) : 64;
   static_assert(kLightFloats == 8, "light record layout of kernels/lights.h");
   s.has_directional = plan.n_directional > 0;

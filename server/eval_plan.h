@@ -14,6 +14,7 @@ namespace glint {
 
 // Everything that changes the compiled kernel. Equal specs share a program.
 struct KernelSpec {
+  int model = 1;    // 1 smooth (kernels/smooth.cl), 2 binomial (kernels/binomial.cl)
   int ndf = 1;      // GLINT_NDF_* (kernels/ndf.h)
   int fresnel = 1;  // GLINT_FRESNEL_* (kernels/fresnel.h)
   bool probe = false;
@@ -41,8 +42,12 @@ struct EvalPlan {
   uint32_t n_point = 0;
   std::vector<float> polygon;  // GLINT_POLYGON_FLOATS per light (kernels/area_lights.h)
   uint32_t n_polygon = 0;
-  int area_method = 1;    // GLINT_AREA_LTC or GLINT_AREA_REFERENCE
-  int area_samples = 64;  // REFERENCE nodes per dimension per triangle
+  int area_method = 1;    // GLINT_AREA_* (= glint.v1.AreaMethod, UNSPECIFIED -> LTC)
+  int area_samples = 64;  // REFERENCE nodes per dimension per triangle; MONTE_CARLO samples
+  // kernels/binomial_count.h parameter block (model 2 only).
+  std::array<float, 8> binomial{};
+  // The request seed, as the two 32-bit halves the kernels hash (kernels/rng.h).
+  uint32_t seed_lo = 0, seed_hi = 0;
 };
 
 // The LTC table (64 x 64 x 8 floats, tools/ltc/README.md) for a GLINT_NDF_* value.

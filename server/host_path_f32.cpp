@@ -6,6 +6,7 @@
 namespace glint::host_f32 {
 #define GLINT_USE_DOUBLE 0
 #include "kernels/area_lights.h"
+#include "kernels/binomial_eval.h"
 #include "kernels/smooth_eval.h"
 #include "server/host_path_impl.inc"
 }  // namespace glint::host_f32

@@ -120,6 +120,17 @@ std::vector<glint::KernelSpec> WarmSpecs() {
     lit.has_point = true;
     specs.push_back(lit);
   }
+  // Polygon lights (kernels/area_lights.cl) and the binomial model (kernels/binomial.cl), GGX,
+  // in the shapes the preview and the demo send.
+  glint::KernelSpec area;
+  area.has_polygon = true;
+  specs.push_back(area);
+  glint::KernelSpec glints;
+  glints.model = 2;
+  glints.has_frame = true;
+  glints.has_directional = true;
+  glints.has_polygon = true;
+  specs.push_back(glints);
   return specs;
 }
 

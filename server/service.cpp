@@ -66,6 +66,7 @@ Status GlintServiceImpl::RunBatch(int lane, const glint::v1::EvaluateRequest &se
                                   std::string *kernel) {
   Status s =
       ValidateQueries(queries, settings.lights_size() > 0, options_.limits, first_query, streamed);
+  if (s.ok()) s = ValidateQueriesForModel(queries, settings);
   if (!s.ok()) return s;
   const EvalPlan plan = MakeEvalPlan(settings, queries);
   if (kernel) *kernel = plan.spec.Describe();
@@ -219,6 +220,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::GetCapabilities(
     c->set_fp64(true);
   }
   c->add_models("SMOOTH");
+  c->add_models("BINOMIAL");
   for (const char *n : {"GGX", "BECKMANN"}) c->add_ndfs(n);
   for (const char *f : {"schlick", "conductor", "dielectric"}) c->add_fresnel_kinds(f);
   for (const char *l : {"directional", "point", "polygon"}) c->add_light_kinds(l);

@@ -31,4 +31,9 @@ Status ValidateQueries(const glint::v1::QueryBatch &queries, bool has_lights,
                        const ValidationLimits &limits, uint64_t first_query = 0,
                        bool streamed = false);
 
+// Checks what the material's model needs from a batch that passed ValidateQueries (BINOMIAL:
+// uv and footprint present, no probes).
+Status ValidateQueriesForModel(const glint::v1::QueryBatch &queries,
+                               const glint::v1::EvaluateRequest &settings);
+
 }  // namespace glint

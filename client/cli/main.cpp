@@ -71,9 +71,10 @@ order). Batches larger than the server's limits are streamed in chunks automatic
   --out PATH          .csv (header r,g,b), .npy (float32, shape (N, 3)) or .exr (RGB image)
   --precision P       fp32 (default) or fp64
   --seed N            seed of the stochastic glint models (default 0)
-  --area-method M     polygon lights: ltc (default) or reference; lecocq, lecocq-pearson and
-                      mc are named but not implemented by the server yet
-  --samples N         reference quadrature nodes per dimension per triangle (default 64)
+  --area-method M     polygon lights: ltc (default), lecocq, lecocq-pearson (Lecocq et al.
+                      peak fits), mc (Monte Carlo, seeded) or reference (quadrature)
+  --samples N         reference: quadrature nodes per dimension per triangle; mc: samples
+                      per query and light (default 64)
   --width W           .exr only: image width; rows follow query order, the tail is black
                       (default: all queries in one row)
   --half              .exr only: store half floats instead of float32
@@ -100,9 +101,10 @@ IMG.exr (linear radiance) and IMG.png next to it (tone-mapped sRGB) and prints b
   --exposure STOPS    PNG exposure in stops, scale 2^STOPS (default 0)
   --precision P       fp32 (default) or fp64
   --seed N            seed of the stochastic glint models (default 0)
-  --area-method M     polygon lights: ltc (default) or reference; lecocq, lecocq-pearson and
-                      mc are named but not implemented by the server yet
-  --samples N         reference quadrature nodes per dimension per triangle (default 64)
+  --area-method M     polygon lights: ltc (default), lecocq, lecocq-pearson (Lecocq et al.
+                      peak fits), mc (Monte Carlo, seeded) or reference (quadrature)
+  --samples N         reference: quadrature nodes per dimension per triangle; mc: samples
+                      per query and light (default 64)
   --half              store half floats in the EXR instead of float32
 )";
 

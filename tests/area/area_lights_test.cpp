@@ -23,6 +23,10 @@ namespace k32 {
 #undef GLINT_FRESNEL_H
 #undef GLINT_NDF_H
 #undef GLINT_AREA_LIGHTS_H
+#undef GLINT_RNG_H
+#undef GLINT_LTC_LOOKUP_H
+#undef GLINT_AREA_LECOCQ_H
+#undef GLINT_AREA_MONTE_CARLO_H
 #undef GLINT_USE_DOUBLE
 #undef R
 #define GLINT_USE_DOUBLE 0

@@ -1,0 +1,346 @@
+/* Polygonal area lights on the smooth model by Monte Carlo (the MONTE_CARLO
+ * area method): an unbiased estimate of
+ *   I = int_P f(wi, wo) cos(theta_i) dwi
+ * per unit radiance, RGB, over the solid angle P of a convex polygon clipped to
+ * the upper hemisphere: the quantity area_reference_polygon (area_lights.h)
+ * computes by quadrature.
+ *
+ * Two sampling techniques, combined by multiple importance sampling (Veach
+ * 1997, "Robust Monte Carlo Methods for Light Transport Simulation", Ch. 9;
+ * Veach & Guibas 1995):
+ *  (L) light: directions uniform in solid angle over the spherical polygon,
+ *      fan triangulated, a triangle chosen with probability proportional to
+ *      its solid angle, then Arvo's area-preserving map (Arvo 1995,
+ *      "Stratified Sampling of Spherical Triangles", Sec. 2-3):
+ *      p_L(wi) = 1 / Omega, Omega = solid angle of the clipped polygon.
+ *  (B) lobe: a microfacet normal h, reflected: wi = 2 (wo.h) h - wo, with
+ *      p_B(wi) = p_h(h) / (4 wo.h) (Walter et al. 2007 Eq. 14 for reflection).
+ *      GGX: the distribution of visible normals (Heitz 2018, "Sampling the GGX
+ *      Distribution of Visible Normals", JCGT 7(4), Listing 1), Eq. 17
+ *      p_h = G1(wo) max(0, wo.h) D(h) / wo.z, hence
+ *      p_B = D(h) G1(wo) / (4 wo.z) = D(h) / (4 (wo.z + wo.z Lambda(wo))).
+ *      Beckmann: p_h = D(h) cos(theta_h), sampled in slope space where it is
+ *      a Gaussian (Walter et al. 2007 Eq. 28-29, anisotropic form in Heitz
+ *      2014 Eq. 84): slopes (ax r cos phi, ay r sin phi), r = sqrt(-ln(1-u1)),
+ *      phi = 2 pi u2. A lobe sample counts only if wi lies inside the
+ *      polygon's cone (mc_inside); the others estimate 0.
+ * Both techniques are unbiased alone (p > 0 wherever f cos > 0 on P).
+ *
+ * Sample split and weights. Sample i (0 <= i < samples) draws its random
+ * numbers from rng_hash3(key, i, dim) only, so the estimate is a pure function
+ * of (inputs, samples, key). With samples >= 2, even i are light samples and
+ * odd i lobe samples: n_L = ceil(samples / 2), n_B = floor(samples / 2), and
+ * each sample is weighted by the power heuristic with beta = 2 (Veach 1997
+ * Eq. 9.13; it beat the balance heuristic in our tests at low roughness, where
+ * one technique is much better than the other):
+ *   w_L = (n_L p_L)^2 / ((n_L p_L)^2 + (n_B p_B)^2), w_B = 1 - w_L,
+ *   I ~= sum_L w_L f / (n_L p_L) + sum_B w_B f / (n_B p_B).
+ * samples == 1 uses Veach's one-sample model (Sec. 9.2.4): the technique is
+ * picked with probability 1/2 each and weighted by the balance heuristic,
+ * I ~= f / (p_L / 2 + p_B / 2), optimal there.
+ *
+ * Random dimensions of sample i: 0 = triangle choice, 1 and 2 = the 2D
+ * sample (Arvo's u1, u2 or the lobe's u1, u2), 3 = technique choice (samples
+ * == 1 only).
+ *
+ * GLINT_LANES == 1 (clipping and the sample loop branch per query). Private
+ * memory: one McPolygon (17 real3 + 19 real + int, ~290 bytes in float, ~560 in
+ * double) on top of the caller's vertices. */
+#ifndef GLINT_AREA_MONTE_CARLO_H
+#define GLINT_AREA_MONTE_CARLO_H
+
+#include "compat.h"
+#include "ndf.h"
+#include "polygon.h"
+#include "rng.h"
+#include "smooth_brdf.h"
+
+#define GLINT_MC_MAX_VERTICES GLINT_POLYGON_MAX_CLIPPED
+
+/* The clipped polygon and what both techniques need. The vertices are kept
+ * unnormalised (only rescaled when their length is extreme): edge vectors
+ * v_j - v_i are then as accurate as the input, whereas differences of
+ * normalised vertices lose everything in fp32 for lights below ~1e-4 rad
+ * (a 1e-6 rad light's solid angle came out 600x too large that way). */
+typedef struct {
+  real3 v[GLINT_MC_MAX_VERTICES];  /* vertices, convex, z >= 0 */
+  real cdf[GLINT_MC_MAX_VERTICES]; /* cumulative solid angle of fan triangles 1..i */
+  int n;                           /* vertex count (>= 3 when omega > 0) */
+  real orient;                     /* +1 counter-clockwise from the origin, -1 clockwise */
+  real omega;                      /* total solid angle */
+} McPolygon;
+
+/* a . (b x c) = a . ((b - a) x (c - a)): the edge vectors carry the small
+ * differences of a thin triangle without cancellation. */
+GLINT_FN real mc_triple(real3 a, real3 b, real3 c) {
+  return r3_dot(a, r3_cross(r3_sub(b, a), r3_sub(c, a)));
+}
+
+/* Solid angle of the triangle (a, b, c) seen from the origin (any lengths), by
+ * Van Oosterom & Strackee 1983:
+ *   tan(Omega / 2) = |a.(b x c)| / (|a||b||c| + (a.b)|c| + (a.c)|b| + (b.c)|a|),
+ * accurate for small triangles (no angle-excess cancellation). */
+GLINT_FN real mc_triangle_solid_angle(real3 a, real3 b, real3 c) {
+  real la = r3_length(a), lb = r3_length(b), lc = r3_length(c);
+  real den = la * lb * lc + r3_dot(a, b) * lc + r3_dot(a, c) * lb + r3_dot(b, c) * la;
+  real triple = fabs(mc_triple(a, b, c));
+  /* The origin in (or within rounding of) the triangle's plane: seen edge-on,
+   * 0 (as REFERENCE and LTC give). Without this, atan2(+0, den < 0) = pi
+   * when the origin lies inside the triangle, i.e. 2 pi sr. */
+  real edge_on = R(1e-6) * la * r3_length(r3_sub(b, a)) * r3_length(r3_sub(c, a));
+  int edge_on_inside = (triple <= edge_on) & (den <= R(0.0));
+  return edge_on_inside ? R(0.0) : R(2.0) * atan2(triple, den);
+}
+
+/* Unit vector along the part of u orthogonal to the unit vector a, where
+ * d = u - a is given (for u close to a, d carries the small difference without
+ * the cancellation of u - (u.a) a); `fallback` when that part vanishes. */
+GLINT_FN real3 mc_orthogonal_dir(real3 a, real3 d, real3 fallback) {
+  real3 t = r3_sub(d, r3_scale(a, r3_dot(d, a)));
+  real l = r3_length(t);
+  return l > R(1e-30) ? r3_div(t, l) : fallback;
+}
+
+/* Clips to the horizon, fan triangulates. Returns 0 (omega = 0) when nothing
+ * above the horizon subtends a solid angle. */
+GLINT_FN int mc_polygon_setup(const GLINT_PRIVATE real3 *v, int n, GLINT_PRIVATE McPolygon *P) {
+  P->omega = R(0.0);
+  P->orient = R(1.0);
+  P->n = polygon_clip_to_horizon(v, n, P->v);
+  if (P->n < 3) return 0;
+  real lmin = r3_length(P->v[0]), lmax = lmin;
+  for (int i = 1; i < P->n; ++i) {
+    real l = r3_length(P->v[i]);
+    lmin = fmin(lmin, l);
+    lmax = fmax(lmax, l);
+  }
+  /* A vertex at the shading point (the receiver lies on the light): degenerate. */
+  if (!(lmin > R(0.0)) || !isfinite(lmax)) return 0;
+  /* Keep the products of three lengths below fp32 overflow / underflow. */
+  if ((lmax > R(1e8)) | (lmax < R(1e-8))) {
+    for (int i = 0; i < P->n; ++i) P->v[i] = r3_div(P->v[i], lmax);
+  }
+  real sum = R(0.0), signed_sum = R(0.0);
+  P->cdf[0] = R(0.0);
+  for (int i = 1; i + 1 < P->n; ++i) {
+    real3 a = P->v[0], b = P->v[i], c = P->v[i + 1];
+    signed_sum += mc_triple(a, b, c);
+    sum += mc_triangle_solid_angle(a, b, c);
+    P->cdf[i] = sum;
+  }
+  P->omega = sum;
+  P->orient = signed_sum >= R(0.0) ? R(1.0) : R(-1.0);
+  /* Below ~1e-20 sr the float geometry is noise (area_reference_triangle uses
+   * the same cut-off); the contribution is below any float result anyway. */
+  return isfinite(sum) && sum > R(1e-20);
+}
+
+/* Is the unit direction d inside the convex cone spanned by the polygon?
+ * Inside every edge plane, (v_i x v_{i+1}) . d = (v_i x (v_{i+1} - v_i)) . d
+ * on the interior side; edges that collapsed to a point (clipping
+ * duplicates) test 0 and pass. */
+GLINT_FN int mc_inside(const GLINT_PRIVATE McPolygon *P, real3 d) {
+  for (int i = 0; i < P->n; ++i) {
+    real3 a = P->v[i];
+    real3 b = P->v[i + 1 < P->n ? i + 1 : 0];
+    if (P->orient * r3_dot(r3_cross(a, r3_sub(b, a)), d) < R(0.0)) return 0;
+  }
+  return 1;
+}
+
+/* Arvo 1995 (Sec. 2-3, Fig. 2 and the algorithm box): (u1, u2) in [0, 1)^2 ->
+ * a direction uniform in solid angle in the spherical triangle (a, b, c).
+ * u1 chooses the sub-triangle (a, b, c') of area u1 * omega, c' on arc ac;
+ * u2 places the point on arc b c' with z = 1 - u2 (1 - c'.b) (a cosine of
+ * the arc from b is uniform in area). 1 - c'.b and the arc's sine are taken
+ * from |c' - b| (1 - x.y = |x - y|^2 / 2 for unit vectors), accurate for
+ * small triangles. The same map as area_reference_triangle's inner loop. */
+GLINT_FN real3 mc_arvo_sample(real3 a, real3 b, real3 c, real omega, real u1, real u2) {
+  /* Angle at a between the tangents towards b and c (atan2: thin triangles). */
+  real3 ba = r3_sub(b, a), ca = r3_sub(c, a);
+  real3 tb = r3_sub(ba, r3_scale(a, r3_dot(a, ba)));
+  real3 tc = r3_sub(ca, r3_scale(a, r3_dot(a, ca)));
+  real alpha = atan2(r3_length(r3_cross(tb, tc)), r3_dot(tb, tc));
+  real sin_alpha = sin(alpha), cos_alpha = cos(alpha);
+  real cos_c = r3_dot(a, b);
+  real s = sin(u1 * omega - alpha), t = cos(u1 * omega - alpha);
+  real u = t - cos_alpha;
+  real vv = s + sin_alpha * cos_c;
+  real den = (vv * s + u * t) * sin_alpha;
+  /* q = cos of the arc a c' (Arvo's algorithm, step "q"). */
+  real q = den != R(0.0) ? ((vv * t - u * s) * cos_alpha - vv) / den : R(1.0);
+  q = clamp(q, R(-1.0), R(1.0));
+  real3 c_perp = mc_orthogonal_dir(a, ca, b);
+  real3 cp = r3_add(r3_scale(a, q), r3_scale(c_perp, sqrt(fmax(R(1.0) - q * q, R(0.0)))));
+  real3 d = r3_sub(cp, b);
+  real one_minus_cb = fmin(R(0.5) * r3_dot(d, d), R(2.0));
+  real3 axis = mc_orthogonal_dir(b, d, cp);
+  real omz = u2 * one_minus_cb; /* 1 - z */
+  real sin_arc = sqrt(fmax(omz * (R(2.0) - omz), R(0.0)));
+  return r3_add(r3_scale(b, R(1.0) - omz), r3_scale(axis, sin_arc));
+}
+
+/* Technique L: a direction uniform in the polygon's solid angle. */
+GLINT_FN real3 mc_sample_light(const GLINT_PRIVATE McPolygon *P, uint key, uint i) {
+  real target = rng_u01(rng_hash3(key, i, 0u)) * P->omega;
+  /* First fan triangle whose cumulative solid angle exceeds the target; zero-
+   * area triangles are never chosen (strict <). Rounding falls back to the
+   * last triangle with a non-zero solid angle. */
+  int k = 1;
+  for (int j = 1; j + 1 < P->n; ++j) {
+    if (P->cdf[j] > P->cdf[j - 1]) k = j;
+    if (target < P->cdf[j]) break;
+  }
+  real area = P->cdf[k] - P->cdf[k - 1];
+  real u1 = rng_u01(rng_hash3(key, i, 1u));
+  real u2 = rng_u01(rng_hash3(key, i, 2u));
+  return mc_arvo_sample(r3_normalize(P->v[0]), r3_normalize(P->v[k]), r3_normalize(P->v[k + 1]),
+                        area, u1, u2);
+}
+
+/* GGX visible normal for view wo (Heitz 2018, Listing 1), anisotropic. */
+GLINT_FN real3 mc_sample_ggx_vndf(real3 wo, real ax, real ay, real u1, real u2) {
+  /* Sec. 3.2: the view in the hemisphere configuration (alpha = 1). */
+  real3 vh = r3_normalize(make_real3(ax * wo.x, ay * wo.y, wo.z));
+  /* Sec. 4.1: orthonormal basis, T1 = (1, 0, 0) at normal view. */
+  real lensq = vh.x * vh.x + vh.y * vh.y;
+  real inv = lensq > R(0.0) ? R(1.0) / sqrt(lensq) : R(0.0);
+  real3 t1v = lensq > R(0.0) ? make_real3(-vh.y * inv, vh.x * inv, R(0.0))
+                             : make_real3(R(1.0), R(0.0), R(0.0));
+  real3 t2v = r3_cross(vh, t1v);
+  /* Sec. 4.2: uniform on the projected disk, warped to the visible half. */
+  real r = sqrt(u1);
+  real phi = R(2.0) * GLINT_PI * u2;
+  real t1 = r * cos(phi);
+  real t2 = r * sin(phi);
+  real s = R(0.5) * (R(1.0) + vh.z);
+  t2 = (R(1.0) - s) * sqrt(fmax(R(1.0) - t1 * t1, R(0.0))) + s * t2;
+  /* Sec. 4.3: reprojection onto the hemisphere. */
+  real3 nh = r3_add(r3_add(r3_scale(t1v, t1), r3_scale(t2v, t2)),
+                    r3_scale(vh, sqrt(fmax(R(1.0) - t1 * t1 - t2 * t2, R(0.0)))));
+  /* Sec. 3.4: back to the ellipsoid configuration. */
+  return r3_normalize(make_real3(ax * nh.x, ay * nh.y, fmax(nh.z, R(0.0))));
+}
+
+/* Beckmann normal with density D(h) cos(theta_h): the slope (-hx/hz, -hy/hz)
+ * is a centred Gaussian with standard deviations ax / sqrt(2), ay / sqrt(2)
+ * (Heitz 2014 Eq. 84 is that Gaussian divided by cos^4), inverted in polar
+ * form (Box-Muller; Walter et al. 2007 Eq. 28-29 for ax = ay). */
+GLINT_FN real3 mc_sample_beckmann(real ax, real ay, real u1, real u2) {
+  real r = sqrt(-log(R(1.0) - u1)); /* u1 < 1: finite */
+  real phi = R(2.0) * GLINT_PI * u2;
+  real sx = ax * r * cos(phi), sy = ay * r * sin(phi);
+  return r3_normalize(make_real3(sx, sy, R(1.0)));
+}
+
+/* Technique B. Returns the reflected direction; *ok = 0 when the sampled
+ * normal cannot reflect wo (wo.h <= 0, possible for Beckmann) or wi is at or
+ * below the horizon: such samples estimate 0. */
+GLINT_FN real3 mc_sample_lobe(SmoothMaterial m, real3 wo, uint key, uint i, GLINT_PRIVATE int *ok) {
+  real u1 = rng_u01(rng_hash3(key, i, 1u));
+  real u2 = rng_u01(rng_hash3(key, i, 2u));
+  real3 h = m.ndf == GLINT_NDF_BECKMANN ? mc_sample_beckmann(m.alpha_x, m.alpha_y, u1, u2)
+                                        : mc_sample_ggx_vndf(wo, m.alpha_x, m.alpha_y, u1, u2);
+  real oh = r3_dot(wo, h);
+  real3 wi = r3_sub(r3_scale(h, R(2.0) * oh), wo);
+  *ok = (oh > R(0.0)) & (wi.z > R(0.0));
+  return wi;
+}
+
+/* p_B(wi), the solid-angle density of technique B at wi (0 if unreachable),
+ * through h = (wi + wo) / |wi + wo|, where wo.h = |wi + wo| / 2 exactly for
+ * unit vectors (no cancellation at grazing angles). */
+GLINT_FN real mc_lobe_pdf(SmoothMaterial m, real3 wo, real3 wi) {
+  real3 hv = r3_add(wi, wo);
+  real len = r3_length(hv);
+  if (!(len > R(0.0)) | !(wi.z > R(0.0))) return R(0.0);
+  real3 h = r3_div(hv, len);
+  real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
+  if (m.ndf == GLINT_NDF_BECKMANN) {
+    /* p_h = D cos(theta_h), / (4 wo.h) with wo.h = len / 2. */
+    return D * h.z / (R(2.0) * len);
+  }
+  /* Heitz 2018 Eq. 17 over 4 wo.h: D G1(wo) / (4 wo.z), G1 = wo.z / (wo.z + wo.z Lambda). */
+  real zl = ndf_z_lambda(m.ndf, wo, m.alpha_x, m.alpha_y);
+  return D / (R(4.0) * (wo.z + zl));
+}
+
+/* Power heuristic (beta = 2) weight of a technique with density-times-count a
+ * against the other's b: a^2 / (a^2 + b^2), written so that huge ratios give
+ * 0 or 1 rather than inf / inf. */
+GLINT_FN real mc_power_weight(real a, real b) {
+  if (!(a > R(0.0))) return R(0.0);
+  real r = b / a;
+  return R(1.0) / (R(1.0) + r * r);
+}
+
+/* Adds f * s to acc when s is a finite non-negative factor (guards the rare
+ * 0 * inf of densities that under- or overflowed in fp32). */
+GLINT_FN real3 mc_accumulate(real3 acc, real3 f, real s) {
+  return isfinite(s) && s >= R(0.0) ? r3_add(acc, r3_scale(f, s)) : acc;
+}
+
+/* The MIS estimate with an explicit split: n_light samples of technique L and
+ * n_lobe of technique B (either may be 0: that technique alone). Light sample
+ * j uses random index 2j, lobe sample j index 2j + 1. area_mc_polygon is the
+ * entry point; the split form exists for tests and benchmarks. */
+GLINT_FN real3 area_mc_polygon_split(SmoothMaterial m, real3 wo, const GLINT_PRIVATE real3 *v,
+                                     int n, int n_light, int n_lobe, uint key) {
+  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
+  if (!(wo.z > R(0.0)) || n_light + n_lobe < 1) return zero;
+  McPolygon P;
+  if (!mc_polygon_setup(v, n, &P)) return zero;
+  real nl = (real)n_light, nb = (real)n_lobe;
+  real a = nl / P.omega; /* n_L p_L, the same for every direction in P */
+  real3 acc = zero;
+  for (int j = 0; j < n_light; ++j) {
+    real3 wi = mc_sample_light(&P, key, (uint)(2 * j));
+    real3 f = smooth_reflect_cos(m, wi, wo);
+    real b = nb * mc_lobe_pdf(m, wo, wi);
+    /* w_L f / (n_L p_L) */
+    acc = mc_accumulate(acc, f, mc_power_weight(a, b) / a);
+  }
+  for (int j = 0; j < n_lobe; ++j) {
+    int ok;
+    real3 wi = mc_sample_lobe(m, wo, key, (uint)(2 * j + 1), &ok);
+    if (!ok) continue;
+    wi = r3_normalize(wi); /* unit up to rounding already */
+    if (!mc_inside(&P, wi)) continue;
+    real3 f = smooth_reflect_cos(m, wi, wo);
+    real b = nb * mc_lobe_pdf(m, wo, wi);
+    if (!(b > R(0.0))) continue;
+    /* w_B f / (n_B p_B) */
+    acc = mc_accumulate(acc, f, mc_power_weight(b, a) / b);
+  }
+  return acc;
+}
+
+/* int_P f cos_i dwi per unit radiance, RGB, unbiased, from `samples` samples
+ * keyed by `key` (see the header comment for the split and the weights).
+ * v: n (3..16) vertices of a convex polygon relative to the shading point,
+ * local frame. 0 when wo.z <= 0 or the polygon is below the horizon. */
+GLINT_FN real3 area_mc_polygon(SmoothMaterial m, real3 wo, const GLINT_PRIVATE real3 *v, int n,
+                               int samples, uint key) {
+  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
+  if (samples >= 2) return area_mc_polygon_split(m, wo, v, n, (samples + 1) / 2, samples / 2, key);
+  if (!(wo.z > R(0.0)) || samples < 1) return zero;
+  /* One-sample MIS (Veach 1997 Sec. 9.2.4), c_L = c_B = 1/2, balance
+   * heuristic: f / (p_L / 2 + p_B / 2) = 2 f omega / (1 + p_B omega). */
+  McPolygon P;
+  if (!mc_polygon_setup(v, n, &P)) return zero;
+  real3 wi;
+  if (rng_u01(rng_hash3(key, 0u, 3u)) < R(0.5)) {
+    wi = mc_sample_light(&P, key, 0u);
+  } else {
+    int ok;
+    wi = mc_sample_lobe(m, wo, key, 0u, &ok);
+    if (!ok) return zero;
+    wi = r3_normalize(wi);
+    if (!mc_inside(&P, wi)) return zero;
+  }
+  real3 f = smooth_reflect_cos(m, wi, wo);
+  real pb_omega = mc_lobe_pdf(m, wo, wi) * P.omega;
+  return mc_accumulate(zero, f, R(2.0) * P.omega / (R(1.0) + pb_omega));
+}
+
+#endif /* GLINT_AREA_MONTE_CARLO_H */

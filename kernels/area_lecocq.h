@@ -25,12 +25,21 @@
  *     ("one point evaluation") and an empirical width g(N, p), p = c^(N+1) (generated block):
  *     a Lorentzian in sin t (README Eq. L1-L2: one arctangent), or a mix of it with a Pearson
  *     VII (m = 2) whose weight matches I at the second point t = pi/2 (Eq. P1-P3).
- *  6. W is replaced by its lobe average: the result is albedo(wo) * tau(P) / tau(H), where tau
- *     is step 4-5 applied to the polygon and to the whole upper hemisphere H (same splitting,
- *     same approximations, so that a light filling the hemisphere gives the albedo exactly).
- *     The albedo comes from the LTC table (slots 4-5, tools/ltc/README.md): Schlick exact,
- *     conductor/dielectric APPROXIMATED by Schlick through F(1), as area_ltc_polygon does.
- *     Anisotropic alpha: the albedo is looked up at sqrt(ax ay) (APPROXIMATION).
+ *  6. W at a representative half vector (README Eq. M1-M3, N2; DEPARTURE: LSM15 do not say
+ *     how W is handled, the first version here used its lobe average, which fails for wide
+ *     lobes and grazing views). The same contour sums give the lobe-weighted moments
+ *     int (h.z)^N h dh of the region (z: Eq. E3 at exponent N + 1; x, y: Eq. M2, a single-
+ *     power edge integral c^N int cos^N t dt, approximated by a Gaussian, Eq. M3); their
+ *     direction h_P is the lobe-weighted mean half vector. The result is
+ *       albedo(wo) * [W(h_P) tau(P)] / [W(h_H) tau(H)],
+ *     tau = steps 4-5 on the polygon P and on the whole upper hemisphere H (same splitting and
+ *     approximations), so that a light filling the hemisphere gives the albedo exactly and
+ *     W(h_P) / W(h_H) carries the variation of F G2 (wo.h) / (cos_o h.z) across the lobe.
+ *     W uses the exact Fresnel and the anisotropic G2. The albedo comes from the LTC table
+ *     (slots 4-5, tools/ltc/README.md): Schlick exact, conductor/dielectric APPROXIMATED by
+ *     Schlick through F(1), as area_ltc_polygon does; looked up at sqrt(ax ay) (APPROXIMATION).
+ *     The result is clamped to the albedo (P lies in the hemisphere). The moments cost a second
+ *     peak-function evaluation (exponent N + 1) and one erf pair per edge piece: still O(1).
  *
  * Clipping branches on per-vertex values: GLINT_LANES == 1 only (polygon.h checks). */
 #ifndef GLINT_AREA_LECOCQ_H
@@ -40,7 +49,6 @@
 #include "ltc_lookup.h"
 #include "polygon.h"
 #include "smooth_brdf.h"
-
 
 /* Edge splitting (step 1): a polygon edge of angle theta (in wi space) is cut into
  * ceil(theta / GLINT_LECOCQ_SPLIT) pieces, at most GLINT_LECOCQ_MAX_SPLIT. */
@@ -93,13 +101,43 @@ GLINT_FN real lecocq_f2(real q, real r, real st, real ct) {
          q * st * ct / (R(2.0) * (R(1.0) + q) * (R(1.0) + q * st * st));
 }
 
-/* One great-arc edge a -> b (unit vectors, z >= 0) of the region in h' space: its term
- *   -s_e int_{t0}^{t1} I(t) dt   of README Eq. E3 (Arvo 1995's edge integral, real N), with I
- * replaced by LSM15's peak function. pearson_w in [0, 1] blends Lorentzian -> L + Pearson VII. */
-GLINT_FN real lecocq_edge(real3 a, real3 b, real N, real pearson_w) {
+/* int_{t0}^{t1} I(t) dt of README Eq. E3 with I replaced by LSM15's peak function (step 5):
+ * s2 = s_e^2, N the Phong exponent, pearson_w in [0, 1] blends Lorentzian -> L + Pearson VII. */
+GLINT_FN real lecocq_peak_integral(real s2, real N, real pearson_w, real st0, real ct0, real st1,
+                                   real ct1) {
+  /* Peak value I(0) = (1 - c^(N+1)) / s^2 (README Eq. E4), J0 = I(0) - 1; c^(N+1) by
+   * exp/log1p so that s -> 0 (edge through the lobe axis) keeps its digits. */
+  real hn = R(0.5) * (N + R(1.0));
+  real one_minus_p = -expm1(hn * log1p(-s2));
+  real A = s2 > R(1e-30) ? one_minus_p / s2 : hn;
+  A = fmax(A, R(1.0));
+  real J0 = A - R(1.0);
+  real p = R(1.0) - one_minus_p; /* c^(N+1), the shape parameter of the width fits */
+  /* Lorentzian in sin t, q = J0 / g^2 (README Eq. L1-L2). */
+  real gl = lecocq_width_lorentz(N, p);
+  real ql = J0 / (gl * gl);
+  real rl = sqrt(R(1.0) + ql);
+  real lor = A * (lecocq_f1(rl, st1, ct1) - lecocq_f1(rl, st0, ct0));
+  if (!(pearson_w > R(0.0))) return lor;
+  /* Lorentzian + Pearson VII, weight k from I(pi/2) = 1 (README Eq. P3). */
+  real gp = lecocq_width_pearson(N, p);
+  real qp = J0 / (gp * gp);
+  real rp = sqrt(R(1.0) + qp);
+  real k = (R(2.0) + qp - gp * gp) / A;
+  real mix = A * (k * (lecocq_f1(rp, st1, ct1) - lecocq_f1(rp, st0, ct0)) +
+                  (R(1.0) - k) * (lecocq_f2(qp, rp, st1, ct1) - lecocq_f2(qp, rp, st0, ct0)));
+  return (R(1.0) - pearson_w) * lor + pearson_w * mix;
+}
+
+/* One great-arc edge a -> b (unit vectors, z >= 0) of the region in h' space. Adds to acc:
+ *   acc[0] += -s_e int I_N dt       (README Eq. E3: the Phong-lobe mass, times N + 1)
+ *   acc[1] += -s_e int I_(N+1) dt   (Eq. M1: the z moment, times N + 2)
+ *   acc[2..3] += -n_e.{x,y} c^N int cos^N t dt  (Eq. M2: the x, y moments, times N + 2)
+ * acc[1..3] give the lobe-weighted mean direction of the region (step 6). */
+GLINT_FN void lecocq_edge(real3 a, real3 b, real N, real pearson_w, GLINT_PRIVATE real *acc) {
   real3 cr = r3_cross(a, b);
   real len = r3_length(cr);
-  if (!(len > R(1e-20))) return R(0.0); /* zero-length edge: no contribution */
+  if (!(len > R(1e-20))) return; /* zero-length edge: no contribution */
   real theta = atan2(len, r3_dot(a, b));
   real3 n = r3_div(cr, len);
   real s = n.z;
@@ -110,32 +148,15 @@ GLINT_FN real lecocq_edge(real3 a, real3 b, real N, real pearson_w) {
   const real half_pi = R(0.5) * GLINT_PI;
   real t0 = clamp(-phi, -half_pi, half_pi);
   real t1 = clamp(theta - phi, -half_pi, half_pi);
-  /* Peak value I(0) = (1 - c^(N+1)) / s^2 (README Eq. E4), J0 = I(0) - 1; c^(N+1) by
-   * exp/log1p so that s -> 0 (edge through the lobe axis) keeps its digits. */
-  real hn = R(0.5) * (N + R(1.0));
-  real one_minus_p = -expm1(hn * log1p(-s2));
-  real A = s2 > R(1e-30) ? one_minus_p / s2 : hn;
-  A = fmax(A, R(1.0));
-  real J0 = A - R(1.0);
-  real p = R(1.0) - one_minus_p; /* c^(N+1), the shape parameter of the width fits */
   real st0 = sin(t0), ct0 = cos(t0), st1 = sin(t1), ct1 = cos(t1);
-  /* Lorentzian in sin t, q = J0 / g^2 (README Eq. L1-L2). */
-  real gl = lecocq_width_lorentz(N, p);
-  real ql = J0 / (gl * gl);
-  real rl = sqrt(R(1.0) + ql);
-  real lor = A * (lecocq_f1(rl, st1, ct1) - lecocq_f1(rl, st0, ct0));
-  real integral = lor;
-  if (pearson_w > R(0.0)) {
-    /* Lorentzian + Pearson VII, weight k from I(pi/2) = 1 (README Eq. P3). */
-    real gp = lecocq_width_pearson(N, p);
-    real qp = J0 / (gp * gp);
-    real rp = sqrt(R(1.0) + qp);
-    real k = (R(2.0) + qp - gp * gp) / A;
-    real mix = A * (k * (lecocq_f1(rp, st1, ct1) - lecocq_f1(rp, st0, ct0)) +
-                    (R(1.0) - k) * (lecocq_f2(qp, rp, st1, ct1) - lecocq_f2(qp, rp, st0, ct0)));
-    integral = (R(1.0) - pearson_w) * lor + pearson_w * mix;
-  }
-  return -s * integral;
+  acc[0] -= s * lecocq_peak_integral(s2, N, pearson_w, st0, ct0, st1, ct1);
+  acc[1] -= s * lecocq_peak_integral(s2, N + R(1.0), pearson_w, st0, ct0, st1, ct1);
+  /* int cos^N t dt ~ int exp(-a t^2 / 2) dt, a = N + 1/2 (README Eq. M3). */
+  real ga = sqrt(R(0.5) * (N + R(0.5)));
+  real cn = exp(R(0.5) * N * log1p(-s2)) * R(0.88622692545275801) / ga; /* sqrt(pi) / 2 */
+  real j = cn * (erf(ga * t1) - erf(ga * t0));
+  acc[2] -= n.x * j;
+  acc[3] -= n.y * j;
 }
 
 /* Maps a wi-space direction (unit, z >= 0) to the stretched half-vector space (steps 1-2). */
@@ -144,16 +165,20 @@ GLINT_FN real3 lecocq_to_h(real3 wi, real3 wo, real sx, real sy) {
   return r3_normalize(make_real3(sx * h.x, sy * h.y, h.z));
 }
 
-/* Sum of lecocq_edge over the h'-image of a spherical polygon in wi space (unit vertices,
+/* lecocq_edge summed over the h'-image of a spherical polygon in wi space (unit vertices,
  * z >= 0), each edge split into pieces of at most GLINT_LECOCQ_SPLIT (step 1). */
-GLINT_FN real lecocq_region(const GLINT_PRIVATE real3 *w, int n, real3 wo, real sx, real sy, real N,
-                            real pearson_w) {
-  real sum = R(0.0);
+GLINT_FN void lecocq_region(const GLINT_PRIVATE real3 *w, int n, real3 wo, real sx, real sy, real N,
+                            real pearson_w, GLINT_PRIVATE real *acc) {
+  for (int k = 0; k < 4; ++k) acc[k] = R(0.0);
   for (int i = 0; i < n; ++i) {
     real3 a = w[i];
     real3 b = w[(i + 1) % n];
     real theta = atan2(r3_length(r3_cross(a, b)), r3_dot(a, b));
-    int pieces = (int)(theta / GLINT_LECOCQ_SPLIT) + 1;
+    /* ceil(theta / SPLIT), with a tolerance: the hemisphere's edges (pi / 4 each) are exactly
+     * 4 splits long, and floor + 1 there gave 4 or 5 pieces depending on the last ulp of
+     * cos/sin/atan2 (host vs device libm, float vs double), which changes tau(H) and W(h_H) by
+     * up to a few % at grazing views. (int) truncates towards zero: theta ~ 0 gives 1 piece. */
+    int pieces = (int)(theta / GLINT_LECOCQ_SPLIT - R(1e-3)) + 1;
     pieces = pieces > GLINT_LECOCQ_MAX_SPLIT ? GLINT_LECOCQ_MAX_SPLIT : pieces;
     real3 prev = lecocq_to_h(a, wo, sx, sy);
     for (int k = 1; k <= pieces; ++k) {
@@ -161,11 +186,28 @@ GLINT_FN real lecocq_region(const GLINT_PRIVATE real3 *w, int n, real3 wo, real 
       real u = (real)k / (real)pieces;
       real3 wk = r3_normalize(r3_add(r3_scale(a, R(1.0) - u), r3_scale(b, u)));
       real3 next = lecocq_to_h(wk, wo, sx, sy);
-      sum += lecocq_edge(prev, next, N, pearson_w);
+      lecocq_edge(prev, next, N, pearson_w, acc);
       prev = next;
     }
   }
-  return sum;
+}
+
+/* W(h) = F G2 (wo.h) / (cos_o h.z) of Eq. H1 at the mean direction of region acc (h' space,
+ * unstretched here; ax, ay clamped as in area_lecocq_polygon), RGB. */
+GLINT_FN real3 lecocq_weight(SmoothMaterial m, real ax, real ay, real3 wo,
+                             const GLINT_PRIVATE real *acc) {
+  real alpha = sqrt(ax * ay), sx = alpha / ax, sy = alpha / ay;
+  real sg = acc[0] < R(0.0) ? R(-1.0) : R(1.0);
+  real3 hp = make_real3(sg * acc[2], sg * acc[3], fmax(sg * acc[1], R(0.0)));
+  real3 h = make_real3(hp.x / sx, hp.y / sy, hp.z);
+  real l = r3_length(h);
+  h = l > R(0.0) ? r3_div(h, l) : make_real3(R(0.0), R(0.0), R(1.0));
+  h.z = fmax(h.z, R(1e-6));
+  real oh = fmax(r3_dot(wo, h), R(0.0));
+  real3 wi = r3_sub(r3_scale(h, R(2.0) * oh), wo);
+  wi.z = fmax(wi.z, R(1e-6));
+  real v = smith_visibility_cos_i(m.ndf, wo, wi, ax, ay);
+  return r3_scale(fresnel_eval(m.fresnel, oh), R(4.0) * v * oh / h.z);
 }
 
 /* int_P f(wi, wo) cos(theta_i) dwi per unit radiance, RGB, by LSM15 (steps 1-6 above).
@@ -194,20 +236,29 @@ GLINT_FN real3 area_lecocq_polygon(SmoothMaterial m, const GLINT_GLOBAL float *t
                     : R(0.0);
 
   /* Steps 4-5 on the polygon and on the upper hemisphere (8 vertices on the horizon, whose
-   * edges are the horizon itself; Eq. N1). */
-  real tau_p = fabs(lecocq_region(w, nc, wo, sx, sy, N, pw));
+   * edges are the horizon itself; Eq. N2). */
+  real accp[4], acch[4];
+  lecocq_region(w, nc, wo, sx, sy, N, pw, accp);
   real3 hemi[8];
   for (int k = 0; k < 8; ++k) {
     real ang = (real)k * R(0.78539816339744831); /* pi / 4 */
     hemi[k] = make_real3(cos(ang), sin(ang), R(0.0));
   }
-  real tau_h = fabs(lecocq_region(hemi, 8, wo, sx, sy, N, pw));
+  lecocq_region(hemi, 8, wo, sx, sy, N, pw, acch);
+  real tau_p = fabs(accp[0]), tau_h = fabs(acch[0]);
   real ratio = tau_h > R(0.0) ? clamp(tau_p / tau_h, R(0.0), R(1.0)) : R(0.0);
 
-  /* Step 6: the Fresnel-weighted albedo (as area_ltc_polygon). */
+  /* Step 6 (README Eq. N2): albedo(wo) * [W(h_P) tau(P)] / [W(h_H) tau(H)], W (Eq. H1) at the
+   * lobe-weighted mean half vectors h_P, h_H of the polygon and of the hemisphere (Eq. M1-M3).
+   * The result cannot exceed the albedo (P lies in the hemisphere). */
+  real3 wp = lecocq_weight(m, ax, ay, wo, accp);
+  real3 wh = lecocq_weight(m, ax, ay, wo, acch);
   real e[GLINT_LTC_ENTRY];
   area_ltc_lookup(table, alpha, wo.z, e);
-  return r3_scale(area_ltc_albedo(m, e), ratio);
+  real3 alb = area_ltc_albedo(m, e);
+  return make_real3(wh.x > R(0.0) ? fmin(alb.x * ratio * wp.x / wh.x, alb.x) : R(0.0),
+                    wh.y > R(0.0) ? fmin(alb.y * ratio * wp.y / wh.y, alb.y) : R(0.0),
+                    wh.z > R(0.0) ? fmin(alb.z * ratio * wp.z / wh.z, alb.z) : R(0.0));
 }
 
 #endif /* GLINT_AREA_LECOCQ_H */

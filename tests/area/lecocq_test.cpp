@@ -1,8 +1,8 @@
 // kernels/area_lecocq.h (Lecocq et al. 2015 analytic polygon lights, LECOCQ and
 // LECOCQ_PEARSON): both methods against the REFERENCE quadrature of kernels/area_lights.h per
 // region (roughness band x view band, GGX and Beckmann), the identities the construction
-// guarantees (hemisphere-filling light = albedo, invariance under light subdivision, facing
-// and horizon rules), and fp32 extremes.
+// guarantees (hemisphere-filling light = albedo, additive contour sums under light subdivision,
+// facing and horizon rules), and fp32 extremes.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -175,19 +175,24 @@ double RelErr(double x, double ref) {
 }
 
 TEST(AreaLecocq, AgreesWithReferencePerRegion) {
-  // Bounds: measured (this sweep, GGX + Beckmann, see the printed table) * 1.15 + 0.01. The
-  // error is dominated by step 6 (W replaced by its lobe average) at high roughness and grazing
-  // views, and by the Phong lobe's missing GGX tail at low roughness (tools/lecocq/README.md).
+  // Bounds: measured (this sweep, GGX + Beckmann, see the printed table) * 1.15 + 0.01, except
+  // where the measurement did not improve on the previous version (lobe-average W; kept bounds
+  // marked "kept"). The remaining error: at low roughness the Phong lobe's missing GGX tail (a
+  // light off the highlight gets ~0: the max ~1 entries), at high roughness and grazing views
+  // the curvature of W (G2 near the horizon) around the mean half vector of step 6 and the
+  // Phong shape of Beckmann at alpha ~1 (tools/lecocq/README.md).
   std::vector<Region> regions = {
-      {"a 0.05-0.15, view < 50", 0.05, 0.15, 0, 50, {0.14, 0.66, 1.21}, {0.14, 0.70, 1.12}, {}},
-      {"a 0.05-0.15, view 50-75", 0.05, 0.15, 50, 75, {0.21, 0.96, 1.14}, {0.21, 0.99, 1.14}, {}},
-      {"a 0.05-0.15, view 75-85", 0.05, 0.15, 75, 86, {0.32, 1.12, 1.15}, {0.31, 1.13, 1.16}, {}},
-      {"a 0.15-0.4, view < 50", 0.15, 0.4, 0, 50, {0.20, 0.65, 1.72}, {0.19, 0.61, 1.65}, {}},
-      {"a 0.15-0.4, view 50-75", 0.15, 0.4, 50, 75, {0.28, 0.91, 1.34}, {0.28, 1.02, 1.37}, {}},
-      {"a 0.15-0.4, view 75-85", 0.15, 0.4, 75, 86, {0.38, 0.96, 1.11}, {0.37, 1.08, 1.12}, {}},
-      {"a 0.4-1, view < 50", 0.4, 1.01, 0, 50, {0.34, 1.66, 2.93}, {0.34, 1.69, 2.93}, {}},
-      {"a 0.4-1, view 50-75", 0.4, 1.01, 50, 75, {0.53, 2.51, 3.69}, {0.53, 2.51, 3.69}, {}},
-      {"a 0.4-1, view 75-85", 0.4, 1.01, 75, 86, {0.59, 2.53, 4.03}, {0.60, 2.53, 4.03}, {}},
+      {"a 0.05-0.15, view < 50", 0.05, 0.15, 0, 50, {0.14, 0.65, 1.11}, {0.14, 0.70, 1.12}, {}},
+      {"a 0.05-0.15, view 50-75", 0.05, 0.15, 50, 75, {0.17, 0.88, 1.11}, {0.16, 0.93, 1.14}, {}},
+      // p95 and max kept.
+      {"a 0.05-0.15, view 75-85", 0.05, 0.15, 75, 86, {0.25, 1.12, 1.15}, {0.24, 1.13, 1.16}, {}},
+      {"a 0.15-0.4, view < 50", 0.15, 0.4, 0, 50, {0.14, 0.53, 0.79}, {0.13, 0.53, 0.70}, {}},
+      {"a 0.15-0.4, view 50-75", 0.15, 0.4, 50, 75, {0.15, 0.58, 0.87}, {0.14, 0.45, 0.96}, {}},
+      // PEARSON max kept.
+      {"a 0.15-0.4, view 75-85", 0.15, 0.4, 75, 86, {0.21, 0.89, 1.11}, {0.20, 0.89, 1.12}, {}},
+      {"a 0.4-1, view < 50", 0.4, 1.01, 0, 50, {0.18, 0.42, 0.65}, {0.18, 0.42, 0.65}, {}},
+      {"a 0.4-1, view 50-75", 0.4, 1.01, 50, 75, {0.17, 0.39, 0.71}, {0.17, 0.39, 0.71}, {}},
+      {"a 0.4-1, view 75-85", 0.4, 1.01, 75, 86, {0.16, 0.38, 1.32}, {0.16, 0.38, 1.37}, {}},
   };
   for (int ndf : {GLINT_NDF_GGX, GLINT_NDF_BECKMANN}) {
     for (double a : {0.05, 0.08, 0.12, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0}) {
@@ -235,7 +240,7 @@ TEST(AreaLecocq, AgreesWithReferencePerRegion) {
 }
 
 // A light that fills the upper hemisphere returns the albedo (step 6 of the header: the
-// hemisphere normaliser and the polygon go through the same approximation), and the
+// hemisphere normaliser and the polygon go through the same approximation, W included), and the
 // hemisphere integral of f cos is the albedo the REFERENCE gives too (up to table error).
 TEST(AreaLecocq, HemisphereFillingLightGivesAlbedo) {
   const auto huge = Facing(Quad({0, 0, 1}, {1e5, 0, 0}, {0, 1e5, 0}));
@@ -253,10 +258,11 @@ TEST(AreaLecocq, HemisphereFillingLightGivesAlbedo) {
   }
 }
 
-// Invariance under light subdivision: a quad and its two triangles. Interior edges are
-// traversed both ways and cancel exactly (lecocq_edge is antisymmetric), so the sums agree to
-// rounding.
-TEST(AreaLecocq, InvariantUnderLightSubdivision) {
+// Light subdivision: a quad and its two triangles. The contour sums (the Phong-lobe mass and
+// the moments of step 6) are additive: interior edges are traversed both ways and cancel
+// exactly (lecocq_edge is antisymmetric). The result is not: W is evaluated at each piece's own
+// mean half vector (step 6), so whole and parts differ by W's variation (measured < 0.4%).
+TEST(AreaLecocq, SubdivisionOfTheLight) {
   const auto q = Facing(Quad({0.3, -0.2, 1.0}, {0.6, 0, 0.1}, {0, 0.5, 0}));
   std::vector<V3> t1 = {q[0], q[1], q[2]}, t2 = {q[0], q[2], q[3]};
   for (double a : {0.05, 0.3, 0.9}) {
@@ -264,12 +270,30 @@ TEST(AreaLecocq, InvariantUnderLightSubdivision) {
       Mat m{GLINT_NDF_GGX, a, a * 0.5, 1.0};
       double whole = Eval64(m, Wo(40, 200), q, method);
       double parts = Eval64(m, Wo(40, 200), t1, method) + Eval64(m, Wo(40, 200), t2, method);
-      EXPECT_NEAR(whole, parts, 1e-9 + 1e-9 * whole) << "alpha " << a;
+      EXPECT_NEAR(whole, parts, 0.01 * whole) << "alpha " << a;
+      using namespace k64;
+      real3 wo = r3_normalize(make_real3(Wo(40, 200).x, Wo(40, 200).y, Wo(40, 200).z));
+      double acc[3][4];
+      const std::vector<V3> *polys[3] = {&q, &t1, &t2};
+      for (int k = 0; k < 3; ++k) {
+        real3 w[4];
+        for (size_t i = 0; i < polys[k]->size(); ++i) {
+          const V3 &p = (*polys[k])[i];
+          w[i] = r3_normalize(make_real3(p.x, p.y, p.z));
+        }
+        lecocq_region(w, int(polys[k]->size()), wo, std::sqrt(0.5), std::sqrt(2.0), 1 / (a * a),
+                      method == kPearson ? 1.0 : 0.0, acc[k]);
+      }
+      for (int j = 0; j < 4; ++j) {
+        EXPECT_NEAR(acc[0][j], acc[1][j] + acc[2][j], 1e-12 + 1e-9 * std::fabs(acc[0][j]))
+            << "alpha " << a << " moment " << j;
+      }
     }
   }
 }
 
-// Anisotropic alpha: the stretch of step 2 is exact for D, the albedo uses sqrt(ax ay).
+// Anisotropic alpha: the stretch of step 2 is exact for D, the albedo uses sqrt(ax ay); W of
+// step 6 is evaluated with the true alpha_x, alpha_y.
 TEST(AreaLecocq, AnisotropicAgreesWithReference) {
   double worst[2] = {0, 0};
   for (double ax : {0.1, 0.3}) {
@@ -290,8 +314,8 @@ TEST(AreaLecocq, AnisotropicAgreesWithReference) {
   }
   std::printf("anisotropic (alpha_y/alpha_x 0.25, 0.5): worst LECOCQ %.3f PEARSON %.3f\n", worst[0],
               worst[1]);
-  EXPECT_LT(worst[0], 2.0);  // measured 1.66
-  EXPECT_LT(worst[1], 2.0);  // measured 1.75
+  EXPECT_LT(worst[0], 1.16);  // measured 0.997 (1.66 with the lobe-average W)
+  EXPECT_LT(worst[1], 1.16);  // measured 1.000 (1.75 with the lobe-average W)
 }
 
 TEST(AreaLecocq, HorizonAndFacing) {

@@ -295,3 +295,108 @@ TEST(Validation, StreamIndicesAreGlobal) {
 
 }  // namespace
 }  // namespace glint
+
+namespace glint {
+namespace {
+
+// A valid BINOMIAL request: uv, footprint, a sun-like directional light and a sphere light.
+EvaluateRequest GoodBinomial() {
+  EvaluateRequest r = GoodProbe(3);
+  auto *m = r.mutable_material();
+  m->set_model(v1::BINOMIAL);
+  m->mutable_binomial()->set_density(1e6);
+  auto *q = r.mutable_queries();
+  q->clear_wi();
+  for (int i = 0; i < 3; ++i) {
+    for (float v : {0.5f, 0.25f}) q->add_uv(v);
+    for (float v : {1e-3f, 0.0f, 0.0f, 1e-3f}) q->add_footprint(v);
+  }
+  auto *d = r.add_lights()->mutable_directional();
+  for (float v : {0.0f, 0.0f, 1.0f}) d->add_direction(v);
+  for (float v : {1.0f, 1.0f, 1.0f}) d->add_irradiance(v);
+  d->set_cone_half_angle_deg(0.26f);
+  auto *p = r.add_lights()->mutable_point();
+  for (float v : {0.0f, 1.0f, 2.0f}) p->add_position(v);
+  for (float v : {1.0f, 1.0f, 1.0f}) p->add_intensity(v);
+  p->set_radius(0.1f);
+  return r;
+}
+
+Status ValidateBinomial(const EvaluateRequest &r) {
+  Status s = Validate(r);
+  return s.ok() ? ValidateQueriesForModel(r.queries(), r) : s;
+}
+
+TEST(Validation, BinomialRefusalsNameTheFieldAndWhatIsNeeded) {
+  Status ok = ValidateBinomial(GoodBinomial());
+  EXPECT_TRUE(ok.ok()) << ok.message();
+  const Case cases[] = {
+      {"no binomial block",
+       [](EvaluateRequest &r) { r.mutable_material()->clear_binomial(); },
+       {"material.binomial: unset"}},
+      {"zero density",
+       [](EvaluateRequest &r) { r.mutable_material()->mutable_binomial()->set_density(0); },
+       {"material.binomial.density: 0", "(0, 1e30]"}},
+      {"nan density",
+       [](EvaluateRequest &r) {
+         r.mutable_material()->mutable_binomial()->set_density(std::nan(""));
+       },
+       {"material.binomial.density"}},
+      {"unknown p_mode",
+       [](EvaluateRequest &r) {
+         r.mutable_material()->mutable_binomial()->set_p_mode(
+             static_cast<v1::ReflectionProbability>(7));
+       },
+       {"material.binomial.p_mode: unknown value 7"}},
+      {"negative r",
+       [](EvaluateRequest &r) { r.mutable_material()->mutable_binomial()->set_r(-1); },
+       {"material.binomial.r: -1"}},
+      {"threshold out of range",
+       [](EvaluateRequest &r) {
+         r.mutable_material()->mutable_binomial()->set_normal_threshold(100);
+       },
+       {"material.binomial.normal_threshold: 100", "[1, 40]"}},
+      {"binomial block on a smooth material",
+       [](EvaluateRequest &r) { r.mutable_material()->set_model(v1::SMOOTH); },
+       {"material.binomial: set, but material.model is SMOOTH"}},
+      {"directional light of zero size",
+       [](EvaluateRequest &r) {
+         r.mutable_lights(0)->mutable_directional()->set_cone_half_angle_deg(0);
+       },
+       {"lights[0].directional.cone_half_angle_deg: 0", "finite size"}},
+      {"point light of zero radius",
+       [](EvaluateRequest &r) { r.mutable_lights(1)->mutable_point()->set_radius(0); },
+       {"lights[1].point.radius: 0", "finite"}},
+      {"no uv",
+       [](EvaluateRequest &r) { r.mutable_queries()->clear_uv(); },
+       {"queries.uv: empty", "BINOMIAL"}},
+      {"no footprint",
+       [](EvaluateRequest &r) { r.mutable_queries()->clear_footprint(); },
+       {"queries.footprint: empty", "BINOMIAL"}},
+      {"probe",
+       [](EvaluateRequest &r) {
+         r.clear_lights();
+         for (int i = 0; i < 3; ++i)
+           for (float v : {0.0f, -0.6f, 0.8f}) r.mutable_queries()->add_wi(v);
+       },
+       {"queries.wi", "delta light"}},
+  };
+  for (const Case &c : cases) {
+    EvaluateRequest r = GoodBinomial();
+    c.mutate(r);
+    Status s = ValidateBinomial(r);
+    ASSERT_FALSE(s.ok()) << c.name;
+    EXPECT_EQ(s.code(), Status::Code::kInvalidArgument) << c.name;
+    for (const char *part : c.must_contain)
+      EXPECT_NE(s.message().find(part), std::string::npos)
+          << c.name << ": '" << s.message() << "' lacks '" << part << "'";
+  }
+  // HEURISTIC_R does not use the light's size: a zero cone is accepted.
+  EvaluateRequest heuristic = GoodBinomial();
+  heuristic.mutable_material()->mutable_binomial()->set_p_mode(v1::HEURISTIC_R);
+  heuristic.mutable_lights(0)->mutable_directional()->set_cone_half_angle_deg(0);
+  EXPECT_TRUE(ValidateBinomial(heuristic).ok());
+}
+
+}  // namespace
+}  // namespace glint

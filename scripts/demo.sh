@@ -29,6 +29,10 @@ done
 "$GLINT" preview --server "$SERVER" --material examples/materials/gold_aniso.json \
   --lights examples/lights/softbox.json --scene sphere --size 512x384 \
   --out "$OUT/preview_softbox.exr"
+# Binomial glints (Kneiphof & Klein 2024): a sparkly metal plane under a small rect light.
+"$GLINT" preview --server "$SERVER" --material examples/materials/sparkle_binomial.json \
+  --lights examples/lights/rect_small.json --scene plane --size 512x384 --seed 1 \
+  --out "$OUT/preview_glints.exr"
 echo
 echo "Preview images are in $OUT:"
 ls -1 "$OUT"/preview_*

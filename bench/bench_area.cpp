@@ -63,6 +63,7 @@
 #include "server/eval_plan.h"
 #include "server/host_path.h"
 #include "server/validation.h"
+#include "tests/support/plane_adaptive.h"
 
 // The kernels' BRDF in double for the adaptive truth (the same single source as the device).
 namespace kd {
@@ -287,143 +288,24 @@ glint::v1::EvaluateRequest MakeRequest(const Sweep &sw, int ndf, double alpha, i
 // hemisphere-filling lights at grazing views (REFERENCE-1024 is off by up to 10% there: see the
 // introduction, and
 // --truth reference).
-struct Segment {
-  double a, b, value, error;
-  bool operator<(const Segment &o) const { return error < o.error; }
-};
-
-template <typename F>
-Segment Gk15(F &&f, double a, double b) {
-  static const double xk[8] = {
-      0.991455371120812639, 0.949107912342758525, 0.864864423359769073, 0.741531185599394440,
-      0.586087235467691130, 0.405845151377397167, 0.207784955007898468, 0.0};
-  static const double wk[8] = {0.022935322010529225, 0.063092092629978553, 0.104790010322250184,
-                               0.140653259715525919, 0.169004726639267903, 0.190350578064785410,
-                               0.204432940075298892, 0.209482141084727828};
-  static const double wg[4] = {0.129484966168869693, 0.279705391489276668, 0.381830050505118945,
-                               0.417959183673469388};
-  const double c = 0.5 * (a + b), h = 0.5 * (b - a);
-  double fc = f(c), k = fc * wk[7], g = fc * wg[3];
-  for (int i = 0; i < 7; ++i) {
-    double s = f(c - h * xk[i]) + f(c + h * xk[i]);
-    k += wk[i] * s;
-    if (i % 2 == 1) g += wg[i / 2] * s;
-  }
-  return {a, b, k * h, std::fabs((k - g) * h)};
-}
-
-template <typename F>
-double Adaptive(F &&f, const std::vector<double> &cuts, double rel_tol, double abs_tol) {
-  std::vector<Segment> heap;
-  double value = 0, error = 0;
-  for (size_t i = 0; i + 1 < cuts.size(); ++i) {
-    if (!(cuts[i + 1] > cuts[i])) continue;
-    heap.push_back(Gk15(f, cuts[i], cuts[i + 1]));
-    value += heap.back().value;
-    error += heap.back().error;
-  }
-  std::make_heap(heap.begin(), heap.end());
-  while (!heap.empty() && error > std::max(abs_tol, rel_tol * std::fabs(value)) &&
-         heap.size() < 4000) {
-    std::pop_heap(heap.begin(), heap.end());
-    const Segment s = heap.back();
-    heap.pop_back();
-    const double m = 0.5 * (s.a + s.b);
-    const Segment l = Gk15(f, s.a, m), r = Gk15(f, m, s.b);
-    value += l.value + r.value - s.value;
-    error += l.error + r.error - s.error;
-    for (const Segment &t : {l, r}) {
-      heap.push_back(t);
-      std::push_heap(heap.begin(), heap.end());
-    }
-  }
-  return value;
-}
-
-// Breakpoints at `peak` and at peak +- 2^-k (k = 0..30) inside (lo, hi): Gauss-Kronrod nodes
-// never sit on an interval's end, so a lobe much narrower than the interval next to a lone
-// breakpoint (Beckmann, alpha = 0.01, grazing: ~1e-4 rad) would be missed entirely (a Gaussian
-// has no tail for the error estimate to see); geometric grading puts nodes at every scale.
-void AddGradedCuts(double peak, double lo, double hi, std::vector<double> *cuts) {
-  if (!(peak > lo && peak < hi)) return;
-  cuts->push_back(peak);
-  for (int k = 0; k <= 30; ++k) {
-    const double d = std::ldexp(1.0, -k);
-    if (peak - d > lo) cuts->push_back(peak - d);
-    if (peak + d < hi) cuts->push_back(peak + d);
-  }
-}
-
 // L * int_P f cos_i dwi (red channel, grey Schlick f0 = 1, radiance 1) for a polygon given in
 // the local frame (one-sided, facing the origin) and a local wo.
 double PlaneAdaptive(int ndf, double alpha, D3 wo, const std::vector<D3> &poly, double rel_tol) {
+  using glint::test::plane::Vec;
   kd::SmoothMaterial m;
   m.ndf = ndf;
   m.alpha_x = m.alpha_y = alpha;
   m.fresnel.kind = GLINT_FRESNEL_SCHLICK;
   m.fresnel.a = kd::make_real3(1.0, 1.0, 1.0);
   m.fresnel.b = kd::make_real3(0.0, 0.0, 0.0);
-  const kd::real3 wo_k = kd::make_real3(wo.x, wo.y, wo.z);
-  D3 nn = {0, 0, 0};
-  for (size_t i = 0; i < poly.size(); ++i) nn = nn + Cross(poly[i], poly[(i + 1) % poly.size()]);
-  nn = Normalize(nn);
-  double d = Dot(nn, poly[0]);
-  if (d < 0) {
-    nn = nn * -1.0;
-    d = -d;
-  }
-  const D3 c0 = nn * d;
-  const D3 e1 = Normalize(poly[1] - poly[0]), e2 = Cross(nn, e1);
-  std::vector<std::pair<double, double>> in, q;
-  for (D3 p : poly) in.push_back({Dot(p - c0, e1), Dot(p - c0, e2)});
-  auto z = [&](std::pair<double, double> p) { return c0.z + p.first * e1.z + p.second * e2.z; };
-  for (size_t i = 0; i < in.size(); ++i) {
-    auto a = in[i], b = in[(i + 1) % in.size()];
-    const double za = z(a), zb = z(b);
-    if (za >= 0) q.push_back(a);
-    if ((za >= 0) != (zb >= 0)) {
-      const double t = za / (za - zb);
-      q.push_back({a.first + t * (b.first - a.first), a.second + t * (b.second - a.second)});
-    }
-  }
-  if (q.size() < 3) return 0;
-  const D3 mirror = {-wo.x, -wo.y, wo.z};
-  const double md = Dot(mirror, nn);
-  double up = NAN, vp = NAN;
-  if (md > 1e-12) {
-    const D3 hit = mirror * (d / md) - c0;
-    up = std::atan(Dot(hit, e1) / d);
-    vp = std::atan(Dot(hit, e2) / d);
-  }
-  std::vector<double> vcuts;
-  for (auto p : q) vcuts.push_back(std::atan(p.second / d));
-  std::sort(vcuts.begin(), vcuts.end());
-  if (!std::isnan(vp)) AddGradedCuts(vp, vcuts.front(), vcuts.back(), &vcuts);
-  std::sort(vcuts.begin(), vcuts.end());
-  auto row = [&](double v) {
-    const double tv = std::tan(v), y = d * tv;
-    double xl = INFINITY, xr = -INFINITY;
-    for (size_t i = 0; i < q.size(); ++i) {
-      auto a = q[i], b = q[(i + 1) % q.size()];
-      const double lo = std::min(a.second, b.second), hi = std::max(a.second, b.second);
-      if (y < lo || y > hi || hi == lo) continue;
-      const double x = a.first + (y - a.second) * (b.first - a.first) / (b.second - a.second);
-      xl = std::min(xl, x);
-      xr = std::max(xr, x);
-    }
-    if (!(xr > xl)) return 0.0;
-    std::vector<double> ucuts = {std::atan(xl / d), std::atan(xr / d)};
-    AddGradedCuts(up, ucuts[0], ucuts[1], &ucuts);
-    std::sort(ucuts.begin(), ucuts.end());
-    auto g = [&](double u) {
-      const double tu = std::tan(u), s = 1 + tu * tu + tv * tv;
-      const D3 w = Normalize(c0 + e1 * (d * tu) + e2 * y);
-      const double fc = kd::smooth_reflect_cos(m, kd::make_real3(w.x, w.y, w.z), wo_k).x;
-      return fc * (1 + tu * tu) * (1 + tv * tv) / (s * std::sqrt(s));
-    };
-    return Adaptive(g, ucuts, 0.1 * rel_tol, 1e-15);
+  std::vector<Vec> p;
+  for (D3 v : poly) p.push_back({v.x, v.y, v.z});
+  auto f_cos = [&](Vec wi, Vec o) {
+    return kd::smooth_reflect_cos(m, kd::make_real3(wi.x, wi.y, wi.z),
+                                  kd::make_real3(o.x, o.y, o.z))
+        .x;
   };
-  return Adaptive(row, vcuts, rel_tol, 1e-13);
+  return glint::test::plane::PlaneAdaptive(f_cos, {wo.x, wo.y, wo.z}, p, rel_tol);
 }
 
 int TruthSamples(double alpha) {

@@ -1,6 +1,7 @@
 #include "server/device_engine.h"
 
 #include <algorithm>
+#include <initializer_list>
 #include <iterator>
 
 #include "server/kernel_source.h"
@@ -63,6 +64,36 @@ Status MakeInput(cl_context ctx, const float *data, size_t count, cl_mem dummy, 
   if (err != CL_SUCCESS)
     return Status::Internal("clCreateBuffer (input) failed: " + ClErrorName(err));
   *arg = buf->get();
+  return Status::Ok();
+}
+
+// One kernel input: `count` floats at `data`, bound to *arg through *buf (MakeInput).
+struct Input {
+  const float *data;
+  size_t count;
+  Buffer *buf;
+  cl_mem *arg;
+};
+
+Status MakeInputs(cl_context ctx, cl_mem dummy, std::initializer_list<Input> inputs) {
+  for (const Input &in : inputs) {
+    Status s = MakeInput(ctx, in.data, in.count, dummy, in.buf, in.arg);
+    if (!s.ok()) return s;
+  }
+  return Status::Ok();
+}
+
+// Mapping a CL_MEM_USE_HOST_PTR output buffer makes the caller's array hold the results (a
+// no-op on PoCL's CPU device, a copy on devices that needed their own memory); then waits for
+// the queue, because the input buffers wrap request memory that dies with the call.
+Status ReadBackAndFinish(cl_command_queue queue, cl_mem out, size_t bytes) {
+  cl_int err = CL_SUCCESS;
+  void *mapped =
+      clEnqueueMapBuffer(queue, out, CL_TRUE, CL_MAP_READ, 0, bytes, 0, nullptr, nullptr, &err);
+  if (err != CL_SUCCESS)
+    return Status::Internal("clEnqueueMapBuffer (output) failed: " + ClErrorName(err));
+  GLINT_CL_CHECK(clEnqueueUnmapMemObject(queue, out, mapped, 0, nullptr, nullptr));
+  GLINT_CL_CHECK(clFinish(queue));
   return Status::Ok();
 }
 
@@ -143,21 +174,14 @@ Status DeviceEngine::EvaluateArea(Lane &lane, const EvalPlan &plan, const glint:
   cl_context ctx = runtime_->context();
   Buffer wo, pos, nrm, tan, mat, poly;
   cl_mem a_wo, a_pos, a_nrm, a_tan, a_mat, a_poly;
-  const struct {
-    const float *data;
-    size_t count;
-    Buffer *buf;
-    cl_mem *arg;
-  } inputs[] = {{q.wo().data(), size_t(q.wo_size()), &wo, &a_wo},
-                {q.position().data(), size_t(q.position_size()), &pos, &a_pos},
-                {q.normal().data(), size_t(q.normal_size()), &nrm, &a_nrm},
-                {q.tangent().data(), size_t(q.tangent_size()), &tan, &a_tan},
-                {plan.material.data(), plan.material.size(), &mat, &a_mat},
-                {plan.polygon.data(), plan.polygon.size(), &poly, &a_poly}};
-  for (const auto &in : inputs) {
-    s = MakeInput(ctx, in.data, in.count, lane.dummy, in.buf, in.arg);
-    if (!s.ok()) return s;
-  }
+  s = MakeInputs(ctx, lane.dummy,
+                 {{q.wo().data(), size_t(q.wo_size()), &wo, &a_wo},
+                  {q.position().data(), size_t(q.position_size()), &pos, &a_pos},
+                  {q.normal().data(), size_t(q.normal_size()), &nrm, &a_nrm},
+                  {q.tangent().data(), size_t(q.tangent_size()), &tan, &a_tan},
+                  {plan.material.data(), plan.material.size(), &mat, &a_mat},
+                  {plan.polygon.data(), plan.polygon.size(), &poly, &a_poly}});
+  if (!s.ok()) return s;
   cl_mem table = ltc_tables_[plan.spec.ndf == 2 ? 1 : 0];
   const cl_uint n_poly = plan.n_polygon;
   const cl_int method = plan.area_method, samples = plan.area_samples, acc = accumulate ? 1 : 0;
@@ -193,26 +217,19 @@ Status DeviceEngine::EvaluateBinomial(Lane &lane, const EvalPlan &plan,
   cl_context ctx = runtime_->context();
   Buffer uv, fp, wo, pos, nrm, tan, mat, bin, dir, pnt, poly, out;
   cl_mem a_uv, a_fp, a_wo, a_pos, a_nrm, a_tan, a_mat, a_bin, a_dir, a_pnt, a_poly;
-  const struct {
-    const float *data;
-    size_t count;
-    Buffer *buf;
-    cl_mem *arg;
-  } inputs[] = {{q.uv().data(), size_t(q.uv_size()), &uv, &a_uv},
-                {q.footprint().data(), size_t(q.footprint_size()), &fp, &a_fp},
-                {q.wo().data(), size_t(q.wo_size()), &wo, &a_wo},
-                {q.position().data(), size_t(q.position_size()), &pos, &a_pos},
-                {q.normal().data(), size_t(q.normal_size()), &nrm, &a_nrm},
-                {q.tangent().data(), size_t(q.tangent_size()), &tan, &a_tan},
-                {plan.material.data(), plan.material.size(), &mat, &a_mat},
-                {plan.binomial.data(), plan.binomial.size(), &bin, &a_bin},
-                {plan.directional.data(), plan.directional.size(), &dir, &a_dir},
-                {plan.point.data(), plan.point.size(), &pnt, &a_pnt},
-                {plan.polygon.data(), plan.polygon.size(), &poly, &a_poly}};
-  for (const auto &in : inputs) {
-    s = MakeInput(ctx, in.data, in.count, lane.dummy, in.buf, in.arg);
-    if (!s.ok()) return s;
-  }
+  s = MakeInputs(ctx, lane.dummy,
+                 {{q.uv().data(), size_t(q.uv_size()), &uv, &a_uv},
+                  {q.footprint().data(), size_t(q.footprint_size()), &fp, &a_fp},
+                  {q.wo().data(), size_t(q.wo_size()), &wo, &a_wo},
+                  {q.position().data(), size_t(q.position_size()), &pos, &a_pos},
+                  {q.normal().data(), size_t(q.normal_size()), &nrm, &a_nrm},
+                  {q.tangent().data(), size_t(q.tangent_size()), &tan, &a_tan},
+                  {plan.material.data(), plan.material.size(), &mat, &a_mat},
+                  {plan.binomial.data(), plan.binomial.size(), &bin, &a_bin},
+                  {plan.directional.data(), plan.directional.size(), &dir, &a_dir},
+                  {plan.point.data(), plan.point.size(), &pnt, &a_pnt},
+                  {plan.polygon.data(), plan.polygon.size(), &poly, &a_poly}});
+  if (!s.ok()) return s;
   cl_int err = CL_SUCCESS;
   const size_t out_bytes = size_t(n) * 3 * sizeof(float);
   *out.out() =
@@ -242,14 +259,7 @@ Status DeviceEngine::EvaluateBinomial(Lane &lane, const EvalPlan &plan,
   const size_t global = (size_t(n) + local - 1) / local * local;
   GLINT_CL_CHECK(
       clEnqueueNDRangeKernel(lane.queue, kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr));
-  void *mapped = clEnqueueMapBuffer(lane.queue, a_out, CL_TRUE, CL_MAP_READ, 0, out_bytes, 0,
-                                    nullptr, nullptr, &err);
-  if (err != CL_SUCCESS)
-    return Status::Internal("clEnqueueMapBuffer (output) failed: " + ClErrorName(err));
-  GLINT_CL_CHECK(clEnqueueUnmapMemObject(lane.queue, a_out, mapped, 0, nullptr, nullptr));
-  // The input buffers above wrap request memory and die with this call: wait for the kernel.
-  GLINT_CL_CHECK(clFinish(lane.queue));
-  return Status::Ok();
+  return ReadBackAndFinish(lane.queue, a_out, out_bytes);
 }
 
 Status DeviceEngine::KernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *out) {
@@ -284,23 +294,16 @@ Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan, const glint:
 
   Buffer wo, wi, pos, nrm, tan, mat, dir, pnt, out;
   cl_mem a_wo, a_wi, a_pos, a_nrm, a_tan, a_mat, a_dir, a_pnt;
-  const struct {
-    const float *data;
-    size_t count;
-    Buffer *buf;
-    cl_mem *arg;
-  } inputs[] = {{q.wo().data(), size_t(q.wo_size()), &wo, &a_wo},
-                {q.wi().data(), size_t(q.wi_size()), &wi, &a_wi},
-                {q.position().data(), size_t(q.position_size()), &pos, &a_pos},
-                {q.normal().data(), size_t(q.normal_size()), &nrm, &a_nrm},
-                {q.tangent().data(), size_t(q.tangent_size()), &tan, &a_tan},
-                {plan.material.data(), plan.material.size(), &mat, &a_mat},
-                {plan.directional.data(), plan.directional.size(), &dir, &a_dir},
-                {plan.point.data(), plan.point.size(), &pnt, &a_pnt}};
-  for (const auto &in : inputs) {
-    s = MakeInput(ctx, in.data, in.count, lane.dummy, in.buf, in.arg);
-    if (!s.ok()) return s;
-  }
+  s = MakeInputs(ctx, lane.dummy,
+                 {{q.wo().data(), size_t(q.wo_size()), &wo, &a_wo},
+                  {q.wi().data(), size_t(q.wi_size()), &wi, &a_wi},
+                  {q.position().data(), size_t(q.position_size()), &pos, &a_pos},
+                  {q.normal().data(), size_t(q.normal_size()), &nrm, &a_nrm},
+                  {q.tangent().data(), size_t(q.tangent_size()), &tan, &a_tan},
+                  {plan.material.data(), plan.material.size(), &mat, &a_mat},
+                  {plan.directional.data(), plan.directional.size(), &dir, &a_dir},
+                  {plan.point.data(), plan.point.size(), &pnt, &a_pnt}});
+  if (!s.ok()) return s;
   cl_int err = CL_SUCCESS;
   // The kernel writes the caller's array directly (CPU device: no separate
   // allocation to fault in, no copy back); the map below synchronises it.
@@ -334,15 +337,7 @@ Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan, const glint:
     s = EvaluateArea(lane, plan, q, a_out, kernel != nullptr);
     if (!s.ok()) return s;
   }
-  // Mapping a CL_MEM_USE_HOST_PTR buffer makes out_rgb hold the results (a
-  // no-op on PoCL's CPU device, a copy on devices that needed their own memory).
-  void *mapped = clEnqueueMapBuffer(lane.queue, a_out, CL_TRUE, CL_MAP_READ, 0, out_bytes, 0,
-                                    nullptr, nullptr, &err);
-  if (err != CL_SUCCESS)
-    return Status::Internal("clEnqueueMapBuffer (output) failed: " + ClErrorName(err));
-  GLINT_CL_CHECK(clEnqueueUnmapMemObject(lane.queue, a_out, mapped, 0, nullptr, nullptr));
-  GLINT_CL_CHECK(clFinish(lane.queue));
-  return Status::Ok();
+  return ReadBackAndFinish(lane.queue, a_out, out_bytes);
 }
 
 Status DeviceEngine::Warm(const KernelSpec &spec) {

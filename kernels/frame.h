@@ -4,7 +4,7 @@
 #ifndef GLINT_FRAME_H
 #define GLINT_FRAME_H
 
-#include "compat.h"
+#include "kernels/compat.h"
 
 typedef struct {
   real3 t; /* local +x */

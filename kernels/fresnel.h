@@ -3,7 +3,7 @@
 #ifndef GLINT_FRESNEL_H
 #define GLINT_FRESNEL_H
 
-#include "compat.h"
+#include "kernels/compat.h"
 
 #define GLINT_FRESNEL_SCHLICK 1
 #define GLINT_FRESNEL_CONDUCTOR 2

@@ -5,7 +5,7 @@
 #ifndef GLINT_LIGHTS_H
 #define GLINT_LIGHTS_H
 
-#include "compat.h"
+#include "kernels/compat.h"
 
 /* Directional: [dir.xyz (unit, towards the light), E.rgb, cone solid angle 2 pi (1 - cos gamma), 0]. */
 /* Point:       [pos.xyz, I.rgb, radius, 0]. */

@@ -11,7 +11,7 @@
 #ifndef GLINT_NDF_H
 #define GLINT_NDF_H
 
-#include "compat.h"
+#include "kernels/compat.h"
 
 #define GLINT_NDF_GGX 1
 #define GLINT_NDF_BECKMANN 2

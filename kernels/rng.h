@@ -12,7 +12,7 @@
 #ifndef GLINT_RNG_H
 #define GLINT_RNG_H
 
-#include "compat.h"
+#include "kernels/compat.h"
 
 GLINT_FN uint rng_mix(uint x) {
   x ^= x >> 16;

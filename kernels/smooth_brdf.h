@@ -5,9 +5,9 @@
 #ifndef GLINT_SMOOTH_BRDF_H
 #define GLINT_SMOOTH_BRDF_H
 
-#include "compat.h"
-#include "fresnel.h"
-#include "ndf.h"
+#include "kernels/compat.h"
+#include "kernels/fresnel.h"
+#include "kernels/ndf.h"
 
 typedef struct {
   int ndf;

@@ -24,7 +24,7 @@ namespace {
 // Queries per work-item: the kernel evaluates them as the lanes of OpenCL
 // vectors (kernels/compat.h, GLINT_LANES), 8 x fp32 = AVX2 register, 8 x fp64 =
 // AVX-512 register. PoCL's own vectorisation across work-items does not
-// survive the kernel's math (see kernels/smooth.cl), so the width is explicit.
+// survive the kernel's math (see models/smooth/smooth.cl), so the width is explicit.
 constexpr cl_uint kQueriesPerWorkItem = 8;
 
 // The spec's options plus what only the device side decides. Also the key of
@@ -105,9 +105,9 @@ Status DeviceEngine::Create(const DeviceEngineOptions &options,
   engine->options_ = options;
   Status s = ClRuntime::Create(options.device, options.cache_dir, &engine->runtime_);
   if (!s.ok()) return s;
-  engine->smooth_source_ = ExpandKernelSource("smooth.cl");
-  engine->area_source_ = ExpandKernelSource("area_lights.cl");
-  engine->binomial_source_ = ExpandKernelSource("binomial.cl");
+  engine->smooth_source_ = ExpandKernelSource("models/smooth/smooth.cl");
+  engine->area_source_ = ExpandKernelSource("models/smooth/smooth_area.cl");
+  engine->binomial_source_ = ExpandKernelSource("models/binomial/binomial.cl");
   for (int t = 0; t < 2; ++t) {
     cl_int err = CL_SUCCESS;
     // The LTC tables go to the device as buffers, not __constant arrays in the program: 128 KiB

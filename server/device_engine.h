@@ -50,12 +50,12 @@ class DeviceEngine {
   // The lane's kernel `name` of `source` built with `options` (built on first use).
   Status CachedKernel(Lane &lane, const std::string &source, const char *name,
                       const std::string &options, cl_kernel *out);
-  // Runs kernels/area_lights.cl for the plan's polygon lights on `out` (already bound), adding
+  // Runs models/smooth/smooth_area.cl for the plan's polygon lights on `out` (already bound), adding
   // to it when `accumulate`.
   Status EvaluateArea(Lane &lane, const EvalPlan &plan, const glint::v1::QueryBatch &q, cl_mem out,
                       bool accumulate);
 
-  // Runs kernels/binomial.cl (all light kinds in one kernel) into out_rgb.
+  // Runs models/binomial/binomial.cl (all light kinds in one kernel) into out_rgb.
   Status EvaluateBinomial(Lane &lane, const EvalPlan &plan, const glint::v1::QueryBatch &q,
                           float *out_rgb);
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "tools/ltc/ltc_table.h"
+#include "data/ltc/ltc_table.h"
 
 namespace glint {
 namespace {
@@ -13,11 +13,11 @@ namespace {
 constexpr int kNdfGgx = 1, kNdfBeckmann = 2;
 constexpr int kFresnelSchlick = 1, kFresnelConductor = 2, kFresnelDielectric = 3;
 constexpr int kLightFloats = 8;  // GLINT_LIGHT_FLOATS
-// kernels/area_lights.h record: [n, two_sided, L.rgb, 0, 0, 0, 16 x xyz].
+// kernels/area/area_lights.h record: [n, two_sided, L.rgb, 0, 0, 0, 16 x xyz].
 constexpr int kPolygonFloats = 56, kPolygonVertexOffset = 8;
 constexpr int kAreaLtc = 1;
 constexpr int kModelSmooth = 1, kModelBinomial = 2;
-// kernels/binomial_count.h
+// models/binomial/binomial_count.h
 constexpr int kPModeArea = 1, kPModeHeuristicR = 2;
 constexpr float kDefaultNormalThreshold = 9.0f, kDefaultSlopeCell = 0.05f;
 

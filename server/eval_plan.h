@@ -14,14 +14,14 @@ namespace glint {
 
 // Everything that changes the compiled kernel. Equal specs share a program.
 struct KernelSpec {
-  int model = 1;    // 1 smooth (kernels/smooth.cl), 2 binomial (kernels/binomial.cl)
+  int model = 1;    // 1 smooth (models/smooth/smooth.cl), 2 binomial (models/binomial/binomial.cl)
   int ndf = 1;      // GLINT_NDF_* (kernels/ndf.h)
   int fresnel = 1;  // GLINT_FRESNEL_* (kernels/fresnel.h)
   bool probe = false;
   bool has_frame = false;
   bool has_directional = false;
   bool has_point = false;
-  // Request has polygon lights: they run in a separate kernel (kernels/area_lights.cl,
+  // Request has polygon lights: they run in a separate kernel (models/smooth/smooth_area.cl,
   // one query per work-item) and do not change the smooth kernel's build options.
   bool has_polygon = false;
   bool fp64 = false;
@@ -40,11 +40,11 @@ struct EvalPlan {
   std::vector<float> point;
   uint32_t n_directional = 0;
   uint32_t n_point = 0;
-  std::vector<float> polygon;  // GLINT_POLYGON_FLOATS per light (kernels/area_lights.h)
+  std::vector<float> polygon;  // GLINT_POLYGON_FLOATS per light (kernels/area/area_lights.h)
   uint32_t n_polygon = 0;
   int area_method = 1;    // GLINT_AREA_* (= glint.v1.AreaMethod, UNSPECIFIED -> LTC)
   int area_samples = 64;  // REFERENCE nodes per dimension per triangle; MONTE_CARLO samples
-  // kernels/binomial_count.h parameter block (model 2 only).
+  // models/binomial/binomial_count.h parameter block (model 2 only).
   std::array<float, 8> binomial{};
   // The request seed, as the two 32-bit halves the kernels hash (kernels/rng.h).
   uint32_t seed_lo = 0, seed_hi = 0;

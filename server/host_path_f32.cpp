@@ -5,9 +5,9 @@
 
 namespace glint::host_f32 {
 #define GLINT_USE_DOUBLE 0
-#include "kernels/area_lights.h"
-#include "kernels/binomial_eval.h"
-#include "kernels/smooth_eval.h"
+#include "kernels/area/area_lights.h"
+#include "models/binomial/binomial_eval.h"
+#include "models/smooth/smooth_eval.h"
 #include "server/host_path_impl.inc"
 }  // namespace glint::host_f32
 

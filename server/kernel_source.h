@@ -7,7 +7,8 @@
 
 namespace glint {
 
-// Returns the entry file (e.g. "smooth.cl") with every `#include "x.h"` of an
+// Returns the entry file (e.g. "models/smooth/smooth.cl", a path relative to the
+// project root) with every `#include "x.h"` of an
 // embedded file replaced by its (recursively expanded) contents, each file at
 // most once. Throws std::runtime_error for an unknown file.
 std::string ExpandKernelSource(const std::string &entry_file);

@@ -120,7 +120,7 @@ std::vector<glint::KernelSpec> WarmSpecs() {
     lit.has_point = true;
     specs.push_back(lit);
   }
-  // Polygon lights (kernels/area_lights.cl) and the binomial model (kernels/binomial.cl), GGX,
+  // Polygon lights (models/smooth/smooth_area.cl) and the binomial model (models/binomial/binomial.cl), GGX,
   // in the shapes the preview and the demo send.
   glint::KernelSpec area;
   area.has_polygon = true;

@@ -1,4 +1,4 @@
-// kernels/area_lights.h (polygon lights for the smooth model): the REFERENCE quadrature against an
+// kernels/area/area_lights.h (polygon lights for the smooth model): the REFERENCE quadrature against an
 // independent brute-force integration, LTC against REFERENCE per region, horizon and facing
 // rules, the point-light limit, and fp32 extremes.
 #include <gtest/gtest.h>
@@ -9,11 +9,11 @@
 #include <vector>
 
 #include "tests/support/plane_adaptive.h"
-#include "tools/ltc/ltc_table.h"
+#include "data/ltc/ltc_table.h"
 
 namespace k64 {
 #define GLINT_USE_DOUBLE 1
-#include "kernels/area_lights.h"
+#include "kernels/area/area_lights.h"
 }  // namespace k64
 
 namespace k32 {
@@ -31,7 +31,7 @@ namespace k32 {
 #undef GLINT_USE_DOUBLE
 #undef R
 #define GLINT_USE_DOUBLE 0
-#include "kernels/area_lights.h"
+#include "kernels/area/area_lights.h"
 }  // namespace k32
 
 namespace {

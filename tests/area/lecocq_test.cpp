@@ -1,5 +1,5 @@
-// kernels/area_lecocq.h (Lecocq et al. 2015 analytic polygon lights, LECOCQ and
-// LECOCQ_PEARSON): both methods against the REFERENCE quadrature of kernels/area_lights.h per
+// kernels/area/area_lecocq.h (Lecocq et al. 2015 analytic polygon lights, LECOCQ and
+// LECOCQ_PEARSON): both methods against the REFERENCE quadrature of kernels/area/area_lights.h per
 // region (roughness band x view band, GGX and Beckmann), the identities the construction
 // guarantees (hemisphere-filling light = albedo, additive contour sums under light subdivision,
 // facing and horizon rules), and fp32 extremes.
@@ -10,12 +10,12 @@
 #include <cstdio>
 #include <vector>
 
-#include "tools/ltc/ltc_table.h"
+#include "data/ltc/ltc_table.h"
 
 namespace k64 {
 #define GLINT_USE_DOUBLE 1
-#include "kernels/area_lecocq.h"
-#include "kernels/area_lights.h"
+#include "kernels/area/area_lecocq.h"
+#include "kernels/area/area_lights.h"
 }  // namespace k64
 
 namespace k32 {
@@ -33,8 +33,8 @@ namespace k32 {
 #undef GLINT_USE_DOUBLE
 #undef R
 #define GLINT_USE_DOUBLE 0
-#include "kernels/area_lecocq.h"
-#include "kernels/area_lights.h"
+#include "kernels/area/area_lecocq.h"
+#include "kernels/area/area_lights.h"
 }  // namespace k32
 
 namespace {

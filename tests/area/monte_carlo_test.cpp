@@ -1,5 +1,5 @@
-// kernels/area_monte_carlo.h (the MONTE_CARLO area method): unbiasedness against the REFERENCE
-// quadrature of kernels/area_lights.h, 1/sqrt(n) convergence, determinism, multiple importance
+// kernels/area/area_monte_carlo.h (the MONTE_CARLO area method): unbiasedness against the REFERENCE
+// quadrature of kernels/area/area_lights.h, 1/sqrt(n) convergence, determinism, multiple importance
 // sampling against its two techniques alone, and fp32 extremes.
 #include <gtest/gtest.h>
 
@@ -12,8 +12,8 @@
 
 namespace k64 {
 #define GLINT_USE_DOUBLE 1
-#include "kernels/area_lights.h"
-#include "kernels/area_monte_carlo.h"
+#include "kernels/area/area_lights.h"
+#include "kernels/area/area_monte_carlo.h"
 }  // namespace k64
 
 namespace k32 {
@@ -31,7 +31,7 @@ namespace k32 {
 #undef GLINT_USE_DOUBLE
 #undef R
 #define GLINT_USE_DOUBLE 0
-#include "kernels/area_monte_carlo.h"
+#include "kernels/area/area_monte_carlo.h"
 }  // namespace k32
 
 namespace {

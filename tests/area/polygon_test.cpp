@@ -1,4 +1,4 @@
-// kernels/polygon.h against independent references: brute-force quadrature
+// kernels/area/polygon.h against independent references: brute-force quadrature
 // of cos(theta) over the hemisphere with a ray-polygon inside test, and the
 // small-light limit A cos_l cos_r / d^2.
 #include <gtest/gtest.h>
@@ -8,7 +8,7 @@
 
 namespace k64 {
 #define GLINT_USE_DOUBLE 1
-#include "kernels/polygon.h"
+#include "kernels/area/polygon.h"
 }  // namespace k64
 
 namespace {

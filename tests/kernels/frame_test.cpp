@@ -1,5 +1,5 @@
 // kernels/frame.h (fp64): the shading frame is orthonormal and right-handed, maps the normal to
-// +z and the tangent into +x (DESIGN.md conventions), and through kernels/smooth_eval.h the
+// +z and the tangent into +x (DESIGN.md conventions), and through models/smooth/smooth_eval.h the
 // tangent is the alpha_x axis of the BRDF. References: an independent Gram-Schmidt in double
 // (reference.h vectors) and exact frames.
 #include <gtest/gtest.h>
@@ -14,7 +14,7 @@
 
 namespace k64 {
 #define GLINT_USE_DOUBLE 1
-#include "kernels/smooth_eval.h"
+#include "models/smooth/smooth_eval.h"
 }  // namespace k64
 
 namespace glint_test {

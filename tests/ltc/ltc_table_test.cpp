@@ -6,7 +6,7 @@
 // wi itself, in gnomonic coordinates about the lobe's centre with anisotropic tan warps, nested
 // adaptive Simpson rules and the horizon clipped analytically. The BRDF is kernels/smooth_brdf.h
 // compiled in double, as in the tool; the LTC is evaluated by tools/ltc/ltc_table.h.
-#include "tools/ltc/ltc_table.h"
+#include "data/ltc/ltc_table.h"
 
 #include <gtest/gtest.h>
 

@@ -116,7 +116,7 @@ TEST_F(EngineTest, DeviceMatchesHostPathForEverySpecialisation) {
   EXPECT_EQ(combos, 48);
 }
 
-// Polygon lights (kernels/area_lights.cl, a second kernel whose output is added to
+// Polygon lights (models/smooth/smooth_area.cl, a second kernel whose output is added to
 // glint_smooth's) against the host path, every method, with and without a frame and another
 // light kind. fp32 device and host libm differ (atan2, sin, cos in the clipping and quadrature),
 // hence 1e-3 relative; fp64 4e-6. MONTE_CARLO draws the same random numbers on both sides (keyed
@@ -147,7 +147,7 @@ TEST_F(EngineTest, DeviceMatchesHostPathWithPolygonLights) {
           // reach a few 1e-3. In fp64 Lecocq agrees like the other methods, except at views
           // within ~0.3 deg of the horizon (local wo.z < 0.005; here query 277 only, wo.z =
           // 0.0029, 1.3% apart): there the hemisphere normaliser tau(H) of
-          // kernels/area_lecocq.h (step 6) decays to ~1e-14, i.e. to the rounding noise of its
+          // kernels/area/area_lecocq.h (step 6) decays to ~1e-14, i.e. to the rounding noise of its
           // O(1) edge terms (the h-image of the horizon behind wo degenerates), so the ratio
           // clamps to 1 and W(h_H) is taken at a noise direction: libm-dependent. Known
           // limitation of the method at grazing views, not a host/device bug.
@@ -165,7 +165,7 @@ TEST_F(EngineTest, DeviceMatchesHostPathWithPolygonLights) {
         }
 }
 
-// The binomial glint model (kernels/binomial.cl, all light kinds in one kernel) against the host
+// The binomial glint model (models/binomial/binomial.cl, all light kinds in one kernel) against the host
 // path. A glint is a discrete event: where device and host libm differ by an ulp at a cell
 // boundary (floor of a rotated uv) or at a CDF step of the count, one query may get another
 // count. So most queries must agree to fp32 noise, and the rest only in the mean.

@@ -32,8 +32,8 @@
 #ifndef GLINT_BINOMIAL_COUNT_H
 #define GLINT_BINOMIAL_COUNT_H
 
-#include "compat.h"
-#include "rng.h"
+#include "kernels/compat.h"
+#include "kernels/rng.h"
 
 /* Trials up to this count are sampled exactly (CDF inversion, O(n)). */
 #define GLINT_BINOMIAL_EXACT_MAX 64

@@ -1,5 +1,5 @@
 /* Per-query evaluation of the smooth model: one function shared by the
- * OpenCL entry point (kernels/smooth.cl) and the host scalar path
+ * OpenCL entry point (models/smooth/smooth.cl) and the host scalar path
  * (server/host_path.cpp). On the device every field of EvalSpec is a
  * build-time constant, so the branches below fold away and only what the
  * request asked for is computed; the host passes the same values at run time.
@@ -7,10 +7,10 @@
 #ifndef GLINT_SMOOTH_EVAL_H
 #define GLINT_SMOOTH_EVAL_H
 
-#include "compat.h"
-#include "frame.h"
-#include "lights.h"
-#include "smooth_brdf.h"
+#include "kernels/compat.h"
+#include "kernels/frame.h"
+#include "kernels/lights.h"
+#include "kernels/smooth_brdf.h"
 
 typedef struct {
   int ndf;             /* GLINT_NDF_* */

@@ -3,7 +3,7 @@
  *   L = L_smooth * b(N_P, p) / (N_P p)                       (KK24 Eq. 16, 21)
  * with L_smooth the smooth model's radiance from that light (the request's
  * area method for polygons), b(N_P, p) / N_P the footprint's counted fraction
- * of reflecting facets (kernels/binomial_count.h) and p the probability that
+ * of reflecting facets (models/binomial/binomial_count.h) and p the probability that
  * one facet reflects the light towards wo:
  *   AREA (KK24): p = D_Omega_h / D_H (Eq. 12), with
  *     polygons:            D_Omega_h = LTC integral of the BRDF lobe over the
@@ -28,10 +28,10 @@
 #ifndef GLINT_BINOMIAL_EVAL_H
 #define GLINT_BINOMIAL_EVAL_H
 
-#include "area_lights.h"
-#include "binomial_count.h"
-#include "lights.h"
-#include "smooth_eval.h"
+#include "kernels/area/area_lights.h"
+#include "models/binomial/binomial_count.h"
+#include "kernels/lights.h"
+#include "models/smooth/smooth_eval.h"
 
 /* Light kinds in the random keys. */
 #define GLINT_KEY_DIRECTIONAL 1u

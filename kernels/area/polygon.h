@@ -11,12 +11,12 @@
 #ifndef GLINT_POLYGON_H
 #define GLINT_POLYGON_H
 
-#include "compat.h"
+#include "kernels/compat.h"
 
 /* Clipping branches on per-vertex values, so polygon kernels run one query
  * per work-item (see compat.h on GLINT_LANES). */
 #if defined(__OPENCL_VERSION__) && GLINT_LANES != 1
-#error "kernels/polygon.h needs GLINT_LANES == 1"
+#error "kernels/area/polygon.h needs GLINT_LANES == 1"
 #endif
 
 #define GLINT_POLYGON_MAX_VERTICES 16

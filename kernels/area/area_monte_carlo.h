@@ -49,11 +49,11 @@
 #ifndef GLINT_AREA_MONTE_CARLO_H
 #define GLINT_AREA_MONTE_CARLO_H
 
-#include "compat.h"
-#include "ndf.h"
-#include "polygon.h"
-#include "rng.h"
-#include "smooth_brdf.h"
+#include "kernels/compat.h"
+#include "kernels/ndf.h"
+#include "kernels/area/polygon.h"
+#include "kernels/rng.h"
+#include "kernels/smooth_brdf.h"
 
 #define GLINT_MC_MAX_VERTICES GLINT_POLYGON_MAX_CLIPPED
 

@@ -7,13 +7,13 @@
 #ifndef GLINT_LTC_LOOKUP_H
 #define GLINT_LTC_LOOKUP_H
 
-#include "compat.h"
-#include "smooth_brdf.h"
+#include "kernels/compat.h"
+#include "kernels/smooth_brdf.h"
 
 #define GLINT_LTC_GRID 64
 #define GLINT_LTC_ENTRY 8
 
-/* Bilinear lookup of one LTC table entry (tools/ltc/ltc_table.h lookup):
+/* Bilinear lookup of one LTC table entry (data/ltc/ltc_table.h lookup):
  * x = sqrt(alpha) * 63, y = sqrt(1 - cos(theta_o)) * 63, clamped to the grid. */
 GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real cos_o,
                               GLINT_PRIVATE real *e) {

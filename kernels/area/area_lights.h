@@ -5,7 +5,7 @@
  *   L_o(wo) = L * int_P f(wi, wo) cos(theta_i) dwi
  * over the polygon's solid angle P (clipped to the upper hemisphere).
  *
- * Shared by the OpenCL entry point kernels/area_lights.cl (GLINT_LANES == 1:
+ * Shared by the OpenCL entry point models/smooth/smooth_area.cl (GLINT_LANES == 1:
  * clipping and the per-query quadrature branch on per-query values) and the
  * host path. The LTC table is a plain float array (64 x 64 entries of 8
  * floats, layout in tools/ltc/README.md): a `__global const float *` buffer
@@ -14,14 +14,14 @@
 #ifndef GLINT_AREA_LIGHTS_H
 #define GLINT_AREA_LIGHTS_H
 
-#include "area_lecocq.h"
-#include "area_monte_carlo.h"
-#include "compat.h"
-#include "frame.h"
-#include "ltc_lookup.h"
-#include "polygon.h"
-#include "rng.h"
-#include "smooth_brdf.h"
+#include "kernels/area/area_lecocq.h"
+#include "kernels/area/area_monte_carlo.h"
+#include "kernels/compat.h"
+#include "kernels/frame.h"
+#include "kernels/area/ltc_lookup.h"
+#include "kernels/area/polygon.h"
+#include "kernels/rng.h"
+#include "kernels/smooth_brdf.h"
 
 /* Polygon record as the host packs it (server/eval_plan.cpp):
  * [n_vertices, two_sided, L.r, L.g, L.b, 0, 0, 0, x0, y0, z0, ..., x15, y15, z15]. */
@@ -284,7 +284,7 @@ GLINT_FN ShadingFrame area_identity_frame(void) {
 }
 
 /* One query's polygon-light radiance from its raw inputs, building the local
- * frame exactly as smooth_shade (kernels/smooth_eval.h) does, so that the
+ * frame exactly as smooth_shade (models/smooth/smooth_eval.h) does, so that the
  * result adds to the other light kinds' consistently. */
 GLINT_FN real3 area_shade_inputs(SmoothMaterial m, const GLINT_GLOBAL float *table, int method,
                                  int samples, int has_frame, real3 wo_in, real3 position,

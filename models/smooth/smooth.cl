@@ -14,7 +14,7 @@
  * independent of those heuristics.
  *
  * Inputs stay float on the wire and in buffers; `real` is the arithmetic. */
-#include "smooth_eval.h"
+#include "models/smooth/smooth_eval.h"
 
 #if GLINT_LANES == 1
 

@@ -1,4 +1,4 @@
-// The binomial glint model (kernels/binomial_count.h, kernels/binomial_eval.h; Kneiphof & Klein
+// The binomial glint model (models/binomial/binomial_count.h, models/binomial/binomial_eval.h; Kneiphof & Klein
 // 2024, "KK24") against independent references and the identities the paper states:
 //   - the count sampler against the binomial law (moments; the exact pmf by explicit sums),
 //   - unbiasedness: averaged over surface positions the glint radiance is the smooth radiance,
@@ -16,7 +16,7 @@
 #include <random>
 #include <vector>
 
-#include "tools/ltc/ltc_table.h"
+#include "data/ltc/ltc_table.h"
 
 namespace glint::test {
 struct V3 {
@@ -77,8 +77,8 @@ std::vector<V3> Quad(double cx, double cy, double z, double hx, double hy) {
 
 namespace k64 {
 #define GLINT_USE_DOUBLE 1
-#include "kernels/binomial_eval.h"
-#include "tests/glints/binomial_api.inc"
+#include "models/binomial/binomial_eval.h"
+#include "models/binomial/tests/binomial_api.inc"
 }  // namespace k64
 
 namespace k32 {
@@ -100,8 +100,8 @@ namespace k32 {
 #undef GLINT_USE_DOUBLE
 #undef R
 #define GLINT_USE_DOUBLE 0
-#include "kernels/binomial_eval.h"
-#include "tests/glints/binomial_api.inc"
+#include "models/binomial/binomial_eval.h"
+#include "models/binomial/tests/binomial_api.inc"
 }  // namespace k32
 
 namespace {

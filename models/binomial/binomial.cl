@@ -1,9 +1,9 @@
-/* Entry point of the binomial glint model (kernels/binomial_eval.h). One query
+/* Entry point of the binomial glint model (models/binomial/binomial_eval.h). One query
  * per work-item (GLINT_LANES == 1): the counting loops and the polygon clipping
  * branch per query. Built with the smooth kernel's options (GLINT_NDF,
  * GLINT_FRESNEL, GLINT_HAS_FRAME, GLINT_HAS_DIRECTIONAL, GLINT_HAS_POINT,
  * GLINT_USE_DOUBLE), so light kinds the request lacks are compiled out. */
-#include "binomial_eval.h"
+#include "models/binomial/binomial_eval.h"
 
 __kernel void glint_binomial(uint n, __global const float *uv, __global const float *footprint,
                              __global const float *wo, __global const float *position,

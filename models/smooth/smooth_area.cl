@@ -1,11 +1,11 @@
-/* Entry point for polygon lights on the smooth model (kernels/area_lights.h).
+/* Entry point for polygon lights on the smooth model (kernels/area/area_lights.h).
  * One query per work-item (GLINT_LANES == 1): horizon clipping and the
  * REFERENCE quadrature branch per query, which the 8-lane SIMD kernel
  * (smooth.cl) cannot do. Built with the same GLINT_NDF, GLINT_FRESNEL,
  * GLINT_HAS_FRAME and GLINT_USE_DOUBLE options as smooth.cl; evaluates only
  * the polygon lights. With `accumulate`, adds to `out` (which already holds
  * the other light kinds' radiance from glint_smooth) instead of writing it. */
-#include "area_lights.h"
+#include "kernels/area/area_lights.h"
 
 __kernel void glint_smooth_area(uint n, __global const float *wo, __global const float *position,
                                 __global const float *normal, __global const float *tangent,

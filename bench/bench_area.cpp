@@ -567,7 +567,7 @@ int main(int argc, char **argv) {
 
   std::unique_ptr<glint::DeviceEngine> engine;
   glint::DeviceEngineOptions options;
-  options.lanes = 1;
+  options.workers = 1;
   glint::Status st = glint::DeviceEngine::Create(options, &engine);
   if (!st.ok()) {
     std::fprintf(stderr, "%s\n", st.message().c_str());

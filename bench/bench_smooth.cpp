@@ -90,7 +90,7 @@ int main(int argc, char **argv) {
 
   std::unique_ptr<glint::DeviceEngine> engine;
   glint::DeviceEngineOptions options;
-  options.lanes = 1;
+  options.workers = 1;
   glint::Status s = glint::DeviceEngine::Create(options, &engine);
   if (!s.ok()) {
     std::fprintf(stderr, "%s\n", s.message().c_str());

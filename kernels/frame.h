@@ -21,6 +21,15 @@ GLINT_FN ShadingFrame frame_from_normal_tangent(real3 normal, real3 tangent) {
   return f;
 }
 
+/* The frame of queries that carry none: world space is the local frame. */
+GLINT_FN ShadingFrame frame_identity(void) {
+  ShadingFrame f;
+  f.t = make_real3(R(1.0), R(0.0), R(0.0));
+  f.b = make_real3(R(0.0), R(1.0), R(0.0));
+  f.n = make_real3(R(0.0), R(0.0), R(1.0));
+  return f;
+}
+
 GLINT_FN real3 frame_to_local(ShadingFrame f, real3 v) {
   return make_real3(r3_dot(v, f.t), r3_dot(v, f.b), r3_dot(v, f.n));
 }

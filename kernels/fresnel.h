@@ -4,10 +4,7 @@
 #define GLINT_FRESNEL_H
 
 #include "kernels/compat.h"
-
-#define GLINT_FRESNEL_SCHLICK 1
-#define GLINT_FRESNEL_CONDUCTOR 2
-#define GLINT_FRESNEL_DIELECTRIC 3
+#include "kernels/layout.h"
 
 /* Schlick 1994, "An Inexpensive BRDF Model for Physically-based Rendering",
  * Eq. 15: F = f0 + (1 - f0)(1 - cos)^5. */

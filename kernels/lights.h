@@ -6,10 +6,10 @@
 #define GLINT_LIGHTS_H
 
 #include "kernels/compat.h"
+#include "kernels/layout.h"
 
-/* Directional: [dir.xyz (unit, towards the light), E.rgb, cone solid angle 2 pi (1 - cos gamma), 0]. */
-/* Point:       [pos.xyz, I.rgb, radius, 0]. */
-#define GLINT_LIGHT_FLOATS 8
+/* Records: kernels/layout.h (GLINT_LIGHT_FLOATS). The directional cone's solid
+ * angle is 2 pi (1 - cos gamma), computed on the host in double. */
 
 GLINT_FN real3 light_load3(const GLINT_GLOBAL float *rec, int offset) {
   return make_real3((real)rec[offset], (real)rec[offset + 1], (real)rec[offset + 2]);

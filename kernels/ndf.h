@@ -12,9 +12,7 @@
 #define GLINT_NDF_H
 
 #include "kernels/compat.h"
-
-#define GLINT_NDF_GGX 1
-#define GLINT_NDF_BECKMANN 2
+#include "kernels/layout.h"
 
 /* GGX (Trowbridge-Reitz), anisotropic. Walter et al. 2007 Eq. 33 generalised
  * to two roughnesses (Heitz 2014 Eq. 85):

@@ -16,9 +16,7 @@ typedef struct {
   FresnelParams fresnel;
 } SmoothMaterial;
 
-/* Number of floats in the packed material block (host -> device):
- * [alpha_x, alpha_y, a.r, a.g, a.b, b.r, b.g, b.b]. */
-#define GLINT_MATERIAL_FLOATS 8
+/* The packed material block: kernels/layout.h (GLINT_MATERIAL_FLOATS). */
 
 GLINT_FN SmoothMaterial smooth_material_unpack(const GLINT_GLOBAL float *packed, int ndf,
                                                int fresnel_kind) {

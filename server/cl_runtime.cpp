@@ -167,7 +167,7 @@ Status ClRuntime::Create(const std::string &selector, const std::string &cache_d
   cl_int err = CL_SUCCESS;
   cl_context_properties props[] = {CL_CONTEXT_PLATFORM,
                                    reinterpret_cast<cl_context_properties>(rt->platform_), 0};
-  rt->context_ = clCreateContext(props, 1, &rt->device_, nullptr, nullptr, &err);
+  rt->context_.reset(clCreateContext(props, 1, &rt->device_, nullptr, nullptr, &err));
   if (err != CL_SUCCESS) return Status::Internal("clCreateContext failed: " + ClErrorName(err));
   if (!cache_dir.empty()) {
     std::error_code ec;
@@ -178,9 +178,9 @@ Status ClRuntime::Create(const std::string &selector, const std::string &cache_d
   return Status::Ok();
 }
 
+// Programs before the context they belong to (member order would do the same; this says so).
 ClRuntime::~ClRuntime() {
-  for (auto &entry : programs_) clReleaseProgram(entry.second);
-  if (context_) clReleaseContext(context_);
+  programs_.clear();
 }
 
 int ClRuntime::programs_compiled() const {
@@ -201,7 +201,7 @@ Status ClRuntime::GetProgram(const std::string &source, const std::string &optio
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = programs_.find(key);
   if (it != programs_.end()) {
-    *out = it->second;
+    *out = it->second.get();
     return Status::Ok();
   }
   std::string path;
@@ -213,41 +213,40 @@ Status ClRuntime::GetProgram(const std::string &source, const std::string &optio
          << ".clbin";
     path = (std::filesystem::path(cache_dir_) / name.str()).string();
   }
-  cl_program program = nullptr;
+  ClProgram program;
   if (!path.empty() && LoadBinary(path, options, &program)) {
     ++loaded_;
   } else {
     Status s = BuildFromSource(source, options, &program);
     if (!s.ok()) return s;
     ++compiled_;
-    if (!path.empty()) SaveBinary(path, program);
+    if (!path.empty()) SaveBinary(path, program.get());
   }
-  programs_.emplace(key, program);
-  *out = program;
+  *out = program.get();
+  programs_.emplace(key, std::move(program));
   return Status::Ok();
 }
 
 Status ClRuntime::BuildFromSource(const std::string &source, const std::string &options,
-                                  cl_program *out) {
+                                  ClProgram *out) {
   const char *text = source.c_str();
   size_t len = source.size();
   cl_int err = CL_SUCCESS;
-  cl_program program = clCreateProgramWithSource(context_, 1, &text, &len, &err);
+  ClProgram program(clCreateProgramWithSource(context_.get(), 1, &text, &len, &err));
   if (err != CL_SUCCESS)
     return Status::Internal("clCreateProgramWithSource failed: " + ClErrorName(err));
-  err = clBuildProgram(program, 1, &device_, options.c_str(), nullptr, nullptr);
+  err = clBuildProgram(program.get(), 1, &device_, options.c_str(), nullptr, nullptr);
   if (err != CL_SUCCESS) {
-    std::string log = BuildLog(program, device_);
-    clReleaseProgram(program);
+    std::string log = BuildLog(program.get(), device_);
     return Status::Internal("OpenCL program build failed on " + info_.name + " (" +
                             ClErrorName(err) + ") with options '" + options + "'; build log:\n" +
                             log);
   }
-  *out = program;
+  *out = std::move(program);
   return Status::Ok();
 }
 
-bool ClRuntime::LoadBinary(const std::string &path, const std::string &options, cl_program *out) {
+bool ClRuntime::LoadBinary(const std::string &path, const std::string &options, ClProgram *out) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return false;
   std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
@@ -256,15 +255,13 @@ bool ClRuntime::LoadBinary(const std::string &path, const std::string &options, 
   const unsigned char *data = bytes.data();
   size_t size = bytes.size();
   cl_int status = CL_SUCCESS, err = CL_SUCCESS;
-  cl_program program =
-      clCreateProgramWithBinary(context_, 1, &device_, &size, &data, &status, &err);
+  ClProgram program(
+      clCreateProgramWithBinary(context_.get(), 1, &device_, &size, &data, &status, &err));
   if (err != CL_SUCCESS || status != CL_SUCCESS) return false;
-  if (clBuildProgram(program, 1, &device_, options.c_str(), nullptr, nullptr) != CL_SUCCESS) {
-    // A stale or corrupt entry: compile from source instead (and overwrite it).
-    clReleaseProgram(program);
+  // A stale or corrupt entry fails here: compile from source instead (and overwrite it).
+  if (clBuildProgram(program.get(), 1, &device_, options.c_str(), nullptr, nullptr) != CL_SUCCESS)
     return false;
-  }
-  *out = program;
+  *out = std::move(program);
   return true;
 }
 

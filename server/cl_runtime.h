@@ -2,17 +2,13 @@
 // disk binaries, then compiling). One ClRuntime per process; thread-safe.
 #pragma once
 
-#ifndef CL_TARGET_OPENCL_VERSION
-#define CL_TARGET_OPENCL_VERSION 120
-#endif
-#include <CL/cl.h>
-
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
 
+#include "server/cl_handle.h"
 #include "server/status.h"
 
 namespace glint {
@@ -40,7 +36,7 @@ class ClRuntime {
   ClRuntime &operator=(const ClRuntime &) = delete;
 
   const DeviceInfo &info() const { return info_; }
-  cl_context context() const { return context_; }
+  cl_context context() const { return context_.get(); }
   cl_device_id device() const { return device_; }
 
   // The built program for (source, options): from memory, else from a disk
@@ -54,18 +50,18 @@ class ClRuntime {
 
  private:
   ClRuntime() = default;
-  Status BuildFromSource(const std::string &source, const std::string &options, cl_program *out);
-  bool LoadBinary(const std::string &path, const std::string &options, cl_program *out);
+  Status BuildFromSource(const std::string &source, const std::string &options, ClProgram *out);
+  bool LoadBinary(const std::string &path, const std::string &options, ClProgram *out);
   void SaveBinary(const std::string &path, cl_program program);
 
   DeviceInfo info_;
   cl_platform_id platform_ = nullptr;
   cl_device_id device_ = nullptr;
-  cl_context context_ = nullptr;
+  ClContext context_;
   std::string cache_dir_;
 
   mutable std::mutex mutex_;
-  std::map<std::string, cl_program> programs_;  // key: options + '\n' + source
+  std::map<std::string, ClProgram> programs_;  // key: options + '\n' + source
   int compiled_ = 0, loaded_ = 0;
 };
 

@@ -1,84 +1,105 @@
 #include "server/device_engine.h"
 
 #include <algorithm>
-#include <initializer_list>
-#include <iterator>
+#include <cstring>
 
 #include "server/kernel_source.h"
+#include "server/model_table.h"
 
 namespace glint {
 
-struct DeviceEngine::Lane {
-  cl_command_queue queue = nullptr;
-  cl_mem dummy = nullptr;                    // bound to kernel arguments the request does not use
-  std::map<std::string, cl_kernel> kernels;  // by kernel name + build options
-  ~Lane() {
-    for (auto &k : kernels) clReleaseKernel(k.second);
-    if (dummy) clReleaseMemObject(dummy);
-    if (queue) clReleaseCommandQueue(queue);
-  }
+struct DeviceEngine::Queue {
+  ClQueue queue;
+  ClBuffer dummy;                           // bound to the inputs a request does not carry
+  std::map<std::string, ClKernel> kernels;  // by kernel file + entry + build options
 };
 
 namespace {
 
-// Queries per work-item: the kernel evaluates them as the lanes of OpenCL
-// vectors (kernels/compat.h, GLINT_LANES), 8 x fp32 = AVX2 register, 8 x fp64 =
-// AVX-512 register. PoCL's own vectorisation across work-items does not
-// survive the kernel's math (see models/smooth/smooth.cl), so the width is explicit.
-constexpr cl_uint kQueriesPerWorkItem = 8;
-
-// The spec's options plus what only the device side decides. Also the key of
-// the lane's kernel map and of the program cache.
-std::string DeviceBuildOptions(const KernelSpec &spec) {
-  return spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(kQueriesPerWorkItem);
-}
-
-// Owns a cl_mem for the duration of one evaluation.
-class Buffer {
- public:
-  Buffer() = default;
-  ~Buffer() {
-    if (mem_) clReleaseMemObject(mem_);
-  }
-  Buffer(const Buffer &) = delete;
-  Buffer &operator=(const Buffer &) = delete;
-  cl_mem *out() { return &mem_; }
-  cl_mem get() const { return mem_; }
-
- private:
-  cl_mem mem_ = nullptr;
+// The buffers of one evaluation, in the order of kernels/kernel_args.h. Inputs
+// wrap the request's memory (CL_MEM_USE_HOST_PTR: no copy on CPU devices), so
+// they must not outlive the call; absent inputs are bound to the dummy buffer.
+struct KernelArguments {
+  cl_uint n = 0;
+  ClBuffer uv, footprint, wo, wi, position, normal, tangent, material, params;
+  ClBuffer directional, point, polygons, out;
+  cl_uint n_directional = 0, n_point = 0, n_polygon = 0;
+  cl_mem ltc_table = nullptr;
+  cl_int area_method = 0, area_samples = 0;
+  cl_uint seed_lo = 0, seed_hi = 0;
 };
 
-// Read-only input straight from the request's memory where possible
-// (CL_MEM_USE_HOST_PTR avoids a copy on CPU devices); empty arrays bind the
-// lane's dummy buffer.
-Status MakeInput(cl_context ctx, const float *data, size_t count, cl_mem dummy, Buffer *buf,
-                 cl_mem *arg) {
-  if (count == 0) {
-    *arg = dummy;
-    return Status::Ok();
-  }
+Status MakeInput(cl_context ctx, const float *data, size_t count, ClBuffer *buf) {
+  if (count == 0) return Status::Ok();
   cl_int err = CL_SUCCESS;
-  *buf->out() = clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, count * sizeof(float),
-                               const_cast<float *>(data), &err);
+  buf->reset(clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, count * sizeof(float),
+                            const_cast<float *>(data), &err));
   if (err != CL_SUCCESS)
     return Status::Internal("clCreateBuffer (input) failed: " + ClErrorName(err));
-  *arg = buf->get();
   return Status::Ok();
 }
 
-// One kernel input: `count` floats at `data`, bound to *arg through *buf (MakeInput).
-struct Input {
-  const float *data;
-  size_t count;
-  Buffer *buf;
-  cl_mem *arg;
-};
+template <class Array>
+Status MakeInput(cl_context ctx, const Array &a, ClBuffer *buf) {
+  return MakeInput(ctx, a.data(), size_t(a.size()), buf);
+}
 
-Status MakeInputs(cl_context ctx, cl_mem dummy, std::initializer_list<Input> inputs) {
-  for (const Input &in : inputs) {
-    Status s = MakeInput(ctx, in.data, in.count, dummy, in.buf, in.arg);
+Status MakeArguments(cl_context ctx, const EvalPlan &plan, const glint::v1::QueryBatch &q,
+                     cl_mem ltc_table, float *out_rgb, KernelArguments *a) {
+  a->n = q.count();
+  for (auto [input, buf] : {std::pair{&q.uv(), &a->uv},
+                            {&q.footprint(), &a->footprint},
+                            {&q.wo(), &a->wo},
+                            {&q.wi(), &a->wi},
+                            {&q.position(), &a->position},
+                            {&q.normal(), &a->normal},
+                            {&q.tangent(), &a->tangent}}) {
+    Status s = MakeInput(ctx, *input, buf);
     if (!s.ok()) return s;
+  }
+  for (Status s :
+       {MakeInput(ctx, plan.material, &a->material), MakeInput(ctx, plan.params, &a->params),
+        MakeInput(ctx, plan.directional, &a->directional), MakeInput(ctx, plan.point, &a->point),
+        MakeInput(ctx, plan.polygon, &a->polygons)})
+    if (!s.ok()) return s;
+  a->n_directional = plan.n_directional;
+  a->n_point = plan.n_point;
+  a->n_polygon = plan.n_polygon;
+  a->ltc_table = ltc_table;
+  a->area_method = plan.area_method;
+  a->area_samples = plan.area_samples;
+  a->seed_lo = plan.seed_lo;
+  a->seed_hi = plan.seed_hi;
+  // The kernels write the caller's array directly (CPU device: no separate allocation, no copy
+  // back); read-write because a later pass adds to an earlier one's output.
+  cl_int err = CL_SUCCESS;
+  a->out.reset(clCreateBuffer(ctx, CL_MEM_READ_WRITE | CL_MEM_USE_HOST_PTR,
+                              size_t(a->n) * 3 * sizeof(float), out_rgb, &err));
+  if (err != CL_SUCCESS)
+    return Status::Internal("clCreateBuffer (output) failed: " + ClErrorName(err));
+  return Status::Ok();
+}
+
+// The one place where kernel arguments are bound: GLINT_KERNEL_ARGS order.
+Status BindKernelArguments(cl_kernel kernel, const KernelArguments &a, cl_mem dummy,
+                           bool accumulate) {
+  cl_uint index = 0;
+  auto value = [&](const auto &v) { return clSetKernelArg(kernel, index++, sizeof(v), &v); };
+  auto buffer = [&](const ClBuffer &b) {
+    cl_mem m = b ? b.get() : dummy;
+    return clSetKernelArg(kernel, index++, sizeof(cl_mem), &m);
+  };
+  const cl_int acc = accumulate ? 1 : 0;
+  for (cl_int err :
+       {value(a.n),         buffer(a.uv),         buffer(a.footprint),   buffer(a.wo),
+        buffer(a.wi),       buffer(a.position),   buffer(a.normal),      buffer(a.tangent),
+        buffer(a.material), buffer(a.params),     buffer(a.directional), value(a.n_directional),
+        buffer(a.point),    value(a.n_point),     buffer(a.polygons),    value(a.n_polygon),
+        value(a.ltc_table), value(a.area_method), value(a.area_samples), value(a.seed_lo),
+        value(a.seed_hi),   value(acc),           buffer(a.out)}) {
+    if (err != CL_SUCCESS)
+      return Status::Internal("clSetKernelArg " + std::to_string(index) +
+                              " failed: " + ClErrorName(err));
   }
   return Status::Ok();
 }
@@ -97,6 +118,11 @@ Status ReadBackAndFinish(cl_command_queue queue, cl_mem out, size_t bytes) {
   return Status::Ok();
 }
 
+Status Fp64Unavailable(const DeviceInfo &info) {
+  return Status::InvalidArgument("precision: FP64 requested but " + info.name +
+                                 " has no cl_khr_fp64");
+}
+
 }  // namespace
 
 Status DeviceEngine::Create(const DeviceEngineOptions &options,
@@ -105,278 +131,166 @@ Status DeviceEngine::Create(const DeviceEngineOptions &options,
   engine->options_ = options;
   Status s = ClRuntime::Create(options.device, options.cache_dir, &engine->runtime_);
   if (!s.ok()) return s;
-  engine->smooth_source_ = ExpandKernelSource("models/smooth/smooth.cl");
-  engine->area_source_ = ExpandKernelSource("models/smooth/smooth_area.cl");
-  engine->binomial_source_ = ExpandKernelSource("models/binomial/binomial.cl");
+  for (const Model *model : Models())
+    for (const ModelPass &pass : model->passes)
+      if (!engine->sources_.count(pass.kernel_file))
+        engine->sources_[pass.kernel_file] = ExpandKernelSource(pass.kernel_file);
+  cl_context ctx = engine->runtime_->context();
   for (int t = 0; t < 2; ++t) {
     cl_int err = CL_SUCCESS;
     // The LTC tables go to the device as buffers, not __constant arrays in the program: 128 KiB
     // each is above OpenCL's guaranteed constant memory.
-    engine->ltc_tables_[t] =
-        clCreateBuffer(engine->runtime_->context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
-                       kLtcTableFloats * sizeof(float), const_cast<float *>(LtcTable(t + 1)), &err);
+    engine->ltc_tables_[t].reset(clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR,
+                                                kLtcTableFloats * sizeof(float),
+                                                const_cast<float *>(LtcTable(t + 1)), &err));
     if (err != CL_SUCCESS)
       return Status::Internal("clCreateBuffer (LTC table) failed: " + ClErrorName(err));
   }
-  for (int i = 0; i < std::max(1, options.lanes); ++i) {
-    auto lane = std::make_unique<Lane>();
+  for (int i = 0; i < std::max(1, options.workers); ++i) {
+    auto queue = std::make_unique<Queue>();
     cl_int err = CL_SUCCESS;
-    lane->queue =
-        clCreateCommandQueue(engine->runtime_->context(), engine->runtime_->device(), 0, &err);
+    queue->queue.reset(clCreateCommandQueue(ctx, engine->runtime_->device(), 0, &err));
     if (err != CL_SUCCESS)
       return Status::Internal("clCreateCommandQueue failed: " + ClErrorName(err));
-    lane->dummy = clCreateBuffer(engine->runtime_->context(), CL_MEM_READ_ONLY, 4 * sizeof(float),
-                                 nullptr, &err);
+    queue->dummy.reset(clCreateBuffer(ctx, CL_MEM_READ_ONLY, 4 * sizeof(float), nullptr, &err));
     if (err != CL_SUCCESS) return Status::Internal("clCreateBuffer failed: " + ClErrorName(err));
-    engine->lanes_.push_back(std::move(lane));
+    engine->queues_.push_back(std::move(queue));
   }
   *out = std::move(engine);
   return Status::Ok();
 }
 
+// Kernels and queues before the runtime's programs and context.
 DeviceEngine::~DeviceEngine() {
-  lanes_.clear();
-  for (cl_mem t : ltc_tables_)
-    if (t) clReleaseMemObject(t);
+  queues_.clear();
+  for (ClBuffer &t : ltc_tables_) t.reset();
 }
 
-Status DeviceEngine::CachedKernel(Lane &lane, const std::string &source, const char *name,
-                                  const std::string &options, cl_kernel *out) {
-  const std::string key = std::string(name) + '\n' + options;
-  auto it = lane.kernels.find(key);
-  if (it != lane.kernels.end()) {
-    *out = it->second;
+Status DeviceEngine::KernelFor(Queue &queue, const ModelPass &pass, const KernelSpec &spec,
+                               cl_kernel *out) {
+  // The spec's options plus the SIMD width, which only the pass decides. Also the key of the
+  // queue's kernel map and (with the source) of the program cache.
+  const std::string options =
+      spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(pass.simd_width);
+  const std::string key = std::string(pass.kernel_file) + '\n' + pass.entry + '\n' + options;
+  auto it = queue.kernels.find(key);
+  if (it != queue.kernels.end()) {
+    *out = it->second.get();
     return Status::Ok();
   }
   cl_program program = nullptr;
-  Status s = runtime_->GetProgram(source, options, &program);
+  Status s = runtime_->GetProgram(sources_.at(pass.kernel_file), options, &program);
   if (!s.ok()) return s;
   cl_int err = CL_SUCCESS;
-  cl_kernel kernel = clCreateKernel(program, name, &err);
-  if (err != CL_SUCCESS) return Status::Internal("clCreateKernel failed: " + ClErrorName(err));
-  lane.kernels.emplace(key, kernel);
-  *out = kernel;
-  return Status::Ok();
-}
-
-Status DeviceEngine::AreaKernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *out) {
-  // One query per work-item: polygon.h branches per query.
-  return CachedKernel(lane, area_source_, "glint_smooth_area",
-                      spec.BuildOptions() + " -DGLINT_LANES=1 -DGLINT_AREA_KERNEL=1", out);
-}
-
-Status DeviceEngine::EvaluateArea(Lane &lane, const EvalPlan &plan, const glint::v1::QueryBatch &q,
-                                  cl_mem a_out, bool accumulate) {
-  cl_kernel kernel = nullptr;
-  Status s = AreaKernelFor(lane, plan.spec, &kernel);
-  if (!s.ok()) return s;
-  const cl_uint n = q.count();
-  cl_context ctx = runtime_->context();
-  Buffer wo, pos, nrm, tan, mat, poly;
-  cl_mem a_wo, a_pos, a_nrm, a_tan, a_mat, a_poly;
-  s = MakeInputs(ctx, lane.dummy,
-                 {{q.wo().data(), size_t(q.wo_size()), &wo, &a_wo},
-                  {q.position().data(), size_t(q.position_size()), &pos, &a_pos},
-                  {q.normal().data(), size_t(q.normal_size()), &nrm, &a_nrm},
-                  {q.tangent().data(), size_t(q.tangent_size()), &tan, &a_tan},
-                  {plan.material.data(), plan.material.size(), &mat, &a_mat},
-                  {plan.polygon.data(), plan.polygon.size(), &poly, &a_poly}});
-  if (!s.ok()) return s;
-  cl_mem table = ltc_tables_[plan.spec.ndf == 2 ? 1 : 0];
-  const cl_uint n_poly = plan.n_polygon;
-  const cl_int method = plan.area_method, samples = plan.area_samples, acc = accumulate ? 1 : 0;
-  cl_uint arg = 0;
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n));
-  for (cl_mem *m : {&a_wo, &a_pos, &a_nrm, &a_tan, &a_mat, &a_poly})
-    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), m));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_poly));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &table));
-  for (const cl_int *v : {&method, &samples})
-    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_int), v));
-  for (const cl_uint *v : {&plan.seed_lo, &plan.seed_hi})
-    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), v));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_int), &acc));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_out));
-  const size_t local = options_.local_size;
-  const size_t global = (size_t(n) + local - 1) / local * local;
-  GLINT_CL_CHECK(
-      clEnqueueNDRangeKernel(lane.queue, kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr));
-  // The input buffers above wrap request memory and die with this call: wait for the kernel.
-  GLINT_CL_CHECK(clFinish(lane.queue));
-  return Status::Ok();
-}
-
-Status DeviceEngine::EvaluateBinomial(Lane &lane, const EvalPlan &plan,
-                                      const glint::v1::QueryBatch &q, float *out_rgb) {
-  cl_kernel kernel = nullptr;
-  // One query per work-item: the counting loops branch per query.
-  Status s = CachedKernel(lane, binomial_source_, "glint_binomial",
-                          plan.spec.BuildOptions() + " -DGLINT_LANES=1", &kernel);
-  if (!s.ok()) return s;
-  const cl_uint n = q.count();
-  cl_context ctx = runtime_->context();
-  Buffer uv, fp, wo, pos, nrm, tan, mat, bin, dir, pnt, poly, out;
-  cl_mem a_uv, a_fp, a_wo, a_pos, a_nrm, a_tan, a_mat, a_bin, a_dir, a_pnt, a_poly;
-  s = MakeInputs(ctx, lane.dummy,
-                 {{q.uv().data(), size_t(q.uv_size()), &uv, &a_uv},
-                  {q.footprint().data(), size_t(q.footprint_size()), &fp, &a_fp},
-                  {q.wo().data(), size_t(q.wo_size()), &wo, &a_wo},
-                  {q.position().data(), size_t(q.position_size()), &pos, &a_pos},
-                  {q.normal().data(), size_t(q.normal_size()), &nrm, &a_nrm},
-                  {q.tangent().data(), size_t(q.tangent_size()), &tan, &a_tan},
-                  {plan.material.data(), plan.material.size(), &mat, &a_mat},
-                  {plan.binomial.data(), plan.binomial.size(), &bin, &a_bin},
-                  {plan.directional.data(), plan.directional.size(), &dir, &a_dir},
-                  {plan.point.data(), plan.point.size(), &pnt, &a_pnt},
-                  {plan.polygon.data(), plan.polygon.size(), &poly, &a_poly}});
-  if (!s.ok()) return s;
-  cl_int err = CL_SUCCESS;
-  const size_t out_bytes = size_t(n) * 3 * sizeof(float);
-  *out.out() =
-      clCreateBuffer(ctx, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, out_bytes, out_rgb, &err);
+  ClKernel kernel(clCreateKernel(program, pass.entry, &err));
   if (err != CL_SUCCESS)
-    return Status::Internal("clCreateBuffer (output) failed: " + ClErrorName(err));
-  cl_mem a_out = out.get();
-  cl_mem table = ltc_tables_[plan.spec.ndf == 2 ? 1 : 0];
-  const cl_uint n_dir = plan.n_directional, n_pnt = plan.n_point, n_poly = plan.n_polygon;
-  const cl_int method = plan.area_method, samples = plan.area_samples;
-  cl_uint arg = 0;
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n));
-  for (cl_mem *m : {&a_uv, &a_fp, &a_wo, &a_pos, &a_nrm, &a_tan, &a_mat, &a_bin, &a_dir})
-    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), m));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_dir));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_pnt));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_pnt));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_poly));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_poly));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &table));
-  for (const cl_int *v : {&method, &samples})
-    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_int), v));
-  for (const cl_uint *v : {&plan.seed_lo, &plan.seed_hi})
-    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), v));
-  GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_out));
-  const size_t local = options_.local_size;
-  const size_t global = (size_t(n) + local - 1) / local * local;
-  GLINT_CL_CHECK(
-      clEnqueueNDRangeKernel(lane.queue, kernel, 1, nullptr, &global, &local, 0, nullptr, nullptr));
-  return ReadBackAndFinish(lane.queue, a_out, out_bytes);
+    return Status::Internal(std::string("clCreateKernel ") + pass.entry +
+                            " failed: " + ClErrorName(err));
+  *out = kernel.get();
+  queue.kernels.emplace(key, std::move(kernel));
+  return Status::Ok();
 }
 
-Status DeviceEngine::KernelFor(Lane &lane, const KernelSpec &spec, cl_kernel *out) {
-  if (spec.fp64 && !runtime_->info().fp64) {
-    return Status::InvalidArgument("precision: FP64 requested but " + runtime_->info().name +
-                                   " has no cl_khr_fp64");
-  }
-  return CachedKernel(lane, smooth_source_, "glint_smooth", DeviceBuildOptions(spec), out);
-}
-
-Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan, const glint::v1::QueryBatch &q,
+Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const glint::v1::QueryBatch &q,
                               float *out_rgb) {
-  Lane &lane = *lanes_.at(size_t(lane_index));
-  if (plan.spec.fp64 && !runtime_->info().fp64) {
-    return Status::InvalidArgument("precision: FP64 requested but " + runtime_->info().name +
-                                   " has no cl_khr_fp64");
-  }
-  if (plan.spec.model == 2)
-    return q.count() ? EvaluateBinomial(lane, plan, q, out_rgb) : Status::Ok();
-  const bool smooth_lights = plan.spec.probe || plan.n_directional > 0 || plan.n_point > 0;
-  cl_kernel kernel = nullptr;
-  Status s =
-      smooth_lights || plan.n_polygon == 0 ? KernelFor(lane, plan.spec, &kernel) : Status::Ok();
-  if (!s.ok()) return s;
-  if (plan.spec.fp64 && !runtime_->info().fp64) {
-    return Status::InvalidArgument("precision: FP64 requested but " + runtime_->info().name +
-                                   " has no cl_khr_fp64");
-  }
+  Queue &queue = *queues_.at(size_t(worker));
+  if (plan.spec.fp64 && !runtime_->info().fp64) return Fp64Unavailable(runtime_->info());
+  const Model *model = FindModel(plan.spec.model);
+  if (!model)
+    return Status::Internal("no model with id " + std::to_string(plan.spec.model) +
+                            " in the model table");
   const cl_uint n = q.count();
   if (n == 0) return Status::Ok();
-  cl_context ctx = runtime_->context();
 
-  Buffer wo, wi, pos, nrm, tan, mat, dir, pnt, out;
-  cl_mem a_wo, a_wi, a_pos, a_nrm, a_tan, a_mat, a_dir, a_pnt;
-  s = MakeInputs(ctx, lane.dummy,
-                 {{q.wo().data(), size_t(q.wo_size()), &wo, &a_wo},
-                  {q.wi().data(), size_t(q.wi_size()), &wi, &a_wi},
-                  {q.position().data(), size_t(q.position_size()), &pos, &a_pos},
-                  {q.normal().data(), size_t(q.normal_size()), &nrm, &a_nrm},
-                  {q.tangent().data(), size_t(q.tangent_size()), &tan, &a_tan},
-                  {plan.material.data(), plan.material.size(), &mat, &a_mat},
-                  {plan.directional.data(), plan.directional.size(), &dir, &a_dir},
-                  {plan.point.data(), plan.point.size(), &pnt, &a_pnt}});
+  std::vector<const ModelPass *> passes;
+  for (const ModelPass &pass : model->passes)
+    if (!pass.needed || pass.needed(plan)) passes.push_back(&pass);
+  if (passes.empty()) {
+    std::memset(out_rgb, 0, size_t(n) * 3 * sizeof(float));
+    return Status::Ok();
+  }
+
+  KernelArguments args;
+  Status s =
+      MakeArguments(runtime_->context(), plan, q,
+                    ltc_tables_[plan.spec.ndf == GLINT_NDF_BECKMANN ? 1 : 0].get(), out_rgb, &args);
   if (!s.ok()) return s;
-  cl_int err = CL_SUCCESS;
-  // The kernel writes the caller's array directly (CPU device: no separate
-  // allocation to fault in, no copy back); the map below synchronises it.
-  const size_t out_bytes = size_t(n) * 3 * sizeof(float);
-  // Read-write when the polygon kernel adds to what glint_smooth wrote.
-  const cl_mem_flags out_flags = plan.n_polygon > 0 ? CL_MEM_READ_WRITE : CL_MEM_WRITE_ONLY;
-  *out.out() = clCreateBuffer(ctx, out_flags | CL_MEM_USE_HOST_PTR, out_bytes, out_rgb, &err);
-  if (err != CL_SUCCESS)
-    return Status::Internal("clCreateBuffer (output) failed: " + ClErrorName(err));
-  cl_mem a_out = out.get();
-  const cl_uint n_dir = plan.n_directional, n_pnt = plan.n_point;
-
-  if (kernel) {
-    cl_uint arg = 0;
-    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n));
-    for (cl_mem *m : {&a_wo, &a_wi, &a_pos, &a_nrm, &a_tan, &a_mat, &a_dir})
-      GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), m));
-    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_dir));
-    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_pnt));
-    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_uint), &n_pnt));
-    GLINT_CL_CHECK(clSetKernelArg(kernel, arg++, sizeof(cl_mem), &a_out));
-
+  for (size_t k = 0; k < passes.size(); ++k) {
+    cl_kernel kernel = nullptr;
+    s = KernelFor(queue, *passes[k], plan.spec, &kernel);
+    if (!s.ok()) return s;
+    // In-order queue: each later pass runs after the earlier ones and adds to their output.
+    s = BindKernelArguments(kernel, args, queue.dummy.get(), k > 0);
+    if (!s.ok()) return s;
     const size_t local = options_.local_size;
-    const size_t work_items = (size_t(n) + kQueriesPerWorkItem - 1) / kQueriesPerWorkItem;
+    const size_t width = size_t(passes[k]->simd_width);
+    const size_t work_items = (size_t(n) + width - 1) / width;
     const size_t global = (work_items + local - 1) / local * local;
-    GLINT_CL_CHECK(clEnqueueNDRangeKernel(lane.queue, kernel, 1, nullptr, &global, &local, 0,
+    GLINT_CL_CHECK(clEnqueueNDRangeKernel(queue.queue.get(), kernel, 1, nullptr, &global, &local, 0,
                                           nullptr, nullptr));
   }
-  // In-order queue: the polygon kernel runs after glint_smooth and adds to its output.
-  if (plan.n_polygon > 0) {
-    s = EvaluateArea(lane, plan, q, a_out, kernel != nullptr);
-    if (!s.ok()) return s;
-  }
-  return ReadBackAndFinish(lane.queue, a_out, out_bytes);
+  return ReadBackAndFinish(queue.queue.get(), args.out.get(), size_t(n) * 3 * sizeof(float));
 }
 
 Status DeviceEngine::Warm(const KernelSpec &spec) {
-  // A tiny plan of the right shape: one probe or one light of each kind used.
-  glint::v1::QueryBatch q;
-  q.set_count(1);
-  for (float v : {0.0f, 0.0f, 1.0f}) q.add_wo(v);
-  if (spec.probe)
-    for (float v : {0.0f, 0.0f, 1.0f}) q.add_wi(v);
-  if (spec.has_frame) {
-    for (float v : {0.0f, 0.0f, 0.0f}) q.add_position(v);
-    for (float v : {0.0f, 0.0f, 1.0f}) q.add_normal(v);
-    for (float v : {1.0f, 0.0f, 0.0f}) q.add_tangent(v);
+  const Model *model = FindModel(spec.model);
+  if (!model) return Status::Internal("Warm: no model with id " + std::to_string(spec.model));
+  // A one-query request of the spec's shape: one probe or one light of each kind it uses.
+  glint::v1::EvaluateRequest r;
+  glint::v1::Material *m = r.mutable_material();
+  m->set_model(glint::v1::Model(spec.model));
+  m->set_ndf(spec.ndf == GLINT_NDF_BECKMANN ? glint::v1::BECKMANN : glint::v1::GGX);
+  m->set_alpha_x(0.5f);
+  m->set_alpha_y(0.5f);
+  if (spec.fresnel == GLINT_FRESNEL_CONDUCTOR) {
+    for (int c = 0; c < 3; ++c) m->mutable_conductor()->add_eta(1.0f);
+    for (int c = 0; c < 3; ++c) m->mutable_conductor()->add_k(1.0f);
+  } else if (spec.fresnel == GLINT_FRESNEL_DIELECTRIC) {
+    m->mutable_dielectric()->set_ior(1.5f);
+  } else {
+    for (int c = 0; c < 3; ++c) m->mutable_schlick()->add_f0(0.04f);
   }
-  EvalPlan plan;
-  plan.spec = spec;
-  plan.material = {0.5f, 0.5f, 0.04f, 0.04f, 0.04f, 0.0f, 0.0f, 0.0f};
+  glint::v1::QueryBatch *q = r.mutable_queries();
+  q->set_count(1);
+  auto add3 = [](auto *field, float x, float y, float z) {
+    field->Add(x);
+    field->Add(y);
+    field->Add(z);
+  };
+  add3(q->mutable_wo(), 0, 0, 1);
+  if (spec.probe) add3(q->mutable_wi(), 0, 0, 1);
+  if (spec.has_frame) {
+    add3(q->mutable_position(), 0, 0, 0);
+    add3(q->mutable_normal(), 0, 0, 1);
+    add3(q->mutable_tangent(), 1, 0, 0);
+  }
   if (spec.has_directional) {
-    plan.directional = {0, 0, 1, 1, 1, 1, 1, 0};
-    plan.n_directional = 1;
+    auto *d = r.add_lights()->mutable_directional();
+    add3(d->mutable_direction(), 0, 0, 1);
+    add3(d->mutable_irradiance(), 1, 1, 1);
+    d->set_cone_half_angle_deg(1.0f);
   }
   if (spec.has_point) {
-    plan.point = {0, 0, 1, 1, 1, 1, 0.1f, 0};
-    plan.n_point = 1;
+    auto *p = r.add_lights()->mutable_point();
+    add3(p->mutable_position(), 0, 0, 1);
+    add3(p->mutable_intensity(), 1, 1, 1);
+    p->set_radius(0.1f);
   }
-  if (spec.has_polygon) {
-    plan.polygon.assign(56, 0.0f);  // GLINT_POLYGON_FLOATS: a unit-radiance triangle overhead
-    const float record[] = {3, 1, 1, 1, 1, 0, 0, 0, -1, -1, 2, 1, -1, 2, 0, 1, 2};
-    std::copy(std::begin(record), std::end(record), plan.polygon.begin());
-    plan.n_polygon = 1;
+  if (spec.has_polygon) {  // a unit-radiance triangle overhead
+    auto *p = r.add_lights()->mutable_polygon();
+    for (float v : {-1.0f, -1.0f, 2.0f, 1.0f, -1.0f, 2.0f, 0.0f, 1.0f, 2.0f}) p->add_vertices(v);
+    add3(p->mutable_radiance(), 1, 1, 1);
+    p->set_two_sided(true);
   }
-  if (spec.model == 2) {
-    for (float v : {0.5f, 0.5f}) q.add_uv(v);
-    for (float v : {1e-3f, 0.0f, 0.0f, 1e-3f}) q.add_footprint(v);
-    plan.binomial = {1e6f, 1, 1, 9, 0.05f, 0, 0, 0};
-  }
+  if (model->example) model->example(m, q);
+  r.set_precision(spec.fp64 ? glint::v1::FP64 : glint::v1::FP32);
+  const EvalPlan plan = MakeEvalPlan(r, *q);
+  if (!(plan.spec == spec))
+    return Status::Internal("Warm: the example request of " + spec.Describe() + " plans as " +
+                            plan.spec.Describe());
   float rgb[3];
-  for (int lane = 0; lane < lanes(); ++lane) {
-    Status s = Evaluate(lane, plan, q, rgb);
+  for (int w = 0; w < workers(); ++w) {
+    Status s = Evaluate(w, plan, *q, rgb);
     if (!s.ok()) return s;
   }
   return Status::Ok();

@@ -1,25 +1,15 @@
 #include "server/eval_plan.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <sstream>
 
 #include "data/ltc/ltc_table.h"
+#include "server/model_table.h"
 
 namespace glint {
 namespace {
-
-// Values of the GLINT_* constants in kernels/ndf.h, kernels/fresnel.h.
-constexpr int kNdfGgx = 1, kNdfBeckmann = 2;
-constexpr int kFresnelSchlick = 1, kFresnelConductor = 2, kFresnelDielectric = 3;
-constexpr int kLightFloats = 8;  // GLINT_LIGHT_FLOATS
-// kernels/area/area_lights.h record: [n, two_sided, L.rgb, 0, 0, 0, 16 x xyz].
-constexpr int kPolygonFloats = 56, kPolygonVertexOffset = 8;
-constexpr int kAreaLtc = 1;
-constexpr int kModelSmooth = 1, kModelBinomial = 2;
-// models/binomial/binomial_count.h
-constexpr int kPModeArea = 1, kPModeHeuristicR = 2;
-constexpr float kDefaultNormalThreshold = 9.0f, kDefaultSlopeCell = 0.05f;
 
 void Append3(const google::protobuf::RepeatedField<float> &v, std::vector<float> *out) {
   out->insert(out->end(), v.begin(), v.begin() + 3);
@@ -29,7 +19,8 @@ void Append3(const google::protobuf::RepeatedField<float> &v, std::vector<float>
 
 const float *LtcTable(int ndf) {
   static_assert(sizeof(ltc_table::data::glint_ltc_ggx) == kLtcTableFloats * sizeof(float));
-  return ltc_table::table(ndf == kNdfBeckmann ? ltc_table::Ndf::kBeckmann : ltc_table::Ndf::kGgx);
+  return ltc_table::table(ndf == GLINT_NDF_BECKMANN ? ltc_table::Ndf::kBeckmann
+                                                    : ltc_table::Ndf::kGgx);
 }
 
 std::string KernelSpec::BuildOptions() const {
@@ -44,11 +35,14 @@ std::string KernelSpec::BuildOptions() const {
 
 std::string KernelSpec::Describe() const {
   std::ostringstream o;
-  if (model == kModelBinomial) o << "binomial/";
-  o << (ndf == kNdfBeckmann ? "beckmann" : "ggx") << '/'
-    << (fresnel == kFresnelConductor    ? "conductor"
-        : fresnel == kFresnelDielectric ? "dielectric"
-                                        : "schlick");
+  const Model *m = FindModel(model);
+  std::string name = m ? m->name : "model" + std::to_string(model);
+  std::transform(name.begin(), name.end(), name.begin(),
+                 [](char c) { return char(std::tolower(c)); });
+  o << name << '/' << (ndf == GLINT_NDF_BECKMANN ? "beckmann" : "ggx") << '/'
+    << (fresnel == GLINT_FRESNEL_CONDUCTOR    ? "conductor"
+        : fresnel == GLINT_FRESNEL_DIELECTRIC ? "dielectric"
+                                              : "schlick");
   if (probe) o << "/probe";
   if (has_directional) o << "/directional";
   if (has_point) o << "/point";
@@ -64,8 +58,8 @@ EvalPlan MakeEvalPlan(const glint::v1::EvaluateRequest &settings,
   const Material &m = settings.material();
   EvalPlan plan;
   KernelSpec &s = plan.spec;
-  s.model = m.model() == glint::v1::BINOMIAL ? kModelBinomial : kModelSmooth;
-  s.ndf = m.ndf() == glint::v1::BECKMANN ? kNdfBeckmann : kNdfGgx;
+  s.model = m.model();
+  s.ndf = m.ndf() == glint::v1::BECKMANN ? GLINT_NDF_BECKMANN : GLINT_NDF_GGX;
   s.probe = queries.wi_size() > 0;
   s.has_frame = queries.normal_size() > 0;
   s.fp64 = settings.precision() == glint::v1::FP64;
@@ -74,18 +68,18 @@ EvalPlan MakeEvalPlan(const glint::v1::EvaluateRequest &settings,
   plan.material[1] = m.alpha_y();
   switch (m.fresnel_case()) {
     case Material::kConductor:
-      s.fresnel = kFresnelConductor;
+      s.fresnel = GLINT_FRESNEL_CONDUCTOR;
       for (int c = 0; c < 3; ++c) {
         plan.material[2 + c] = m.conductor().eta(c);
         plan.material[5 + c] = m.conductor().k(c);
       }
       break;
     case Material::kDielectric:
-      s.fresnel = kFresnelDielectric;
+      s.fresnel = GLINT_FRESNEL_DIELECTRIC;
       for (int c = 0; c < 3; ++c) plan.material[2 + c] = m.dielectric().ior();
       break;
     default:
-      s.fresnel = kFresnelSchlick;
+      s.fresnel = GLINT_FRESNEL_SCHLICK;
       for (int c = 0; c < 3; ++c) plan.material[2 + c] = m.schlick().f0(c);
       break;
   }
@@ -112,11 +106,12 @@ EvalPlan MakeEvalPlan(const glint::v1::EvaluateRequest &settings,
       ++plan.n_point;
     } else if (light.has_polygon()) {
       const auto &p = light.polygon();
-      std::vector<float> rec(kPolygonFloats, 0.0f);
+      std::vector<float> rec(GLINT_POLYGON_FLOATS, 0.0f);
       rec[0] = float(p.vertices_size() / 3);
       rec[1] = p.two_sided() ? 1.0f : 0.0f;
       for (int c = 0; c < 3; ++c) rec[2 + c] = p.radiance(c);
-      std::copy(p.vertices().begin(), p.vertices().end(), rec.begin() + kPolygonVertexOffset);
+      std::copy(p.vertices().begin(), p.vertices().end(),
+                rec.begin() + GLINT_POLYGON_VERTEX_OFFSET);
       plan.polygon.insert(plan.polygon.end(), rec.begin(), rec.end());
       ++plan.n_polygon;
     }
@@ -124,20 +119,14 @@ EvalPlan MakeEvalPlan(const glint::v1::EvaluateRequest &settings,
   s.has_polygon = plan.n_polygon > 0;
   // GLINT_AREA_* share glint.v1.AreaMethod's numbers.
   plan.area_method = settings.area_method() == glint::v1::AREA_METHOD_UNSPECIFIED
-                         ? kAreaLtc
+                         ? GLINT_AREA_LTC
                          : int(settings.area_method());
   plan.seed_lo = uint32_t(settings.seed() & 0xffffffffu);
   plan.seed_hi = uint32_t(settings.seed() >> 32);
-  if (s.model == kModelBinomial) {
-    const auto &b = m.binomial();
-    plan.binomial[0] = static_cast<float>(b.density());
-    plan.binomial[1] = b.p_mode() == glint::v1::HEURISTIC_R ? kPModeHeuristicR : kPModeArea;
-    plan.binomial[2] = b.r() > 0.0f ? b.r() : 1.0f;
-    plan.binomial[3] = b.normal_threshold() > 0.0f ? b.normal_threshold() : kDefaultNormalThreshold;
-    plan.binomial[4] = b.slope_cell() > 0.0f ? b.slope_cell() : kDefaultSlopeCell;
-  }
+  if (const Model *model = FindModel(s.model); model && model->pack_params)
+    model->pack_params(m, plan.params.data());
   plan.area_samples = settings.area_samples() ? int(settings.area_samples()) : 64;
-  static_assert(kLightFloats == 8, "light record layout of kernels/lights.h");
+  static_assert(GLINT_LIGHT_FLOATS == 8, "the light records above are 8 floats");
   s.has_directional = plan.n_directional > 0;
   s.has_point = plan.n_point > 0;
   return plan;

@@ -1,6 +1,6 @@
 // What a validated request needs from a kernel: the specialisation (which
-// becomes OpenCL build options) plus the packed material and light blocks in
-// the layouts of kernels/smooth_brdf.h and kernels/lights.h.
+// becomes OpenCL build options) plus the packed material, model parameter and
+// light blocks in the layouts of kernels/layout.h.
 #pragma once
 
 #include <array>
@@ -9,20 +9,21 @@
 #include <vector>
 
 #include "glint/v1/glint.pb.h"
+#include "kernels/layout.h"
 
 namespace glint {
 
 // Everything that changes the compiled kernel. Equal specs share a program.
 struct KernelSpec {
-  int model = 1;    // 1 smooth (models/smooth/smooth.cl), 2 binomial (models/binomial/binomial.cl)
-  int ndf = 1;      // GLINT_NDF_* (kernels/ndf.h)
-  int fresnel = 1;  // GLINT_FRESNEL_* (kernels/fresnel.h)
+  int model = glint::v1::SMOOTH;  // glint.v1.Model (the model table, server/model_table.h)
+  int ndf = 1;                    // GLINT_NDF_* (kernels/layout.h)
+  int fresnel = 1;                // GLINT_FRESNEL_*
   bool probe = false;
   bool has_frame = false;
   bool has_directional = false;
   bool has_point = false;
-  // Request has polygon lights: they run in a separate kernel (models/smooth/smooth_area.cl,
-  // one query per work-item) and do not change the smooth kernel's build options.
+  // Request has polygon lights: decides which of a model's passes run (the smooth model's
+  // polygon pass, models/smooth/smooth_area.cl); not a build option.
   bool has_polygon = false;
   bool fp64 = false;
 
@@ -35,24 +36,24 @@ struct KernelSpec {
 
 struct EvalPlan {
   KernelSpec spec;
-  std::array<float, 8> material{};  // GLINT_MATERIAL_FLOATS
-  std::vector<float> directional;   // GLINT_LIGHT_FLOATS per light
+  std::array<float, GLINT_MATERIAL_FLOATS> material{};
+  std::array<float, GLINT_MODEL_PARAM_FLOATS> params{};  // the model's pack_params
+  std::vector<float> directional;                        // GLINT_LIGHT_FLOATS per light
   std::vector<float> point;
   uint32_t n_directional = 0;
   uint32_t n_point = 0;
-  std::vector<float> polygon;  // GLINT_POLYGON_FLOATS per light (kernels/area/area_lights.h)
+  std::vector<float> polygon;  // GLINT_POLYGON_FLOATS per light
   uint32_t n_polygon = 0;
   int area_method = 1;    // GLINT_AREA_* (= glint.v1.AreaMethod, UNSPECIFIED -> LTC)
   int area_samples = 64;  // REFERENCE nodes per dimension per triangle; MONTE_CARLO samples
-  // models/binomial/binomial_count.h parameter block (model 2 only).
-  std::array<float, 8> binomial{};
   // The request seed, as the two 32-bit halves the kernels hash (kernels/rng.h).
   uint32_t seed_lo = 0, seed_hi = 0;
 };
 
-// The LTC table (64 x 64 x 8 floats, tools/ltc/README.md) for a GLINT_NDF_* value.
+// The LTC table (GLINT_LTC_GRID^2 x GLINT_LTC_ENTRY floats, tools/ltc/README.md) for a
+// GLINT_NDF_* value.
 const float *LtcTable(int ndf);
-constexpr size_t kLtcTableFloats = 64 * 64 * 8;
+constexpr size_t kLtcTableFloats = GLINT_LTC_GRID * GLINT_LTC_GRID * GLINT_LTC_ENTRY;
 
 // Builds the plan of a request that has passed ValidateRequest. `queries` may
 // differ from request.queries (stream chunks reuse the first chunk's settings).

@@ -1,15 +1,52 @@
 #include "server/host_path.h"
 
+#include <cstring>
+
+#include "server/host_pass.h"
+#include "server/model_table.h"
+
 namespace glint {
 
-void HostEvaluateF32(const EvalPlan &plan, const glint::v1::QueryBatch &q, float *out);
-void HostEvaluateF64(const EvalPlan &plan, const glint::v1::QueryBatch &q, float *out);
+void HostEvaluate(const EvalPlan &plan, const glint::v1::QueryBatch &q, float *out_rgb) {
+  const Model *model = FindModel(plan.spec.model);
+  std::memset(out_rgb, 0, size_t(q.count()) * 3 * sizeof(float));
+  if (!model) return;  // validation refuses unknown models before a plan exists
 
-void HostEvaluate(const EvalPlan &plan, const glint::v1::QueryBatch &q, float *out) {
-  if (plan.spec.fp64)
-    HostEvaluateF64(plan, q, out);
-  else
-    HostEvaluateF32(plan, q, out);
+  HostInputs in;
+  in.ndf = plan.spec.ndf;
+  in.fresnel = plan.spec.fresnel;
+  in.probe = plan.spec.probe;
+  in.has_frame = plan.spec.has_frame;
+  in.has_directional = plan.spec.has_directional;
+  in.has_point = plan.spec.has_point;
+  in.n = q.count();
+  in.uv = q.uv().data();
+  in.footprint = q.footprint().data();
+  in.wo = q.wo().data();
+  in.wi = q.wi().data();
+  in.position = q.position().data();
+  in.normal = q.normal().data();
+  in.tangent = q.tangent().data();
+  in.material = plan.material.data();
+  in.params = plan.params.data();
+  in.directional = plan.directional.data();
+  in.n_directional = plan.n_directional;
+  in.point = plan.point.data();
+  in.n_point = plan.n_point;
+  in.polygons = plan.polygon.data();
+  in.n_polygon = plan.n_polygon;
+  in.ltc_table = LtcTable(plan.spec.ndf);
+  in.area_method = plan.area_method;
+  in.area_samples = plan.area_samples;
+  in.seed_lo = plan.seed_lo;
+  in.seed_hi = plan.seed_hi;
+
+  bool accumulate = false;
+  for (const ModelPass &pass : model->passes) {
+    if (pass.needed && !pass.needed(plan)) continue;
+    (plan.spec.fp64 ? pass.host_f64 : pass.host_f32)(in, out_rgb, accumulate);
+    accumulate = true;
+  }
 }
 
 }  // namespace glint

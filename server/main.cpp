@@ -11,6 +11,7 @@
 #include <iostream>
 #include <string>
 
+#include "server/model_table.h"
 #include "server/service.h"
 
 namespace {
@@ -104,33 +105,13 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
   return true;
 }
 
-// The kernels most requests use, compiled and run before SERVING; others are
-// compiled on first use (and then come from the disk cache).
+// The kernels most requests use (each model's warm_specs), compiled and run
+// before SERVING; others are compiled on first use (and then come from the disk cache).
 std::vector<glint::KernelSpec> WarmSpecs() {
   std::vector<glint::KernelSpec> specs;
-  for (int ndf : {1, 2}) {
-    glint::KernelSpec probe;
-    probe.ndf = ndf;
-    probe.probe = true;
-    specs.push_back(probe);
-    glint::KernelSpec lit;
-    lit.ndf = ndf;
-    lit.has_frame = true;
-    lit.has_directional = true;
-    lit.has_point = true;
-    specs.push_back(lit);
-  }
-  // Polygon lights (models/smooth/smooth_area.cl) and the binomial model (models/binomial/binomial.cl), GGX,
-  // in the shapes the preview and the demo send.
-  glint::KernelSpec area;
-  area.has_polygon = true;
-  specs.push_back(area);
-  glint::KernelSpec glints;
-  glints.model = 2;
-  glints.has_frame = true;
-  glints.has_directional = true;
-  glints.has_polygon = true;
-  specs.push_back(glints);
+  for (const glint::Model *model : glint::Models())
+    if (model->warm_specs)
+      for (const glint::KernelSpec &spec : model->warm_specs()) specs.push_back(spec);
   return specs;
 }
 
@@ -167,7 +148,7 @@ int main(int argc, char **argv) {
     glint::DeviceEngineOptions eo;
     eo.device = flags.device;
     eo.cache_dir = flags.cache_dir;
-    eo.lanes = flags.workers;
+    eo.workers = flags.workers;
     glint::Status s = glint::DeviceEngine::Create(eo, &engine);
     if (!s.ok()) {
       std::fprintf(stderr, "glintd: %s\n", s.message().c_str());

@@ -3,8 +3,8 @@
 namespace glint {
 
 Scheduler::Scheduler(int workers, size_t max_pending) : max_pending_(max_pending) {
-  for (int lane = 0; lane < workers; ++lane)
-    workers_.emplace_back([this, lane] { WorkerLoop(lane); });
+  for (int worker = 0; worker < workers; ++worker)
+    workers_.emplace_back([this, worker] { WorkerLoop(worker); });
 }
 
 Scheduler::~Scheduler() {
@@ -31,7 +31,7 @@ size_t Scheduler::pending() const {
   return queue_.size() + running_;
 }
 
-void Scheduler::WorkerLoop(int lane) {
+void Scheduler::WorkerLoop(int worker) {
   for (;;) {
     Job job;
     {
@@ -42,7 +42,7 @@ void Scheduler::WorkerLoop(int lane) {
       queue_.pop_front();
       ++running_;
     }
-    job(lane);
+    job(worker);
     std::lock_guard<std::mutex> lock(mutex_);
     --running_;
   }

@@ -1,4 +1,4 @@
-// A fixed pool of worker threads, one per engine lane, fed by a bounded queue.
+// A fixed pool of worker threads, one per engine command queue, fed by a bounded queue.
 // gRPC handlers only enqueue; evaluation runs here, never on gRPC's threads.
 // When the queue is full, TrySubmit fails at once and the caller answers
 // RESOURCE_EXHAUSTED: overload fails fast instead of queueing without bound.
@@ -16,7 +16,7 @@ namespace glint {
 
 class Scheduler {
  public:
-  using Job = std::function<void(int lane)>;
+  using Job = std::function<void(int worker)>;
 
   Scheduler(int workers, size_t max_pending);
   ~Scheduler();  // runs every queued job, then joins
@@ -28,7 +28,7 @@ class Scheduler {
   size_t max_pending() const { return max_pending_; }
 
  private:
-  void WorkerLoop(int lane);
+  void WorkerLoop(int worker);
 
   const size_t max_pending_;
   mutable std::mutex mutex_;

@@ -6,6 +6,7 @@
 
 #include "server/eval_plan.h"
 #include "server/host_path.h"
+#include "server/model_table.h"
 
 namespace glint {
 namespace {
@@ -60,13 +61,13 @@ void GlintServiceImpl::LogLine(const std::string &line) {
   std::fprintf(stderr, "glintd: %s\n", line.c_str());
 }
 
-Status GlintServiceImpl::RunBatch(int lane, const glint::v1::EvaluateRequest &settings,
+Status GlintServiceImpl::RunBatch(int worker, const glint::v1::EvaluateRequest &settings,
                                   const glint::v1::QueryBatch &queries, uint64_t first_query,
                                   bool streamed, glint::v1::EvaluateResponse *response,
                                   std::string *kernel) {
   Status s =
       ValidateQueries(queries, settings.lights_size() > 0, options_.limits, first_query, streamed);
-  if (s.ok()) s = ValidateQueriesForModel(queries, settings);
+  if (s.ok()) s = ValidateQueriesForModel(queries, settings, first_query);
   if (!s.ok()) return s;
   const EvalPlan plan = MakeEvalPlan(settings, queries);
   if (kernel) *kernel = plan.spec.Describe();
@@ -75,7 +76,7 @@ Status GlintServiceImpl::RunBatch(int lane, const glint::v1::EvaluateRequest &se
   response->mutable_radiance()->Resize(int(queries.count()) * 3, 0.0f);
   float *out = response->mutable_radiance()->mutable_data();
   if (engine_) {
-    s = engine_->Evaluate(lane, plan, queries, out);
+    s = engine_->Evaluate(worker, plan, queries, out);
   } else {
     HostEvaluate(plan, queries, out);
   }
@@ -96,10 +97,10 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
     reactor->Finish(ToGrpcStatus(s));
     return reactor;
   }
-  bool queued = scheduler_->TrySubmit([this, reactor, request, response, received](int lane) {
+  bool queued = scheduler_->TrySubmit([this, reactor, request, response, received](int worker) {
     const double queue_ms = MsSince(received);
     std::string kernel = "-";
-    Status st = RunBatch(lane, *request, request->queries(), 0, false, response, &kernel);
+    Status st = RunBatch(worker, *request, request->queries(), 0, false, response, &kernel);
     response->mutable_stats()->set_queue_ms(queue_ms);
     std::ostringstream line;
     line << "Evaluate n=" << request->queries().count() << " model=" << ModelName(*request)
@@ -152,12 +153,12 @@ class GlintServiceImpl::StreamReactor
         return Fail(
             Status::InvalidArgument("chunk " + std::to_string(next_index_) + ": " + s.message()));
     }
-    bool queued = service_->scheduler().TrySubmit([this](int lane) {
+    bool queued = service_->scheduler().TrySubmit([this](int worker) {
       result_.Clear();
       result_.set_chunk_index(next_index_);
       result_.set_first_query(next_query_);
-      Status s = service_->RunBatch(lane, settings_, chunk_.request().queries(), next_query_, true,
-                                    result_.mutable_result());
+      Status s = service_->RunBatch(worker, settings_, chunk_.request().queries(), next_query_,
+                                    true, result_.mutable_result());
       if (!s.ok()) {
         return Fail(
             Status::InvalidArgument("chunk " + std::to_string(next_index_) + ": " + s.message()));
@@ -219,8 +220,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::GetCapabilities(
     c->set_compute_units(1);
     c->set_fp64(true);
   }
-  c->add_models("SMOOTH");
-  c->add_models("BINOMIAL");
+  for (const Model *model : Models()) c->add_models(model->name);
   for (const char *n : {"GGX", "BECKMANN"}) c->add_ndfs(n);
   for (const char *f : {"schlick", "conductor", "dielectric"}) c->add_fresnel_kinds(f);
   for (const char *l : {"directional", "point", "polygon"}) c->add_light_kinds(l);

@@ -37,9 +37,9 @@ class GlintServiceImpl final : public glint::v1::GlintService::CallbackService {
                                             glint::v1::Capabilities *response) override;
 
   // Validates `queries` against `settings` (already validated) and evaluates
-  // them on `lane`, filling response->radiance. `kernel`, if given, receives
+  // them on `worker`'s queue, filling response->radiance. `kernel`, if given, receives
   // the kernel variant that ran (for the request log).
-  Status RunBatch(int lane, const glint::v1::EvaluateRequest &settings,
+  Status RunBatch(int worker, const glint::v1::EvaluateRequest &settings,
                   const glint::v1::QueryBatch &queries, uint64_t first_query, bool streamed,
                   glint::v1::EvaluateResponse *response, std::string *kernel = nullptr);
 

@@ -5,6 +5,8 @@
 #include <sstream>
 #include <string>
 
+#include "server/model_table.h"
+
 namespace glint {
 namespace {
 
@@ -62,70 +64,35 @@ Status CheckUnit(const float *v, const std::string &field, double tol) {
   return Status::Ok();
 }
 
-// The binomial block (proto/glint/v1/glint.proto BinomialParams documents the ranges).
-Status CheckBinomial(const glint::v1::Material &m) {
-  if (!m.has_binomial()) {
-    return Status::InvalidArgument(
-        "material.binomial: unset; the BINOMIAL model needs at least {\"density\": ...}");
-  }
-  const auto &b = m.binomial();
-  std::ostringstream o;
-  if (!(b.density() > 0.0 && b.density() <= 1e30)) {
-    o << "material.binomial.density: " << b.density()
-      << "; expected facets per unit uv area in (0, 1e30]";
-  } else if (!glint::v1::ReflectionProbability_IsValid(b.p_mode())) {
-    o << "material.binomial.p_mode: unknown value " << b.p_mode()
-      << "; expected AREA or HEURISTIC_R";
-  } else if (!(b.r() >= 0.0f && b.r() <= 1e6f)) {
-    o << "material.binomial.r: " << b.r() << "; expected a factor in (0, 1e6] (0 = 1)";
-  } else if (!(b.normal_threshold() == 0.0f ||
-               (b.normal_threshold() >= 1.0f && b.normal_threshold() <= 40.0f))) {
-    o << "material.binomial.normal_threshold: " << b.normal_threshold()
-      << "; expected a variance in [1, 40] (0 = 9)";
-  } else if (!(b.slope_cell() >= 0.0f && b.slope_cell() <= 1e3f)) {
-    o << "material.binomial.slope_cell: " << b.slope_cell()
-      << "; expected a slope in (0, 1000] (0 = 0.05)";
-  } else {
-    return Status::Ok();
-  }
-  return Status::InvalidArgument(o.str());
-}
-
-// KK24 Sec. 5: a light of zero size has zero probability of meeting a facet, so the AREA
-// probability needs a cone (directional) or a radius (point).
-Status CheckBinomialLight(const glint::v1::Light &light, const std::string &field) {
-  if (light.has_directional() && !(light.directional().cone_half_angle_deg() > 0.0f)) {
-    return Status::InvalidArgument(
-        field +
-        ".directional.cone_half_angle_deg: 0; the BINOMIAL model (p_mode AREA) needs a light "
-        "of finite size, e.g. 0.26 for the sun");
-  }
-  if (light.has_point() && !(light.point().radius() > 0.0f)) {
-    return Status::InvalidArgument(
-        field +
-        ".point.radius: 0; the BINOMIAL model (p_mode AREA) needs a sphere light of finite "
-        "radius");
-  }
-  return Status::Ok();
-}
-
 Status CheckMaterial(const glint::v1::Material &m) {
   using glint::v1::Material;
-  if (m.model() != glint::v1::SMOOTH && m.model() != glint::v1::BINOMIAL) {
+  const Model *model = FindModel(m.model());
+  if (!model) {
+    std::string expected;
+    for (const Model *known : Models())
+      expected += std::string(expected.empty() ? "" : " or ") + known->name;
     return Status::InvalidArgument(
         "material.model: " +
         (glint::v1::Model_IsValid(m.model()) && m.model() != 0
              ? glint::v1::Model_Name(m.model())
              : std::string(m.model() == 0 ? "unset"
                                           : "unknown value " + std::to_string(m.model()))) +
-        "; expected SMOOTH or BINOMIAL");
+        "; expected " + expected);
   }
-  if (m.model() == glint::v1::BINOMIAL) {
-    Status s = CheckBinomial(m);
+  // Another model's parameter block is a mistake the client should hear about.
+  const auto *reflection = m.GetReflection();
+  for (const Model *other : Models()) {
+    if (other == model || !other->params_field) continue;
+    const auto *field = m.GetDescriptor()->FindFieldByName(other->params_field);
+    if (field && reflection->HasField(m, field)) {
+      return Status::InvalidArgument("material." + std::string(other->params_field) +
+                                     ": set, but material.model is " + model->name + "; expected " +
+                                     other->name);
+    }
+  }
+  if (model->validate_params) {
+    Status s = model->validate_params(m);
     if (!s.ok()) return s;
-  } else if (m.has_binomial()) {
-    return Status::InvalidArgument("material.binomial: set, but material.model is " +
-                                   glint::v1::Model_Name(m.model()) + "; expected BINOMIAL");
   }
   if (m.ndf() != glint::v1::GGX && m.ndf() != glint::v1::BECKMANN) {
     return Status::InvalidArgument(
@@ -303,12 +270,12 @@ Status ValidateSettings(const glint::v1::EvaluateRequest &request, const Validat
                                    " lights; at most " + std::to_string(limits.max_lights) +
                                    " per request");
   }
-  const bool binomial_area = request.material().model() == glint::v1::BINOMIAL &&
-                             request.material().binomial().p_mode() != glint::v1::HEURISTIC_R;
+  const Model *model = FindModel(request.material().model());
   for (int l = 0; l < request.lights_size(); ++l) {
     const std::string field = Indexed("lights", uint64_t(l));
     s = CheckLight(request.lights(l), field, limits.unit_tolerance);
-    if (s.ok() && binomial_area) s = CheckBinomialLight(request.lights(l), field);
+    if (s.ok() && model->validate_light)
+      s = model->validate_light(request.material(), request.lights(l), field);
     if (!s.ok()) return s;
   }
   switch (request.area_method()) {
@@ -428,23 +395,10 @@ Status ValidateQueries(const glint::v1::QueryBatch &q, bool has_lights,
 }
 
 Status ValidateQueriesForModel(const glint::v1::QueryBatch &q,
-                               const glint::v1::EvaluateRequest &settings) {
-  if (settings.material().model() != glint::v1::BINOMIAL) return Status::Ok();
-  if (!q.wi().empty()) {
-    return Status::InvalidArgument(
-        "queries.wi: BRDF probes are a delta light, which no facet reflects; the BINOMIAL "
-        "model needs lights of finite size");
-  }
-  if (q.uv().empty()) {
-    return Status::InvalidArgument(
-        "queries.uv: empty; the BINOMIAL model needs uv (2 per query) to place the facets");
-  }
-  if (q.footprint().empty()) {
-    return Status::InvalidArgument(
-        "queries.footprint: empty; the BINOMIAL model needs the pixel footprint (du/dx, dv/dx, "
-        "du/dy, dv/dy per query) to count facets");
-  }
-  return Status::Ok();
+                               const glint::v1::EvaluateRequest &settings, uint64_t first_query) {
+  const Model *model = FindModel(settings.material().model());
+  if (!model || !model->validate_queries) return Status::Ok();
+  return model->validate_queries(settings, q, first_query);
 }
 
 }  // namespace glint

@@ -31,9 +31,10 @@ Status ValidateQueries(const glint::v1::QueryBatch &queries, bool has_lights,
                        const ValidationLimits &limits, uint64_t first_query = 0,
                        bool streamed = false);
 
-// Checks what the material's model needs from a batch that passed ValidateQueries (BINOMIAL:
-// uv and footprint present, no probes).
+// Checks what the material's model needs from a batch that passed ValidateQueries (the model's
+// validate_queries, server/model.h; e.g. BINOMIAL needs uv and footprint and refuses probes).
 Status ValidateQueriesForModel(const glint::v1::QueryBatch &queries,
-                               const glint::v1::EvaluateRequest &settings);
+                               const glint::v1::EvaluateRequest &settings,
+                               uint64_t first_query = 0);
 
 }  // namespace glint

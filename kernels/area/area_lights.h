@@ -17,23 +17,14 @@
 #include "kernels/area/area_lecocq.h"
 #include "kernels/area/area_monte_carlo.h"
 #include "kernels/compat.h"
+#include "kernels/layout.h"
 #include "kernels/frame.h"
 #include "kernels/area/ltc_lookup.h"
 #include "kernels/area/polygon.h"
 #include "kernels/rng.h"
 #include "kernels/smooth_brdf.h"
 
-/* Polygon record as the host packs it (server/eval_plan.cpp):
- * [n_vertices, two_sided, L.r, L.g, L.b, 0, 0, 0, x0, y0, z0, ..., x15, y15, z15]. */
-#define GLINT_POLYGON_FLOATS 56
-#define GLINT_POLYGON_VERTEX_OFFSET 8
-
-/* area_method values (same numbers as glint.v1.AreaMethod). */
-#define GLINT_AREA_LTC 1
-#define GLINT_AREA_LECOCQ 2
-#define GLINT_AREA_LECOCQ_PEARSON 3
-#define GLINT_AREA_MONTE_CARLO 4
-#define GLINT_AREA_REFERENCE 5
+/* Polygon records and area_method values (GLINT_AREA_*): kernels/layout.h. */
 
 /* Two clips (shading horizon, then the cosine's support after M^-1) add at
  * most one vertex each to a convex polygon. */
@@ -272,34 +263,6 @@ GLINT_FN real3 area_shade(SmoothMaterial m, const GLINT_GLOBAL float *table, int
                           const GLINT_GLOBAL float *polygons, uint n_polygon) {
   return area_shade_keyed(m, table, method, samples, wo, has_frame, frame, p, polygons, n_polygon,
                           0u);
-}
-
-/* The identity frame: the local frame of queries that carry none. */
-GLINT_FN ShadingFrame area_identity_frame(void) {
-  ShadingFrame frame;
-  frame.t = make_real3(R(1.0), R(0.0), R(0.0));
-  frame.b = make_real3(R(0.0), R(1.0), R(0.0));
-  frame.n = make_real3(R(0.0), R(0.0), R(1.0));
-  return frame;
-}
-
-/* One query's polygon-light radiance from its raw inputs, building the local
- * frame exactly as smooth_shade (models/smooth/smooth_eval.h) does, so that the
- * result adds to the other light kinds' consistently. */
-GLINT_FN real3 area_shade_inputs(SmoothMaterial m, const GLINT_GLOBAL float *table, int method,
-                                 int samples, int has_frame, real3 wo_in, real3 position,
-                                 real3 normal, real3 tangent, const GLINT_GLOBAL float *polygons,
-                                 uint n_polygon, uint key) {
-  real3 wo = r3_normalize(wo_in);
-  real3 p = make_real3(R(0.0), R(0.0), R(0.0));
-  ShadingFrame frame = area_identity_frame();
-  if (has_frame) {
-    frame = frame_from_normal_tangent(normal, tangent);
-    p = position;
-    wo = frame_to_local(frame, wo);
-  }
-  return area_shade_keyed(m, table, method, samples, wo, has_frame, frame, p, polygons, n_polygon,
-                          key);
 }
 
 #endif /* GLINT_AREA_LIGHTS_H */

@@ -8,10 +8,9 @@
 #define GLINT_LTC_LOOKUP_H
 
 #include "kernels/compat.h"
+#include "kernels/layout.h"
 #include "kernels/smooth_brdf.h"
 
-#define GLINT_LTC_GRID 64
-#define GLINT_LTC_ENTRY 8
 
 /* Bilinear lookup of one LTC table entry (data/ltc/ltc_table.h lookup):
  * x = sqrt(alpha) * 63, y = sqrt(1 - cos(theta_o)) * 63, clamped to the grid. */

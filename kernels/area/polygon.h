@@ -12,6 +12,7 @@
 #define GLINT_POLYGON_H
 
 #include "kernels/compat.h"
+#include "kernels/layout.h"
 
 /* Clipping branches on per-vertex values, so polygon kernels run one query
  * per work-item (see compat.h on GLINT_LANES). */
@@ -19,7 +20,6 @@
 #error "kernels/area/polygon.h needs GLINT_LANES == 1"
 #endif
 
-#define GLINT_POLYGON_MAX_VERTICES 16
 /* Clipping a convex polygon against one plane adds at most one vertex. */
 #define GLINT_POLYGON_MAX_CLIPPED (GLINT_POLYGON_MAX_VERTICES + 1)
 

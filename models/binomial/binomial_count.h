@@ -34,6 +34,7 @@
 
 #include "kernels/compat.h"
 #include "kernels/rng.h"
+#include "models/binomial/binomial_params.h"
 
 /* Trials up to this count are sampled exactly (CDF inversion, O(n)). */
 #define GLINT_BINOMIAL_EXACT_MAX 64
@@ -43,12 +44,7 @@
 #define GLINT_BINOMIAL_MAX_ANISO_LOG2 6
 #define GLINT_BINOMIAL_GRIDS 8
 
-/* The material's binomial block as the host packs it (server/eval_plan.cpp):
- * [density, p_mode, r, normal_threshold, slope_cell, 0, 0, 0]. */
-#define GLINT_BINOMIAL_FLOATS 8
-#define GLINT_P_MODE_AREA 1
-#define GLINT_P_MODE_HEURISTIC_R 2
-
+/* The packed parameter block: models/binomial/binomial_params.h. */
 typedef struct {
   real density;          /* facets per unit uv area */
   int p_mode;            /* GLINT_P_MODE_* */

@@ -29,9 +29,11 @@
 #define GLINT_BINOMIAL_EVAL_H
 
 #include "kernels/area/area_lights.h"
+#include "kernels/kernel_args.h"
+#include "kernels/punctual_lights.h"
+#include "kernels/query.h"
+#include "kernels/smooth_brdf.h"
 #include "models/binomial/binomial_count.h"
-#include "kernels/lights.h"
-#include "models/smooth/smooth_eval.h"
 
 /* Light kinds in the random keys. */
 #define GLINT_KEY_DIRECTIONAL 1u
@@ -44,13 +46,6 @@ GLINT_FN uint binomial_light_key(uint kind, uint index, real3 h, real slope_cell
   uint key = rng_hash2(kind, index);
   key = rng_absorb(key, binomial_cell_key(floor(h.x / (z * slope_cell))));
   return rng_absorb(key, binomial_cell_key(floor(h.y / (z * slope_cell))));
-}
-
-/* Solid angle 2 pi (1 - cos gamma) of a cone with sin(gamma) = s, written
- * as 2 pi s^2 / (1 + cos gamma) so small cones do not cancel. */
-GLINT_FN real binomial_cap_solid_angle(real s) {
-  s = clamp(s, R(0.0), R(1.0));
-  return R(2.0) * GLINT_PI * s * s / (R(1.0) + sqrt(fmax(R(1.0) - s * s, R(0.0))));
 }
 
 /* KK24 Eq. 20, or the DB23 heuristic: p for a small cone around wi. */
@@ -73,93 +68,59 @@ GLINT_FN real3 binomial_light(FootprintGrids g, BinomialParams b, real3 l_smooth
   return r3_scale(l_smooth, fraction / p);
 }
 
-typedef struct {
-  real u, v;
-  real footprint[4]; /* du/dx, dv/dx, du/dy, dv/dy */
-  QueryInputs in;    /* wo, and the frame when spec.has_frame */
-} BinomialQuery;
-
-typedef struct {
-  const GLINT_GLOBAL float *polygons; /* GLINT_POLYGON_FLOATS per light */
-  uint n_polygon;
-  const GLINT_GLOBAL float *ltc_table;
-  int area_method;
-  int area_samples;
-} AreaInputs;
-
-/* Reflected radiance towards wo (RGB) of the binomial model. `area_key` seeds
- * the stochastic area methods (area_query_key). */
-GLINT_FN real3 binomial_shade(EvalSpec spec, SmoothMaterial m, BinomialParams b, BinomialQuery q,
-                              LightArrays lights, AreaInputs area, uint seed_lo, uint seed_hi,
-                              uint area_key) {
+/* Reflected radiance towards wo (RGB) of the binomial model for query i. */
+GLINT_FN real3 binomial_query(EvalSpec spec, KernelInputs in, uint i) {
   real3 radiance = make_real3(R(0.0), R(0.0), R(0.0));
-  real3 wo = r3_normalize(q.in.wo);
-  real3 p = make_real3(R(0.0), R(0.0), R(0.0));
-  ShadingFrame frame = area_identity_frame();
-  if (spec.has_frame) {
-    frame = frame_from_normal_tangent(q.in.normal, q.in.tangent);
-    p = q.in.position;
-    wo = frame_to_local(frame, wo);
-  }
+  SmoothMaterial m = smooth_material_unpack(in.material, spec.ndf, spec.fresnel);
+  BinomialParams b = binomial_params_unpack(in.params);
+  ShadingPoint sp = shading_point(spec, query_load(spec, in, i));
+  real3 wo = sp.wo;
   if (!(wo.z > R(0.0))) return radiance;
-  FootprintGrids g = binomial_footprint_grids(b.density, q.u, q.v, q.footprint, seed_lo, seed_hi);
+  real footprint[4];
+  for (int k = 0; k < 4; ++k) footprint[k] = (real)in.footprint[4 * i + k];
+  FootprintGrids g = binomial_footprint_grids(b.density, (real)in.uv[2 * i],
+                                              (real)in.uv[2 * i + 1], footprint, in.seed_lo,
+                                              in.seed_hi);
   if (!(g.n_facets > R(0.0))) return radiance;
 
   real alpha = sqrt(m.alpha_x * m.alpha_y);
   real e[GLINT_LTC_ENTRY];
-  area_ltc_lookup(area.ltc_table, alpha, wo.z, e);
+  area_ltc_lookup(in.ltc_table, alpha, wo.z, e);
   real d_h = e[7];
   real d_n = ndf_D(m.ndf, make_real3(R(0.0), R(0.0), R(1.0)), m.alpha_x, m.alpha_y);
 
-  if (spec.has_directional) {
-    for (uint l = 0; l < lights.n_directional; ++l) {
-      const GLINT_GLOBAL float *rec = lights.directional + GLINT_LIGHT_FLOATS * l;
-      real3 wi = directional_light_dir(rec);
-      if (spec.has_frame) wi = frame_to_local(frame, wi);
-      real3 ls = r3_mul(smooth_reflect_cos(m, wi, wo), directional_light_irradiance(rec));
-      if (!(ls.x + ls.y + ls.z > R(0.0))) continue;
-      real prob = binomial_p_cone(m, b, wi, wo, (real)rec[6], d_h, d_n);
-      real3 h = r3_normalize(r3_add(wi, wo));
-      radiance = r3_add(
-          radiance, binomial_light(g, b, ls, prob,
-                                   binomial_light_key(GLINT_KEY_DIRECTIONAL, l, h, b.slope_cell)));
-    }
+  uint n_lights = punctual_light_count(spec, in);
+  for (uint l = 0; l < n_lights; ++l) {
+    PunctualLight light = punctual_light(spec, in, sp, l);
+    real3 ls = r3_mul(smooth_reflect_cos(m, light.wi, wo), light.irradiance);
+    if (!(ls.x + ls.y + ls.z > R(0.0))) continue;
+    real prob = binomial_p_cone(m, b, light.wi, wo, light.solid_angle, d_h, d_n);
+    real3 h = r3_normalize(r3_add(light.wi, wo));
+    uint kind = light.kind == GLINT_LIGHT_KIND_DIRECTIONAL ? GLINT_KEY_DIRECTIONAL : GLINT_KEY_POINT;
+    radiance = r3_add(radiance, binomial_light(g, b, ls, prob,
+                                               binomial_light_key(kind, light.index, h,
+                                                                  b.slope_cell)));
   }
-  if (spec.has_point) {
-    for (uint l = 0; l < lights.n_point; ++l) {
-      const GLINT_GLOBAL float *rec = lights.point + GLINT_LIGHT_FLOATS * l;
-      real3 E;
-      real3 wi = point_light_dir(rec, p, &E);
-      if (spec.has_frame) wi = frame_to_local(frame, wi);
-      real3 ls = r3_mul(smooth_reflect_cos(m, wi, wo), E);
-      if (!(ls.x + ls.y + ls.z > R(0.0))) continue;
-      real3 d = r3_sub(light_load3(rec, 0), p);
-      real dist = r3_length(d);
-      real s = dist > (real)rec[6] ? (real)rec[6] / dist : R(1.0);
-      real prob = binomial_p_cone(m, b, wi, wo, binomial_cap_solid_angle(s), d_h, d_n);
-      real3 h = r3_normalize(r3_add(wi, wo));
-      radiance = r3_add(
-          radiance,
-          binomial_light(g, b, ls, prob, binomial_light_key(GLINT_KEY_POINT, l, h, b.slope_cell)));
-    }
-  }
-  for (uint l = 0; l < area.n_polygon; ++l) {
-    const GLINT_GLOBAL float *rec = area.polygons + GLINT_POLYGON_FLOATS * l;
+
+  uint area_key = area_query_key(in.seed_lo, in.seed_hi, in.wo + 3 * i,
+                                 spec.has_frame ? in.position + 3 * i : 0);
+  for (uint l = 0; l < in.n_polygon; ++l) {
+    const GLINT_GLOBAL float *rec = in.polygons + GLINT_POLYGON_FLOATS * l;
     real3 v[GLINT_POLYGON_MAX_VERTICES];
-    int n = area_polygon_load(rec, spec.has_frame, frame, p, v);
+    int n = area_polygon_load(rec, spec.has_frame, sp.frame, sp.p, v);
     if (area_polygon_weight(v, n, rec[1] != 0.0f) == R(0.0)) continue;
     real3 L = make_real3((real)rec[2], (real)rec[3], (real)rec[4]);
     real el[GLINT_LTC_ENTRY];
-    real ff = area_ltc_form_factor(area.ltc_table, alpha, wo, v, n, el);
-    real3 unit = area.area_method == GLINT_AREA_LTC
+    real ff = area_ltc_form_factor(in.ltc_table, alpha, wo, v, n, el);
+    real3 unit = in.area_method == GLINT_AREA_LTC
                      ? r3_scale(area_ltc_albedo(m, el), ff)
-                     : area_polygon_integral(m, area.ltc_table, area.area_method, area.area_samples,
+                     : area_polygon_integral(m, in.ltc_table, in.area_method, in.area_samples,
                                              wo, v, n, rng_absorb(area_key, l));
     real3 ls = r3_mul(unit, L);
     if (!(ls.x + ls.y + ls.z > R(0.0))) continue;
     /* Centre direction: for the angular key and the heuristic's h. */
     real3 c = make_real3(R(0.0), R(0.0), R(0.0));
-    for (int i = 0; i < n; ++i) c = r3_add(c, v[i]);
+    for (int k = 0; k < n; ++k) c = r3_add(c, v[k]);
     real3 wc = area_safe_normalize(c, make_real3(R(0.0), R(0.0), R(1.0)));
     real3 h = area_safe_normalize(r3_add(wc, wo), make_real3(R(0.0), R(0.0), R(1.0)));
     real prob = b.p_mode == GLINT_P_MODE_HEURISTIC_R

@@ -1,123 +1,42 @@
-/* Per-query evaluation of the smooth model: one function shared by the
- * OpenCL entry point (models/smooth/smooth.cl) and the host scalar path
- * (server/host_path.cpp). On the device every field of EvalSpec is a
- * build-time constant, so the branches below fold away and only what the
- * request asked for is computed; the host passes the same values at run time.
- * Per-query conditions are selects (see compat.h), never branches. */
+/* The smooth model per query: f = F G2 D / (4 cos_i cos_o) (kernels/smooth_brdf.h)
+ * under BRDF probes, directional and point lights (smooth_shade; the 8-lane
+ * entry models/smooth/smooth.cl) and under polygon lights (smooth_polygons;
+ * the one-query-per-work-item entry models/smooth/smooth_area.cl, because
+ * clipping branches per query). The host path runs the same functions
+ * (models/smooth/host_passes.cpp).
+ *
+ * Branches here depend only on the spec and the light counts, never on the
+ * query, so on the device they are uniform (and mostly folded away at build
+ * time); per-query conditions are selects (see compat.h). */
 #ifndef GLINT_SMOOTH_EVAL_H
 #define GLINT_SMOOTH_EVAL_H
 
 #include "kernels/compat.h"
-#include "kernels/frame.h"
-#include "kernels/lights.h"
+#include "kernels/kernel_args.h"
+#include "kernels/punctual_lights.h"
+#include "kernels/query.h"
 #include "kernels/smooth_brdf.h"
 
-typedef struct {
-  int ndf;             /* GLINT_NDF_* */
-  int fresnel;         /* GLINT_FRESNEL_* */
-  int probe;           /* queries carry wi: return f cos_i, no lights */
-  int has_frame;       /* queries carry world position / normal / tangent */
-  int has_directional; /* request has directional lights */
-  int has_point;       /* request has point lights */
-} EvalSpec;
-
-typedef struct {
-  const GLINT_GLOBAL float *wo;       /* 3 per query */
-  const GLINT_GLOBAL float *wi;       /* 3 per query, probes only */
-  const GLINT_GLOBAL float *position; /* 3 per query, framed only */
-  const GLINT_GLOBAL float *normal;
-  const GLINT_GLOBAL float *tangent;
-} QueryArrays;
-
-typedef struct {
-  const GLINT_GLOBAL float *directional; /* GLINT_LIGHT_FLOATS per light */
-  uint n_directional;
-  const GLINT_GLOBAL float *point;
-  uint n_point;
-} LightArrays;
-
-/* One query's inputs as real3: directions (wo, and wi for probes) and, for
- * framed queries, the world position, normal and tangent. Fields the spec does
- * not use are ignored. On the device (GLINT_LANES > 1) each field holds a
- * block of queries, loaded by kernels/smooth.cl. */
-typedef struct {
-  real3 wo;
-  real3 wi;
-  real3 position;
-  real3 normal;
-  real3 tangent;
-} QueryInputs;
-
-GLINT_FN real3 query_load3(const GLINT_GLOBAL float *a, uint i) {
-  return make_real3((real)a[3 * i], (real)a[3 * i + 1], (real)a[3 * i + 2]);
-}
-
-/* Query i of the arrays (host path; the device loads blocks itself). */
-GLINT_FN QueryInputs query_load(EvalSpec spec, QueryArrays q, uint i) {
-  QueryInputs in;
-  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
-  in.wo = query_load3(q.wo, i);
-  in.wi = zero;
-  in.position = zero;
-  in.normal = zero;
-  in.tangent = zero;
-  if (spec.probe) in.wi = query_load3(q.wi, i);
-  if (spec.has_frame) {
-    in.position = query_load3(q.position, i);
-    in.normal = query_load3(q.normal, i);
-    in.tangent = query_load3(q.tangent, i);
-  }
-  return in;
-}
-
-/* Reflected radiance towards wo (RGB) for loaded query inputs. Branches here
- * depend only on the spec and the light counts, never on the query, so on
- * the device they are uniform (and mostly folded away at build time). */
-GLINT_FN real3 smooth_shade(EvalSpec spec, SmoothMaterial m, QueryInputs in, LightArrays lights) {
-  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
-  real3 wo = r3_normalize(in.wo);
-  real3 p = zero;
-  ShadingFrame frame;
-  frame.t = make_real3(R(1.0), R(0.0), R(0.0));
-  frame.b = make_real3(R(0.0), R(1.0), R(0.0));
-  frame.n = make_real3(R(0.0), R(0.0), R(1.0));
-  if (spec.has_frame) {
-    frame = frame_from_normal_tangent(in.normal, in.tangent);
-    p = in.position;
-    wo = frame_to_local(frame, wo);
-  }
+/* Reflected radiance towards wo (RGB) from the probe direction or the
+ * directional and point lights. */
+GLINT_FN real3 smooth_shade(EvalSpec spec, KernelInputs in, QueryInputs q) {
+  SmoothMaterial m = smooth_material_unpack(in.material, spec.ndf, spec.fresnel);
+  ShadingPoint sp = shading_point(spec, q);
   if (spec.probe) {
-    real3 wi = r3_normalize(in.wi);
-    if (spec.has_frame) wi = frame_to_local(frame, wi);
-    return smooth_reflect_cos(m, wi, wo);
+    real3 wi = shading_to_local(spec, sp, r3_normalize(q.wi));
+    return smooth_reflect_cos(m, wi, sp.wo);
   }
-
-  real3 radiance = zero;
-  if (spec.has_directional) {
-    for (uint l = 0; l < lights.n_directional; ++l) {
-      const GLINT_GLOBAL float *rec = lights.directional + GLINT_LIGHT_FLOATS * l;
-      real3 wi = directional_light_dir(rec);
-      if (spec.has_frame) wi = frame_to_local(frame, wi);
-      radiance = r3_add(radiance, r3_mul(smooth_reflect_cos(m, wi, wo),
-                                         directional_light_irradiance(rec)));
-    }
-  }
-  if (spec.has_point) {
-    for (uint l = 0; l < lights.n_point; ++l) {
-      const GLINT_GLOBAL float *rec = lights.point + GLINT_LIGHT_FLOATS * l;
-      real3 E;
-      real3 wi = point_light_dir(rec, p, &E);
-      if (spec.has_frame) wi = frame_to_local(frame, wi);
-      radiance = r3_add(radiance, r3_mul(smooth_reflect_cos(m, wi, wo), E));
-    }
+  real3 radiance = make_real3(R(0.0), R(0.0), R(0.0));
+  uint n_lights = punctual_light_count(spec, in);
+  for (uint l = 0; l < n_lights; ++l) {
+    PunctualLight light = punctual_light(spec, in, sp, l);
+    radiance = r3_add(radiance, r3_mul(smooth_reflect_cos(m, light.wi, sp.wo), light.irradiance));
   }
   return radiance;
 }
 
-/* Reflected radiance towards wo for query i (RGB): the host path's entry. */
-GLINT_FN real3 smooth_shade_query(EvalSpec spec, SmoothMaterial m, QueryArrays q, LightArrays lights,
-                                  uint i) {
-  return smooth_shade(spec, m, query_load(spec, q, i), lights);
+GLINT_FN real3 smooth_query(EvalSpec spec, KernelInputs in, uint i) {
+  return smooth_shade(spec, in, query_load(spec, in, i));
 }
 
 #endif /* GLINT_SMOOTH_EVAL_H */

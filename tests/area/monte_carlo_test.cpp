@@ -10,29 +10,7 @@
 #include <cstring>
 #include <vector>
 
-namespace k64 {
-#define GLINT_USE_DOUBLE 1
-#include "kernels/area/area_lights.h"
-#include "kernels/area/area_monte_carlo.h"
-}  // namespace k64
-
-namespace k32 {
-#undef GLINT_COMPAT_H
-#undef GLINT_FRAME_H
-#undef GLINT_POLYGON_H
-#undef GLINT_SMOOTH_BRDF_H
-#undef GLINT_FRESNEL_H
-#undef GLINT_NDF_H
-#undef GLINT_RNG_H
-#undef GLINT_AREA_LIGHTS_H
-#undef GLINT_LTC_LOOKUP_H
-#undef GLINT_AREA_LECOCQ_H
-#undef GLINT_AREA_MONTE_CARLO_H
-#undef GLINT_USE_DOUBLE
-#undef R
-#define GLINT_USE_DOUBLE 0
-#include "kernels/area/area_monte_carlo.h"
-}  // namespace k32
+#include "tests/support/kernels_both_precisions.h"
 
 namespace {
 

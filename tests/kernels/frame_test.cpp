@@ -128,18 +128,22 @@ TEST(KernelFrame, KnownFrames) {
 // Through the per-query evaluation: the tangent is the alpha_x axis, and framed probes equal the
 // local BRDF of the directions expressed in an independently built frame.
 
+// Parameters are float-exact, like the engine's packed material block, so the framed path
+// (which reads the packed floats) and the reference see the same numbers.
 k64::SmoothMaterial material(int ndf, double ax, double ay) {
+  auto f = [](double x) { return double(float(x)); };
   k64::SmoothMaterial m;
   m.ndf = ndf;
-  m.alpha_x = ax;
-  m.alpha_y = ay;
+  m.alpha_x = f(ax);
+  m.alpha_y = f(ay);
   m.fresnel.kind = kFresnelConductor;
-  m.fresnel.a = k64::make_real3(0.143, 0.374, 1.442);
-  m.fresnel.b = k64::make_real3(3.983, 2.385, 1.603);
+  m.fresnel.a = k64::make_real3(f(0.143), f(0.374), f(1.442));
+  m.fresnel.b = k64::make_real3(f(3.983), f(2.385), f(1.603));
   return m;
 }
 
-// One framed probe through smooth_shade_query (inputs are float arrays, as on the wire).
+// One framed probe through smooth_query (inputs are float arrays, as on the wire, and the
+// material is packed as the engine packs it).
 Vec3 framed_probe(const k64::SmoothMaterial &m, Vec3 wi, Vec3 wo, Vec3 normal, Vec3 tangent) {
   const float wo_f[3] = {float(wo.x), float(wo.y), float(wo.z)};
   const float wi_f[3] = {float(wi.x), float(wi.y), float(wi.z)};
@@ -151,14 +155,18 @@ Vec3 framed_probe(const k64::SmoothMaterial &m, Vec3 wi, Vec3 wo, Vec3 normal, V
   spec.fresnel = m.fresnel.kind;
   spec.probe = 1;
   spec.has_frame = 1;
-  k64::QueryArrays q = {};
+  const float material[GLINT_MATERIAL_FLOATS] = {
+      float(m.alpha_x),     float(m.alpha_y),     float(m.fresnel.a.x), float(m.fresnel.a.y),
+      float(m.fresnel.a.z), float(m.fresnel.b.x), float(m.fresnel.b.y), float(m.fresnel.b.z)};
+  k64::KernelInputs q = {};
+  q.n = 1;
   q.wo = wo_f;
   q.wi = wi_f;
   q.position = p_f;
   q.normal = n_f;
   q.tangent = t_f;
-  k64::LightArrays lights = {};
-  return from_k(k64::smooth_shade_query(spec, m, q, lights, 0));
+  q.material = material;
+  return from_k(k64::smooth_query(spec, q, 0));
 }
 
 TEST(KernelSmoothEval, TangentIsTheAlphaXAxis) {
@@ -215,9 +223,15 @@ TEST(KernelSmoothEval, FramedProbeMatchesIndependentlyBuiltFrame) {
           ref::beckmann_exponent(ref::theta_of(h), ref::phi_of(h), 0.15, 0.4) > 79.99) {
         continue;  // beyond the documented D cut-off (tested in smooth_brdf_test)
       }
-      Vec3 expected = ref::brdf_cos(
-          {ndf, 0.15, 0.4, kFresnelConductor, {0.143, 0.374, 1.442}, {3.983, 2.385, 1.603}},
-          to_local(wi), to_local(wo));
+      // The reference takes the material's float-exact values (see material()).
+      auto f = [](double x) { return double(float(x)); };
+      Vec3 expected = ref::brdf_cos({ndf,
+                                     f(0.15),
+                                     f(0.4),
+                                     kFresnelConductor,
+                                     {f(0.143), f(0.374), f(1.442)},
+                                     {f(3.983), f(2.385), f(1.603)}},
+                                    to_local(wi), to_local(wo));
       EXPECT_NEAR(got.x, expected.x, kRelTol * expected.x + 1e-300)
           << "normal " << nrm << " tangent " << tan << " wi " << wi << " wo " << wo;
       EXPECT_NEAR(got.z, expected.z, kRelTol * expected.z + 1e-300)

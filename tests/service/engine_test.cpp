@@ -29,7 +29,7 @@ class EngineTest : public ::testing::Test {
   static void SetUpTestSuite() {
     DeviceEngineOptions o;
     o.cache_dir = "";  // compile from source: the test must see real build results
-    o.lanes = 2;
+    o.workers = 2;
     Status s = DeviceEngine::Create(o, &engine_);
     ASSERT_TRUE(s.ok()) << s.message();
   }
@@ -328,7 +328,7 @@ TEST_F(EngineTest, ChunkingIsBitIdentical) {
   }
 }
 
-// Two lanes evaluating at once give the serial results.
+// Two workers (command queues) evaluating at once give the serial results.
 TEST_F(EngineTest, LanesRunConcurrently) {
   v1::QueryBatch q = test::RandomQueries(50000, true, false, 11);
   EvaluateRequest settings = MakeSettings(v1::BECKMANN, 2, false, false);

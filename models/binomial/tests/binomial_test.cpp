@@ -75,34 +75,8 @@ std::vector<V3> Quad(double cx, double cy, double z, double hx, double hy) {
 }
 }  // namespace glint::test
 
-namespace k64 {
-#define GLINT_USE_DOUBLE 1
-#include "models/binomial/binomial_eval.h"
-#include "models/binomial/tests/binomial_api.inc"
-}  // namespace k64
-
-namespace k32 {
-#undef GLINT_COMPAT_H
-#undef GLINT_FRAME_H
-#undef GLINT_POLYGON_H
-#undef GLINT_SMOOTH_BRDF_H
-#undef GLINT_FRESNEL_H
-#undef GLINT_NDF_H
-#undef GLINT_RNG_H
-#undef GLINT_LTC_LOOKUP_H
-#undef GLINT_AREA_LECOCQ_H
-#undef GLINT_AREA_MONTE_CARLO_H
-#undef GLINT_AREA_LIGHTS_H
-#undef GLINT_LIGHTS_H
-#undef GLINT_SMOOTH_EVAL_H
-#undef GLINT_BINOMIAL_COUNT_H
-#undef GLINT_BINOMIAL_EVAL_H
-#undef GLINT_USE_DOUBLE
-#undef R
-#define GLINT_USE_DOUBLE 0
-#include "models/binomial/binomial_eval.h"
-#include "models/binomial/tests/binomial_api.inc"
-}  // namespace k32
+#define GLINT_TEST_KERNEL_EXTRA "models/binomial/tests/binomial_api.inc"
+#include "tests/support/kernels_both_precisions.h"
 
 namespace {
 

@@ -1,0 +1,129 @@
+// The binomial model's entry in the model table (server/model.h): its
+// parameter block (glint.v1.BinomialParams), what it needs of lights and
+// queries, and one pass (one query per work-item: the counting branches).
+#include <sstream>
+
+#include "models/binomial/binomial_params.h"
+#include "server/eval_plan.h"
+#include "server/host_pass.h"
+#include "server/model.h"
+
+GLINT_DECLARE_HOST_PASS(Binomial)
+
+namespace glint {
+namespace {
+
+using glint::v1::Material;
+
+// proto/glint/v1/glint.proto BinomialParams documents the ranges.
+Status ValidateBinomialParams(const Material &m) {
+  if (!m.has_binomial()) {
+    return Status::InvalidArgument(
+        "material.binomial: unset; the BINOMIAL model needs at least {\"density\": ...}");
+  }
+  const auto &b = m.binomial();
+  std::ostringstream o;
+  if (!(b.density() > 0.0 && b.density() <= 1e30)) {
+    o << "material.binomial.density: " << b.density()
+      << "; expected facets per unit uv area in (0, 1e30]";
+  } else if (!glint::v1::ReflectionProbability_IsValid(b.p_mode())) {
+    o << "material.binomial.p_mode: unknown value " << b.p_mode()
+      << "; expected AREA or HEURISTIC_R";
+  } else if (!(b.r() >= 0.0f && b.r() <= 1e6f)) {
+    o << "material.binomial.r: " << b.r() << "; expected a factor in (0, 1e6] (0 = 1)";
+  } else if (!(b.normal_threshold() == 0.0f ||
+               (b.normal_threshold() >= 1.0f && b.normal_threshold() <= 40.0f))) {
+    o << "material.binomial.normal_threshold: " << b.normal_threshold()
+      << "; expected a variance in [1, 40] (0 = 9)";
+  } else if (!(b.slope_cell() >= 0.0f && b.slope_cell() <= 1e3f)) {
+    o << "material.binomial.slope_cell: " << b.slope_cell()
+      << "; expected a slope in (0, 1000] (0 = 0.05)";
+  } else {
+    return Status::Ok();
+  }
+  return Status::InvalidArgument(o.str());
+}
+
+// KK24 Sec. 5: a light of zero size has zero probability of meeting a facet, so the AREA
+// probability needs a cone (directional) or a radius (point).
+Status ValidateBinomialLight(const Material &m, const glint::v1::Light &light,
+                             const std::string &field) {
+  if (m.binomial().p_mode() == glint::v1::HEURISTIC_R) return Status::Ok();
+  if (light.has_directional() && !(light.directional().cone_half_angle_deg() > 0.0f)) {
+    return Status::InvalidArgument(
+        field +
+        ".directional.cone_half_angle_deg: 0; the BINOMIAL model (p_mode AREA) needs a light "
+        "of finite size, e.g. 0.26 for the sun");
+  }
+  if (light.has_point() && !(light.point().radius() > 0.0f)) {
+    return Status::InvalidArgument(
+        field +
+        ".point.radius: 0; the BINOMIAL model (p_mode AREA) needs a sphere light of finite "
+        "radius");
+  }
+  return Status::Ok();
+}
+
+Status ValidateBinomialQueries(const glint::v1::EvaluateRequest &, const glint::v1::QueryBatch &q,
+                               uint64_t) {
+  if (!q.wi().empty()) {
+    return Status::InvalidArgument(
+        "queries.wi: BRDF probes are a delta light, which no facet reflects; the BINOMIAL "
+        "model needs lights of finite size");
+  }
+  if (q.uv().empty()) {
+    return Status::InvalidArgument(
+        "queries.uv: empty; the BINOMIAL model needs uv (2 per query) to place the facets");
+  }
+  if (q.footprint().empty()) {
+    return Status::InvalidArgument(
+        "queries.footprint: empty; the BINOMIAL model needs the pixel footprint (du/dx, dv/dx, "
+        "du/dy, dv/dy per query) to count facets");
+  }
+  return Status::Ok();
+}
+
+void PackBinomialParams(const Material &m, float *params) {
+  static_assert(GLINT_BINOMIAL_FLOATS == GLINT_MODEL_PARAM_FLOATS);
+  const auto &b = m.binomial();
+  params[0] = static_cast<float>(b.density());
+  params[1] = b.p_mode() == glint::v1::HEURISTIC_R ? GLINT_P_MODE_HEURISTIC_R : GLINT_P_MODE_AREA;
+  params[2] = b.r() > 0.0f ? b.r() : 1.0f;
+  params[3] =
+      b.normal_threshold() > 0.0f ? b.normal_threshold() : GLINT_BINOMIAL_DEFAULT_NORMAL_THRESHOLD;
+  params[4] = b.slope_cell() > 0.0f ? b.slope_cell() : GLINT_BINOMIAL_DEFAULT_SLOPE_CELL;
+}
+
+void BinomialExample(Material *m, glint::v1::QueryBatch *one_query) {
+  m->mutable_binomial()->set_density(1e6);
+  for (float v : {0.5f, 0.5f}) one_query->add_uv(v);
+  for (float v : {1e-3f, 0.0f, 0.0f, 1e-3f}) one_query->add_footprint(v);
+}
+
+std::vector<KernelSpec> BinomialWarmSpecs() {
+  KernelSpec glints;  // the glint preview: a world frame, a sun and a rect light
+  glints.model = glint::v1::BINOMIAL;
+  glints.has_frame = true;
+  glints.has_directional = true;
+  glints.has_polygon = true;
+  return {glints};
+}
+
+}  // namespace
+
+extern const Model kBinomialModel;
+const Model kBinomialModel = {
+    .id = glint::v1::BINOMIAL,
+    .name = "BINOMIAL",
+    .params_field = "binomial",
+    .passes = {{"models/binomial/binomial.cl", "glint_binomial", 1, nullptr, BinomialF32,
+                BinomialF64}},
+    .validate_params = ValidateBinomialParams,
+    .validate_light = ValidateBinomialLight,
+    .validate_queries = ValidateBinomialQueries,
+    .pack_params = PackBinomialParams,
+    .example = BinomialExample,
+    .warm_specs = BinomialWarmSpecs,
+};
+
+}  // namespace glint

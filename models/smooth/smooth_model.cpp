@@ -1,0 +1,57 @@
+// The smooth model's entry in the model table (server/model.h): two passes,
+// 8-lane SIMD for probes and directional/point lights, one query per work-item
+// for polygon lights. No parameters of its own.
+#include "server/eval_plan.h"
+#include "server/host_pass.h"
+#include "server/model.h"
+
+GLINT_DECLARE_HOST_PASS(SmoothLights)
+GLINT_DECLARE_HOST_PASS(SmoothPolygons)
+
+namespace glint {
+namespace {
+
+bool HasProbesOrPunctualLights(const EvalPlan &plan) {
+  // Also when nothing else runs, so a batch always gets its output written.
+  return plan.spec.probe || plan.n_directional > 0 || plan.n_point > 0 || plan.n_polygon == 0;
+}
+
+bool HasPolygons(const EvalPlan &plan) {
+  return plan.n_polygon > 0;
+}
+
+std::vector<KernelSpec> SmoothWarmSpecs() {
+  std::vector<KernelSpec> specs;
+  for (int ndf : {GLINT_NDF_GGX, GLINT_NDF_BECKMANN}) {
+    KernelSpec probe;
+    probe.ndf = ndf;
+    probe.probe = true;
+    specs.push_back(probe);
+    KernelSpec lit;
+    lit.ndf = ndf;
+    lit.has_frame = true;
+    lit.has_directional = true;
+    lit.has_point = true;
+    specs.push_back(lit);
+  }
+  KernelSpec area;  // the softbox preview: polygon lights, no frame
+  area.has_polygon = true;
+  specs.push_back(area);
+  return specs;
+}
+
+}  // namespace
+
+extern const Model kSmoothModel;
+const Model kSmoothModel = {
+    .id = glint::v1::SMOOTH,
+    .name = "SMOOTH",
+    .params_field = nullptr,
+    .passes = {{"models/smooth/smooth.cl", "glint_smooth", 8, HasProbesOrPunctualLights,
+                SmoothLightsF32, SmoothLightsF64},
+               {"models/smooth/smooth_area.cl", "glint_smooth_area", 1, HasPolygons,
+                SmoothPolygonsF32, SmoothPolygonsF64}},
+    .warm_specs = SmoothWarmSpecs,
+};
+
+}  // namespace glint

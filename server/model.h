@@ -1,0 +1,63 @@
+// How a BRDF model describes itself to the server: one Model value per model,
+// defined in its folder (models/<name>/<name>_model.cpp) and listed once in the
+// model table (models/model_table.cpp). Everything else (validation of the
+// common fields, the plan, argument binding, the host loop, scheduling, the
+// wire) is shared; docs/architecture.md walks through adding a model.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "glint/v1/glint.pb.h"
+#include "server/host_pass.h"
+#include "server/status.h"
+
+namespace glint {
+
+struct EvalPlan;
+struct KernelSpec;
+
+// One kernel launch of a model: an OpenCL entry taking the standard argument
+// list (kernels/kernel_args.h) and the host functions that compute the same.
+// A model's passes run in order on one output; each later pass adds to it.
+struct ModelPass {
+  const char *kernel_file;  // root-relative, e.g. "models/smooth/smooth.cl"
+  const char *entry;        // __kernel function name
+  // Queries per work-item (GLINT_LANES): 8 for branch-free SIMD code (`real`
+  // is float8/double8, kernels/simd_io.h), 1 for code that branches per query.
+  int simd_width;
+  // Whether the plan has work for this pass (nullptr: always).
+  bool (*needed)(const EvalPlan &plan);
+  HostPassFn host_f32, host_f64;  // the same pass on the host (--device host, tests)
+};
+
+struct Model {
+  glint::v1::Model id;  // proto enum value (also the kernel spec's model)
+  const char *name;     // as in the proto, e.g. "BINOMIAL"
+  // The model's own field of glint.v1.Material ("binomial"), or nullptr. A
+  // request that sets another model's field is refused.
+  const char *params_field;
+  std::vector<ModelPass> passes;
+
+  // Validation of what is specific to the model; each returns OK or an
+  // INVALID_ARGUMENT naming the field (and query index) and what was expected.
+  // The material's params block (its defaults applied by pack_params).
+  Status (*validate_params)(const glint::v1::Material &m) = nullptr;
+  // One light (`field` is e.g. "lights[2]"), after the common light checks.
+  Status (*validate_light)(const glint::v1::Material &m, const glint::v1::Light &light,
+                           const std::string &field) = nullptr;
+  // A query batch (after the common query checks), `first_query` = its offset in a stream.
+  Status (*validate_queries)(const glint::v1::EvaluateRequest &settings,
+                             const glint::v1::QueryBatch &queries, uint64_t first_query) = nullptr;
+
+  // Packs the params block (GLINT_MODEL_PARAM_FLOATS floats, zero-initialised).
+  void (*pack_params)(const glint::v1::Material &m, float *params) = nullptr;
+
+  // A valid material and query shape of this model for warm-up: fills the
+  // params field and, where the model needs them, uv and footprint.
+  void (*example)(glint::v1::Material *m, glint::v1::QueryBatch *one_query) = nullptr;
+  // Kernel variants compiled and run before the server reports SERVING.
+  std::vector<KernelSpec> (*warm_specs)() = nullptr;
+};
+
+}  // namespace glint

@@ -34,9 +34,6 @@ GLINT_FN uint rng_hash2(uint a, uint b) {
 GLINT_FN uint rng_hash3(uint a, uint b, uint c) {
   return rng_mix(rng_absorb(rng_absorb(rng_absorb(0u, a), b), c));
 }
-GLINT_FN uint rng_hash4(uint a, uint b, uint c, uint d) {
-  return rng_mix(rng_absorb(rng_absorb(rng_absorb(rng_absorb(0u, a), b), c), d));
-}
 
 /* Uniform in [0, 1) with 24 random bits: k * 2^-24 is exact in float and in
  * double, so fp32 and fp64 kernels see the same numbers. */

@@ -21,6 +21,7 @@
 #include "kernels/frame.h"
 #include "kernels/area/ltc_lookup.h"
 #include "kernels/area/polygon.h"
+#include "kernels/area/spherical_triangle.h"
 #include "kernels/rng.h"
 #include "kernels/smooth_brdf.h"
 
@@ -124,14 +125,6 @@ GLINT_FN real area_gl4_weight(int k) {
   return R(0.5) * ((k == 0 || k == 3) ? wb : wa);
 }
 
-/* Angle of the spherical triangle (a, b, c) at vertex a: the angle between
- * the tangents towards b and c (atan2 form, accurate for thin triangles). */
-GLINT_FN real area_vertex_angle(real3 a, real3 b, real3 c) {
-  real3 tb = r3_sub(b, r3_scale(a, r3_dot(a, b)));
-  real3 tc = r3_sub(c, r3_scale(a, r3_dot(a, c)));
-  return atan2(r3_length(r3_cross(tb, tc)), r3_dot(tb, tc));
-}
-
 GLINT_FN real3 area_safe_normalize(real3 v, real3 fallback) {
   real l = r3_length(v);
   return l > R(1e-30) ? r3_div(v, l) : fallback;
@@ -147,39 +140,21 @@ GLINT_FN real3 area_safe_normalize(real3 v, real3 fallback) {
 GLINT_FN real3 area_reference_triangle(SmoothMaterial m, real3 wo, real3 a, real3 b, real3 c,
                                        int panels) {
   real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
-  /* Solid angle by Van Oosterom & Strackee 1983: tan(Omega / 2) =
-   * |a . (b x c)| / (1 + a.b + b.c + c.a); accurate for small triangles where
-   * the angle excess alpha + beta + gamma - pi cancels. */
-  real triple = fabs(r3_dot(a, r3_cross(b, c)));
-  real area = R(2.0) * atan2(triple, R(1.0) + r3_dot(a, b) + r3_dot(b, c) + r3_dot(c, a));
+  real area = spherical_triangle_solid_angle(a, b, c);
   if (!(area > R(1e-20))) return zero;
-  real alpha = area_vertex_angle(a, b, c);
-  real sin_alpha = sin(alpha), cos_alpha = cos(alpha);
-  real cos_c = r3_dot(a, b);
-  real3 c_perp = area_safe_normalize(r3_sub(c, r3_scale(a, r3_dot(c, a))), b);
+  real alpha = spherical_vertex_angle(a, b, c);
   real3 sum = zero;
   real h = R(1.0) / (real)panels;
   for (int i = 0; i < panels; ++i) {
     for (int ki = 0; ki < 4; ++ki) {
       real u1 = ((real)i + area_gl4_node(ki)) * h;
       real w1 = area_gl4_weight(ki) * h;
-      /* Arvo 1995 Fig. 2: the point c' on arc ac that cuts off area u1 * A. */
-      real s = sin(u1 * area - alpha), t = cos(u1 * area - alpha);
-      real u = t - cos_alpha;
-      real vv = s + sin_alpha * cos_c;
-      real den = (vv * s + u * t) * sin_alpha;
-      real q = den != R(0.0) ? ((vv * t - u * s) * cos_alpha - vv) / den : R(1.0);
-      q = clamp(q, R(-1.0), R(1.0));
-      real3 cp = r3_add(r3_scale(a, q), r3_scale(c_perp, sqrt(fmax(R(1.0) - q * q, R(0.0)))));
-      real one_minus_cb = fmax(R(1.0) - r3_dot(cp, b), R(0.0));
-      real3 axis = area_safe_normalize(r3_sub(cp, r3_scale(b, r3_dot(cp, b))), cp);
+      ArvoArc arc = arvo_arc(a, b, c, area, alpha, u1);
       for (int j = 0; j < panels; ++j) {
         for (int kj = 0; kj < 4; ++kj) {
           real sj = ((real)j + area_gl4_node(kj)) * h;
           real w = w1 * area_gl4_weight(kj) * h * R(2.0) * sj;
-          real omz = sj * sj * one_minus_cb; /* 1 - z, z = cos(arc from b) */
-          real sin_arc = sqrt(fmax(omz * (R(2.0) - omz), R(0.0)));
-          real3 wi = r3_add(r3_scale(b, R(1.0) - omz), r3_scale(axis, sin_arc));
+          real3 wi = arvo_point(arc, sj * sj);
           sum = r3_add(sum, r3_scale(smooth_reflect_cos(m, wi, wo), w));
         }
       }

@@ -52,6 +52,7 @@
 #include "kernels/compat.h"
 #include "kernels/ndf.h"
 #include "kernels/area/polygon.h"
+#include "kernels/area/spherical_triangle.h"
 #include "kernels/rng.h"
 #include "kernels/smooth_brdf.h"
 
@@ -69,37 +70,6 @@ typedef struct {
   real orient;                     /* +1 counter-clockwise from the origin, -1 clockwise */
   real omega;                      /* total solid angle */
 } McPolygon;
-
-/* a . (b x c) = a . ((b - a) x (c - a)): the edge vectors carry the small
- * differences of a thin triangle without cancellation. */
-GLINT_FN real mc_triple(real3 a, real3 b, real3 c) {
-  return r3_dot(a, r3_cross(r3_sub(b, a), r3_sub(c, a)));
-}
-
-/* Solid angle of the triangle (a, b, c) seen from the origin (any lengths), by
- * Van Oosterom & Strackee 1983:
- *   tan(Omega / 2) = |a.(b x c)| / (|a||b||c| + (a.b)|c| + (a.c)|b| + (b.c)|a|),
- * accurate for small triangles (no angle-excess cancellation). */
-GLINT_FN real mc_triangle_solid_angle(real3 a, real3 b, real3 c) {
-  real la = r3_length(a), lb = r3_length(b), lc = r3_length(c);
-  real den = la * lb * lc + r3_dot(a, b) * lc + r3_dot(a, c) * lb + r3_dot(b, c) * la;
-  real triple = fabs(mc_triple(a, b, c));
-  /* The origin in (or within rounding of) the triangle's plane: seen edge-on,
-   * 0 (as REFERENCE and LTC give). Without this, atan2(+0, den < 0) = pi
-   * when the origin lies inside the triangle, i.e. 2 pi sr. */
-  real edge_on = R(1e-6) * la * r3_length(r3_sub(b, a)) * r3_length(r3_sub(c, a));
-  int edge_on_inside = (triple <= edge_on) & (den <= R(0.0));
-  return edge_on_inside ? R(0.0) : R(2.0) * atan2(triple, den);
-}
-
-/* Unit vector along the part of u orthogonal to the unit vector a, where
- * d = u - a is given (for u close to a, d carries the small difference without
- * the cancellation of u - (u.a) a); `fallback` when that part vanishes. */
-GLINT_FN real3 mc_orthogonal_dir(real3 a, real3 d, real3 fallback) {
-  real3 t = r3_sub(d, r3_scale(a, r3_dot(d, a)));
-  real l = r3_length(t);
-  return l > R(1e-30) ? r3_div(t, l) : fallback;
-}
 
 /* Clips to the horizon, fan triangulates. Returns 0 (omega = 0) when nothing
  * above the horizon subtends a solid angle. */
@@ -124,8 +94,8 @@ GLINT_FN int mc_polygon_setup(const GLINT_PRIVATE real3 *v, int n, GLINT_PRIVATE
   P->cdf[0] = R(0.0);
   for (int i = 1; i + 1 < P->n; ++i) {
     real3 a = P->v[0], b = P->v[i], c = P->v[i + 1];
-    signed_sum += mc_triple(a, b, c);
-    sum += mc_triangle_solid_angle(a, b, c);
+    signed_sum += spherical_triple(a, b, c);
+    sum += spherical_triangle_solid_angle(a, b, c);
     P->cdf[i] = sum;
   }
   P->omega = sum;
@@ -148,38 +118,6 @@ GLINT_FN int mc_inside(const GLINT_PRIVATE McPolygon *P, real3 d) {
   return 1;
 }
 
-/* Arvo 1995 (Sec. 2-3, Fig. 2 and the algorithm box): (u1, u2) in [0, 1)^2 ->
- * a direction uniform in solid angle in the spherical triangle (a, b, c).
- * u1 chooses the sub-triangle (a, b, c') of area u1 * omega, c' on arc ac;
- * u2 places the point on arc b c' with z = 1 - u2 (1 - c'.b) (a cosine of
- * the arc from b is uniform in area). 1 - c'.b and the arc's sine are taken
- * from |c' - b| (1 - x.y = |x - y|^2 / 2 for unit vectors), accurate for
- * small triangles. The same map as area_reference_triangle's inner loop. */
-GLINT_FN real3 mc_arvo_sample(real3 a, real3 b, real3 c, real omega, real u1, real u2) {
-  /* Angle at a between the tangents towards b and c (atan2: thin triangles). */
-  real3 ba = r3_sub(b, a), ca = r3_sub(c, a);
-  real3 tb = r3_sub(ba, r3_scale(a, r3_dot(a, ba)));
-  real3 tc = r3_sub(ca, r3_scale(a, r3_dot(a, ca)));
-  real alpha = atan2(r3_length(r3_cross(tb, tc)), r3_dot(tb, tc));
-  real sin_alpha = sin(alpha), cos_alpha = cos(alpha);
-  real cos_c = r3_dot(a, b);
-  real s = sin(u1 * omega - alpha), t = cos(u1 * omega - alpha);
-  real u = t - cos_alpha;
-  real vv = s + sin_alpha * cos_c;
-  real den = (vv * s + u * t) * sin_alpha;
-  /* q = cos of the arc a c' (Arvo's algorithm, step "q"). */
-  real q = den != R(0.0) ? ((vv * t - u * s) * cos_alpha - vv) / den : R(1.0);
-  q = clamp(q, R(-1.0), R(1.0));
-  real3 c_perp = mc_orthogonal_dir(a, ca, b);
-  real3 cp = r3_add(r3_scale(a, q), r3_scale(c_perp, sqrt(fmax(R(1.0) - q * q, R(0.0)))));
-  real3 d = r3_sub(cp, b);
-  real one_minus_cb = fmin(R(0.5) * r3_dot(d, d), R(2.0));
-  real3 axis = mc_orthogonal_dir(b, d, cp);
-  real omz = u2 * one_minus_cb; /* 1 - z */
-  real sin_arc = sqrt(fmax(omz * (R(2.0) - omz), R(0.0)));
-  return r3_add(r3_scale(b, R(1.0) - omz), r3_scale(axis, sin_arc));
-}
-
 /* Technique L: a direction uniform in the polygon's solid angle. */
 GLINT_FN real3 mc_sample_light(const GLINT_PRIVATE McPolygon *P, uint key, uint i) {
   real target = rng_u01(rng_hash3(key, i, 0u)) * P->omega;
@@ -194,8 +132,8 @@ GLINT_FN real3 mc_sample_light(const GLINT_PRIVATE McPolygon *P, uint key, uint 
   real area = P->cdf[k] - P->cdf[k - 1];
   real u1 = rng_u01(rng_hash3(key, i, 1u));
   real u2 = rng_u01(rng_hash3(key, i, 2u));
-  return mc_arvo_sample(r3_normalize(P->v[0]), r3_normalize(P->v[k]), r3_normalize(P->v[k + 1]),
-                        area, u1, u2);
+  real3 a = r3_normalize(P->v[0]), b = r3_normalize(P->v[k]), c = r3_normalize(P->v[k + 1]);
+  return arvo_point(arvo_arc(a, b, c, area, spherical_vertex_angle(a, b, c), u1), u2);
 }
 
 /* GGX visible normal for view wo (Heitz 2018, Listing 1), anisotropic. */

@@ -41,6 +41,12 @@ grpc::Status ToGrpcStatus(const Status &s) {
   return grpc::Status(grpc::StatusCode::UNKNOWN, s.message());
 }
 
+grpc::Status ChunkStatus(uint64_t chunk_index, const Status &s) {
+  if (s.ok()) return grpc::Status::OK;
+  const grpc::Status g = ToGrpcStatus(s);
+  return grpc::Status(g.error_code(), "chunk " + std::to_string(chunk_index) + ": " + s.message());
+}
+
 Status OverloadStatus(const Scheduler &scheduler) {
   return Status::ResourceExhausted("server busy: " + std::to_string(scheduler.max_pending()) +
                                    " requests already pending (--max-pending); retry later or "
@@ -139,9 +145,9 @@ class GlintServiceImpl::StreamReactor
       return;
     }
     if (chunk_.chunk_index() != next_index_) {
-      return Fail(Status::InvalidArgument("chunk_index: got " +
-                                          std::to_string(chunk_.chunk_index()) + "; expected " +
-                                          std::to_string(next_index_)));
+      return Fail(ToGrpcStatus(
+          Status::InvalidArgument("chunk_index: got " + std::to_string(chunk_.chunk_index()) +
+                                  "; expected " + std::to_string(next_index_))));
     }
     if (chunk_.request().has_material() || next_index_ == 0) {
       // The first chunk sets material, lights, precision and seed; a later
@@ -149,9 +155,7 @@ class GlintServiceImpl::StreamReactor
       settings_ = chunk_.request();
       settings_.clear_queries();
       Status s = ValidateSettings(settings_, service_->options().limits);
-      if (!s.ok())
-        return Fail(
-            Status::InvalidArgument("chunk " + std::to_string(next_index_) + ": " + s.message()));
+      if (!s.ok()) return Fail(ChunkStatus(next_index_, s));
     }
     bool queued = service_->scheduler().TrySubmit([this](int worker) {
       result_.Clear();
@@ -159,15 +163,14 @@ class GlintServiceImpl::StreamReactor
       result_.set_first_query(next_query_);
       Status s = service_->RunBatch(worker, settings_, chunk_.request().queries(), next_query_,
                                     true, result_.mutable_result());
-      if (!s.ok()) {
-        return Fail(
-            Status::InvalidArgument("chunk " + std::to_string(next_index_) + ": " + s.message()));
-      }
+      // The engine's own code (INTERNAL for a device failure, INVALID_ARGUMENT for a bad
+      // query, ...), exactly as the unary path would return it.
+      if (!s.ok()) return Fail(ChunkStatus(next_index_, s));
       next_query_ += chunk_.request().queries().count();
       ++next_index_;
       StartWrite(&result_);
     });
-    if (!queued) Fail(OverloadStatus(service_->scheduler()));
+    if (!queued) Fail(ToGrpcStatus(OverloadStatus(service_->scheduler())));
   }
 
   void OnWriteDone(bool ok) override {
@@ -181,10 +184,10 @@ class GlintServiceImpl::StreamReactor
   void OnDone() override { delete this; }
 
  private:
-  void Fail(const Status &s) {
+  void Fail(const grpc::Status &s) {
     service_->LogLine("EvaluateStream refused at chunk " + std::to_string(next_index_) + ": " +
-                      s.message());
-    Finish(ToGrpcStatus(s));
+                      s.error_message());
+    Finish(s);
   }
 
   GlintServiceImpl *service_;

@@ -57,7 +57,12 @@ class GlintServiceImpl final : public glint::v1::GlintService::CallbackService {
   std::mutex log_mutex_;
 };
 
+// The one mapping from the engine's Status to gRPC's: unary calls finish with it as is.
 grpc::Status ToGrpcStatus(const Status &status);
+
+// A failed stream chunk: the same code as ToGrpcStatus (so a device failure is INTERNAL, not the
+// client's fault), the message prefixed with "chunk N: ".
+grpc::Status ChunkStatus(uint64_t chunk_index, const Status &status);
 
 // The message a client gets when the queue is full.
 Status OverloadStatus(const Scheduler &scheduler);

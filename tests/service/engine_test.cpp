@@ -84,14 +84,14 @@ EvaluateRequest MakeSettings(v1::Ndf ndf, int fresnel, bool lights, bool fp64) {
 // so we allow 2e-4 relative (float has 6e-8 unit roundoff; the longest chain,
 // Beckmann with erfc, loses a few hundred ulps at worst).
 TEST_F(EngineTest, DeviceMatchesHostPathForEverySpecialisation) {
-  int combos = 0;
+  uint32_t seed = 7;  // a different batch for every specialisation
   for (v1::Ndf ndf : {v1::GGX, v1::BECKMANN})
     for (int fresnel = 0; fresnel < 3; ++fresnel)
       for (bool probe : {true, false})
         for (bool framed : {false, true})
           for (bool fp64 : {false, true}) {
             EvaluateRequest settings = MakeSettings(ndf, fresnel, !probe, fp64);
-            v1::QueryBatch q = test::RandomQueries(2000, probe, framed, uint32_t(7 + combos));
+            v1::QueryBatch q = test::RandomQueries(2000, probe, framed, seed++);
             ASSERT_TRUE(ValidateSettings(settings, {}).ok());
             ASSERT_TRUE(ValidateQueries(q, !probe, {}).ok());
             EvalPlan plan = MakeEvalPlan(settings, q);
@@ -111,9 +111,7 @@ TEST_F(EngineTest, DeviceMatchesHostPathForEverySpecialisation) {
             // the surface and a narrow Beckmann lobe underflows to exactly 0
             // far from the specular direction, hence the low bar of 5%.
             EXPECT_GT(nonzero, int(dev.size()) / 20) << plan.spec.Describe();
-            ++combos;
           }
-  EXPECT_EQ(combos, 48);
 }
 
 // Polygon lights (models/smooth/smooth_area.cl, a second kernel whose output is added to

@@ -3,10 +3,13 @@
 // the service tests, the CLI tests and the benchmarks.
 #pragma once
 
+#include <arpa/inet.h>
 #include <fcntl.h>
+#include <netinet/in.h>
 #include <signal.h>
 #include <stdlib.h>
 #include <sys/prctl.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -76,37 +79,77 @@ inline pid_t Spawn(const std::vector<std::string> &args, const std::string &out_
   return pid;
 }
 
-// One glintd process on a free loopback port; stopped (SIGTERM, then SIGKILL) on destruction.
+// A loopback port that was free a moment ago (bound to port 0, read back, closed), for a test
+// that must know the port before glintd writes its port file. Another process may take it in
+// between; Glintd::Launch callers see that as glintd exiting with "could not listen".
+inline int FreeLoopbackPort() {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return 0;
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  addr.sin_port = 0;
+  socklen_t len = sizeof addr;
+  int port = 0;
+  if (bind(fd, reinterpret_cast<sockaddr *>(&addr), sizeof addr) == 0 &&
+      getsockname(fd, reinterpret_cast<sockaddr *>(&addr), &len) == 0) {
+    port = ntohs(addr.sin_port);
+  }
+  close(fd);
+  return port;
+}
+
+// One glintd process on a loopback port; stopped (SIGTERM, then SIGKILL) on destruction.
 class Glintd {
  public:
+  // Starts glintd on a free port and waits until it reports SERVING (writes its port file).
   static std::unique_ptr<Glintd> Start(const std::string &glintd_path, const TempDir &dir,
                                        const std::string &name,
                                        const std::vector<std::string> &extra, std::string *error) {
+    auto server = Launch(glintd_path, dir, name, 0, extra);
+    if (!server->WaitUntilServing(error)) return nullptr;  // the destructor kills it
+    return server;
+  }
+
+  // Starts glintd on `port` (0: a free one, known only once SERVING) and returns at once.
+  static std::unique_ptr<Glintd> Launch(const std::string &glintd_path, const TempDir &dir,
+                                        const std::string &name, int port,
+                                        const std::vector<std::string> &extra) {
     auto server = std::unique_ptr<Glintd>(new Glintd);
-    const std::string port_file = dir.File(name + ".port");
+    server->port_file_ = dir.File(name + ".port");
     server->log_ = dir.File(name + ".log");
-    std::vector<std::string> args = {glintd_path,   "--listen", "127.0.0.1:0",
-                                     "--port-file", port_file,  "--quiet"};
+    const std::string listen = "127.0.0.1:" + std::to_string(port);
+    if (port > 0) server->address_ = listen;
+    std::vector<std::string> args = {glintd_path,   "--listen",         listen,
+                                     "--port-file", server->port_file_, "--quiet"};
     args.insert(args.end(), extra.begin(), extra.end());
     server->pid_ = Spawn(args, server->log_, server->log_ + ".err");
+    return server;
+  }
+
+  // Waits for the port file, which glintd writes once it reports SERVING.
+  bool WaitUntilServing(std::string *error) {
     const auto deadline = std::chrono::steady_clock::now() + kServerStartTimeout;
     while (std::chrono::steady_clock::now() < deadline) {
-      int status = 0;
-      if (waitpid(server->pid_, &status, WNOHANG) == server->pid_) {
-        server->pid_ = -1;
-        *error = "glintd exited before SERVING:\n" + ReadFile(server->log_ + ".err");
-        return nullptr;
+      if (!Alive()) {
+        *error = "glintd exited before SERVING:\n" + ReadFile(log_ + ".err");
+        return false;
       }
-      const std::string port = ReadFile(port_file);
-      if (!port.empty() && std::atoi(port.c_str()) > 0) {
-        server->address_ = "127.0.0.1:" + std::to_string(std::atoi(port.c_str()));
-        return server;
+      const int port = PortFromFile();
+      if (port > 0) {
+        address_ = "127.0.0.1:" + std::to_string(port);
+        return true;
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
-    *error = "glintd did not write its port file within the timeout:\n" +
-             ReadFile(server->log_ + ".err");
-    return nullptr;  // the destructor kills it
+    *error = "glintd did not write its port file within the timeout:\n" + ReadFile(log_ + ".err");
+    return false;
+  }
+
+  // The port glintd wrote to its port file, 0 while there is none.
+  int PortFromFile() const {
+    const std::string port = ReadFile(port_file_);
+    return port.empty() ? 0 : std::atoi(port.c_str());
   }
 
   ~Glintd() {
@@ -125,12 +168,19 @@ class Glintd {
   }
 
   const std::string &address() const { return address_; }
-  bool Alive() const { return pid_ > 0 && waitpid(pid_, nullptr, WNOHANG) == 0; }
+  std::string Stderr() const { return ReadFile(log_ + ".err"); }
+  bool Alive() {
+    if (pid_ <= 0) return false;
+    if (waitpid(pid_, nullptr, WNOHANG) == 0) return true;
+    pid_ = -1;  // reaped: never signal a pid that may have been reused
+    return false;
+  }
 
  private:
   Glintd() = default;
   pid_t pid_ = -1;
   std::string log_;
+  std::string port_file_;
   std::string address_;
 };
 

@@ -211,12 +211,13 @@ bool TailLit(const Mat &mat, V3 wo, double ref) {
 // LECOCQ and LECOCQ_PEARSON against REFERENCE per region (roughness band x view band, GGX and
 // Beckmann together). A REGRESSION GUARD, not an accuracy bound: the end-to-end error has no
 // error analysis to bound it. Two of the method's steps have none: W taken at the lobe-weighted
-// mean half vector (README Eq. N2, whose Jensen gap dominates at alpha >= 0.4: e.g. GGX alpha 1,
-// normal view, the hemisphere normaliser W(h_H) = 1 while the lobe average of G2 is ~0.45, -36%
-// on a medium light) and the great-arc chords of step 1 (pi/16 pieces in wi space, whose
-// h-images curve strongly near the lobe at grazing views: Beckmann alpha 0.05, view 85, a wall
-// holding the whole lobe gets 0.71 instead of 0.94; pi/64 pieces give 0.935). The components
-// that do have a fitted accuracy are asserted against it below (PhongLobeWithinTheFittedKs,
+// mean half vector (README Eq. N2, whose Jensen gap dominates at alpha >= 0.4: e.g. GGX alpha 1
+// at normal view, where W = G2, the hemisphere normaliser W(h_H) = G2(n, n) = 1 while the lobe
+// average of G2 is the albedo, 0.31; the medium light comes out 36% low) and the great-arc chords
+// of step 1 (pi/16 pieces in wi space, whose h-images curve strongly near the lobe at grazing
+// views: Beckmann alpha 0.05, view 85, a wall holding the whole lobe gets 0.71 instead of 0.94;
+// pi/64 pieces give 0.935). The components that do have a fitted accuracy are asserted against it
+// below (PhongLobeWithinTheFittedKs, PeakFunctionsWithinTheFittedSupError,
 // ContourSumsMatchThePhongLobeMassWithinTheFit). Bounds: the measured value's next round level
 // (1, 1.5, 2, 3, 5, 7 x 10^k). Tail-lit cases (see TailLit) are left out of the relative
 // statistics and checked against the KS bound on the absolute error, 2 KS x albedo.

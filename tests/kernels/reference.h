@@ -6,6 +6,7 @@
 #ifndef GLINT_TESTS_KERNELS_REFERENCE_H
 #define GLINT_TESTS_KERNELS_REFERENCE_H
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <cstdint>
@@ -166,7 +167,8 @@ inline double fresnel_complex(double eta, double k, double cos_theta) {
 // r_p = tan(ti - tt) / tan(ti + tt), with Snell sin(tt) = sin(ti) / ior. The form is 0/0 at
 // normal incidence, where F = ((ior - 1) / (ior + 1))^2.
 inline double fresnel_dielectric_angles(double ior, double cos_theta) {
-  double ti = std::acos(cos_theta);
+  // wo.h of a retro-reflection (wi = wo) can round to 1 + ulp: acos would give NaN.
+  double ti = std::acos(std::min(cos_theta, 1.0));
   double sin_t = std::sin(ti) / ior;
   if (sin_t >= 1.0) return 1.0;
   if (ti == 0.0) return std::pow((ior - 1.0) / (ior + 1.0), 2);

@@ -282,7 +282,7 @@ TEST(AreaMonteCarlo, IndependentStreamsForNeighboursSeedsAndLights) {
   std::vector<float> two = one;
   two.insert(two.end(), one.begin(), one.end());
   const k64::SmoothMaterial m = Material64(mat);
-  const k64::ShadingFrame identity = k64::area_identity_frame();
+  const k64::ShadingFrame identity = k64::frame_identity();
   const float wo[3] = {0.3f, 0.2f, 0.932737905f};
   const float p[3] = {1.5f, -2.25f, 0.125f};
   // Red channel of the MONTE_CARLO estimate (4 samples) of a query with wo, position pos.
@@ -501,7 +501,8 @@ TEST(AreaMonteCarlo, NearMirrorBigLight) {
 //    times its exponent t^2 (condition of exp(-t^2)), up to 80 before the cut-off. The solid
 //    angle (Van Oosterom & Strackee on edge vectors of the unnormalised vertices) and the MIS
 //    weights are smooth in the same quantities; 64 covers the tens of roundings per sample.
-//  - Arvo's map (mc_arvo_sample) works on NORMALISED vertices and on the cosine q of the arc
+//  - Arvo's map (arvo_arc / arvo_point, kernels/area/spherical_triangle.h) works on NORMALISED
+//  vertices and on the cosine q of the arc
 //    a c': an error of a few eps in q moves the arc by ~eps / sin(arc), and by up to
 //    sqrt(2 dq) as the arc -> 0 (acos at 1). So in fp32 the samples of a light of angular size
 //    theta are displaced by ~min(4 eps / theta, sqrt(8 eps)) rad (measured: 9e-5 rad on a

@@ -1,5 +1,5 @@
-// Host-side access to the checked-in LTC tables data/ltc/ltc_{ggx,beckmann}.inc: entries,
-// bilinear lookup, the LTC density and the Fresnel recombination. Header-only and independent of
+// Host-side access to the checked-in LTC tables data/ltc/ltc_{ggx,beckmann}.inc: grid entries,
+// the LTC density and the Fresnel recombination. Header-only and independent of
 // the fitting code (tools/ltc/ltc_fit.h), so renderers and tests can use it without linking it.
 //
 // Layout and conventions are documented in the .inc headers and in tools/ltc/README.md:
@@ -60,23 +60,8 @@ inline Entry entry(Ndf ndf, int a, int t) {
   return Entry{{e[0], e[1], e[2], e[3]}, e[4], e[5], e[6], e[7]};
 }
 
-// Bilinear interpolation in (sqrt(alpha), sqrt(1 - cos_theta)), the coordinates in which the
-// grid is uniform; outside the grid the nearest edge is used (alpha < 1e-4 and cos_theta < 1e-3
-// are clamped). A texture fetch with uv = coords * 63/64 + 0.5/64 gives the same result.
-inline Entry lookup(Ndf ndf, double alpha, double cos_theta) {
-  double x = std::clamp(std::sqrt(std::max(alpha, 0.0)), 0.0, 1.0) * (kSize - 1);
-  double y = std::clamp(std::sqrt(std::max(1.0 - cos_theta, 0.0)), 0.0, 1.0) * (kSize - 1);
-  int a0 = std::min(static_cast<int>(x), kSize - 2), t0 = std::min(static_cast<int>(y), kSize - 2);
-  double fx = x - a0, fy = y - t0;
-  const float *base = table(ndf);
-  double v[kEntryFloats] = {};
-  for (int k = 0; k < kEntryFloats; ++k) {
-    auto at = [&](int a, int t) { return double(base[(t * kSize + a) * kEntryFloats + k]); };
-    v[k] = (1 - fy) * ((1 - fx) * at(a0, t0) + fx * at(a0 + 1, t0)) +
-           fy * ((1 - fx) * at(a0, t0 + 1) + fx * at(a0 + 1, t0 + 1));
-  }
-  return Entry{{v[0], v[1], v[2], v[3]}, v[4], v[5], v[6], v[7]};
-}
+// Interpolated lookups are the kernels' (kernels/area/ltc_lookup.h area_ltc_lookup): one
+// bilinear lookup for the device, the host path and the tests.
 
 // LTC density at unit direction w (HDHN16 Eq. 3): with o = M^-1 w,
 //   D(w) = D_o(o / |o|) |det M^-1| / |o|^3 = max(0, o.z) |det M^-1| / (pi |o|^4).

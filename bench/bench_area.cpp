@@ -58,6 +58,7 @@
 #include <thread>
 #include <vector>
 
+#include "client/lib/glint_client.h"
 #include "glint/v1/glint.pb.h"
 #include "server/device_engine.h"
 #include "server/eval_plan.h"
@@ -312,21 +313,6 @@ int TruthSamples(double alpha) {
   return alpha < 0.02 ? 1024 : alpha < 0.06 ? 512 : 256;
 }
 
-glint::v1::QueryBatch Slice(const glint::v1::QueryBatch &q, uint32_t begin, uint32_t end) {
-  glint::v1::QueryBatch s;
-  s.set_count(end - begin);
-  auto copy = [&](const google::protobuf::RepeatedField<float> &from,
-                  google::protobuf::RepeatedField<float> *to) {
-    if (from.empty()) return;
-    for (uint32_t i = 3 * begin; i < 3 * end; ++i) to->Add(from[int(i)]);
-  };
-  copy(q.wo(), s.mutable_wo());
-  copy(q.position(), s.mutable_position());
-  copy(q.normal(), s.mutable_normal());
-  copy(q.tangent(), s.mutable_tangent());
-  return s;
-}
-
 glint::v1::QueryBatch Tile(const glint::v1::QueryBatch &q, uint32_t times) {
   glint::v1::QueryBatch t;
   t.set_count(q.count() * times);
@@ -375,7 +361,8 @@ std::vector<std::vector<double>> Truth(const std::vector<glint::v1::EvaluateRequ
         }
         continue;
       }
-      glint::v1::QueryBatch s = Slice(requests[job.request].queries(), job.begin, job.end);
+      glint::v1::QueryBatch s =
+          glint::client::SliceQueries(requests[job.request].queries(), job.begin, job.end);
       std::vector<float> out(3 * size_t(s.count()));
       glint::HostEvaluate(plans[job.request], s, out.data());
       for (uint32_t i = 0; i < s.count(); ++i) truth[job.request][job.begin + i] = out[3 * i];

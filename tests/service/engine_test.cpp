@@ -13,6 +13,7 @@
 #include <memory>
 #include <thread>
 
+#include "client/lib/glint_client.h"
 #include "server/device_engine.h"
 #include "server/eval_plan.h"
 #include "server/host_path.h"
@@ -163,8 +164,8 @@ TEST_F(EngineTest, DeviceMatchesHostPathWithPolygonLights) {
         }
 }
 
-// The binomial glint model (models/binomial/binomial.cl, all light kinds in one kernel) against the host
-// path. A glint is a discrete event: where device and host libm differ by an ulp at a cell
+// The binomial glint model (models/binomial/binomial.cl, all light kinds in one kernel) against the
+// host path. A glint is a discrete event: where device and host libm differ by an ulp at a cell
 // boundary (floor of a rotated uv) or at a CDF step of the count, one query may get another
 // count. So most queries must agree to fp32 noise, and the rest only in the mean.
 TEST_F(EngineTest, BinomialDeviceMatchesHostPath) {
@@ -226,7 +227,8 @@ TEST_F(EngineTest, BinomialIsBitIdenticalUnderChunkingAndFollowsTheSeed) {
   for (uint32_t chunk : {1u, 7u, 333u}) {
     std::vector<float> pieces;
     for (uint32_t first = 0; first < q.count(); first += chunk) {
-      v1::QueryBatch part = test::Slice(q, first, std::min(chunk, q.count() - first));
+      v1::QueryBatch part =
+          client::SliceQueries(q, first, first + std::min(chunk, q.count() - first));
       auto out = Device(MakeEvalPlan(settings, part), part, int(first / chunk) % 2);
       pieces.insert(pieces.end(), out.begin(), out.end());
     }

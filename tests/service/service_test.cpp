@@ -19,6 +19,7 @@
 #include <random>
 #include <thread>
 
+#include "client/lib/glint_client.h"
 #include "glint/v1/glint.grpc.pb.h"
 #include "glintd_process.h"
 #include "grpc/health/v1/health.grpc.pb.h"
@@ -98,7 +99,7 @@ class ServiceTest : public ::testing::Test {
         *c.mutable_request() = r;
         c.mutable_request()->clear_queries();
       }
-      *c.mutable_request()->mutable_queries() = glint::test::Slice(q, begin, end - begin);
+      *c.mutable_request()->mutable_queries() = glint::client::SliceQueries(q, begin, end);
       if (!stream->Write(c)) break;
     }
     stream->WritesDone();
@@ -424,7 +425,7 @@ TEST_F(ServiceTest, BinomialModelIsUnbiasedAgainstTheSmoothModelOverTheWire) {
   // Unary gives the same bits for the first chunk's queries (the pattern depends on the seed,
   // uv, footprint and light, never on how the batch was sent).
   EvaluateRequest first = r;
-  *first.mutable_queries() = glint::test::Slice(r.queries(), 0, kMaxBatch);
+  *first.mutable_queries() = glint::client::SliceQueries(r.queries(), 0, kMaxBatch);
   EvaluateResponse unary;
   s = Unary(first, &unary);
   ASSERT_TRUE(s.ok()) << s.error_message();

@@ -58,23 +58,4 @@ inline glint::v1::QueryBatch RandomQueries(uint32_t count, bool probe, bool fram
   return q;
 }
 
-// Queries [first, first + n) of q, every array that q carries.
-inline glint::v1::QueryBatch Slice(const glint::v1::QueryBatch &q, uint32_t first, uint32_t n) {
-  glint::v1::QueryBatch part;
-  part.set_count(n);
-  auto copy = [&](const google::protobuf::RepeatedField<float> &from,
-                  google::protobuf::RepeatedField<float> *to, int per) {
-    if (from.empty()) return;
-    to->Add(from.begin() + int64_t(first) * per, from.begin() + int64_t(first + n) * per);
-  };
-  copy(q.uv(), part.mutable_uv(), 2);
-  copy(q.footprint(), part.mutable_footprint(), 4);
-  copy(q.wo(), part.mutable_wo(), 3);
-  copy(q.wi(), part.mutable_wi(), 3);
-  copy(q.position(), part.mutable_position(), 3);
-  copy(q.normal(), part.mutable_normal(), 3);
-  copy(q.tangent(), part.mutable_tangent(), 3);
-  return part;
-}
-
 }  // namespace glint::test

@@ -1,7 +1,7 @@
 // Speed and accuracy of the polygon-light integration methods (EvaluateRequest.area_method) on
 // the smooth model, one row per method and sample count:
 //   evals/s   polygon-light evaluations per second on the OpenCL device in fp32 (DeviceEngine,
-//             one lane, in process; includes buffer set-up and the result copy like
+//             one worker (command queue), in process; includes buffer set-up and the result copy like
 //             bench_smooth), summed over the sweep's requests: sum of queries / sum of per-request
 //             median times, each request's batch tiled until one run takes >= ~50 ms (capped at
 //             max_batch) so kernel launch is amortised;

@@ -36,9 +36,9 @@ class EngineTest : public ::testing::Test {
   }
   static void TearDownTestSuite() { engine_.reset(); }
 
-  std::vector<float> Device(const EvalPlan &plan, const v1::QueryBatch &q, int lane = 0) {
+  std::vector<float> Device(const EvalPlan &plan, const v1::QueryBatch &q, int worker = 0) {
     std::vector<float> out(3 * q.count(), -1.0f);
-    Status s = engine_->Evaluate(lane, plan, q, out.data());
+    Status s = engine_->Evaluate(worker, plan, q, out.data());
     EXPECT_TRUE(s.ok()) << s.message();
     return out;
   }
@@ -329,7 +329,7 @@ TEST_F(EngineTest, ChunkingIsBitIdentical) {
 }
 
 // Two workers (command queues) evaluating at once give the serial results.
-TEST_F(EngineTest, LanesRunConcurrently) {
+TEST_F(EngineTest, WorkersRunConcurrently) {
   v1::QueryBatch q = test::RandomQueries(50000, true, false, 11);
   EvaluateRequest settings = MakeSettings(v1::BECKMANN, 2, false, false);
   EvalPlan plan = MakeEvalPlan(settings, q);

@@ -32,21 +32,21 @@ TEST(Scheduler, RefusesBeyondMaxPendingAndRecovers) {
 }
 
 TEST(Scheduler, EachWorkerHasItsOwnLane) {
-  std::atomic<int> lanes_seen{0};
+  std::atomic<int> workers_seen{0};
   std::promise<void> both;
   std::atomic<int> arrived{0};
   std::shared_future<void> gate = both.get_future().share();
   {
     Scheduler scheduler(2, 8);
     for (int j = 0; j < 2; ++j) {
-      ASSERT_TRUE(scheduler.TrySubmit([&](int lane) {
-        lanes_seen |= 1 << lane;
+      ASSERT_TRUE(scheduler.TrySubmit([&](int worker) {
+        workers_seen |= 1 << worker;
         if (++arrived == 2) both.set_value();
-        gate.wait();  // both jobs run at once, so they must be on different lanes
+        gate.wait();  // both jobs run at once, so they must be on different workers
       }));
     }
   }
-  EXPECT_EQ(lanes_seen.load(), 3);
+  EXPECT_EQ(workers_seen.load(), 3);
 }
 
 }  // namespace

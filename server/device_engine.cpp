@@ -5,6 +5,7 @@
 #include <iterator>
 
 #include "server/kernel_source.h"
+#include "server/output_range.h"
 
 namespace glint {
 
@@ -277,8 +278,11 @@ Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan, const glint:
     return Status::InvalidArgument("precision: FP64 requested but " + runtime_->info().name +
                                    " has no cl_khr_fp64");
   }
-  if (plan.spec.model == 2)
-    return q.count() ? EvaluateBinomial(lane, plan, q, out_rgb) : Status::Ok();
+  if (plan.spec.model == 2) {
+    Status s = q.count() ? EvaluateBinomial(lane, plan, q, out_rgb) : Status::Ok();
+    if (s.ok()) SaturateRadiance(out_rgb, 3 * size_t(q.count()));
+    return s;
+  }
   const bool smooth_lights = plan.spec.probe || plan.n_directional > 0 || plan.n_point > 0;
   cl_kernel kernel = nullptr;
   Status s =
@@ -337,7 +341,9 @@ Status DeviceEngine::Evaluate(int lane_index, const EvalPlan &plan, const glint:
     s = EvaluateArea(lane, plan, q, a_out, kernel != nullptr);
     if (!s.ok()) return s;
   }
-  return ReadBackAndFinish(lane.queue, a_out, out_bytes);
+  s = ReadBackAndFinish(lane.queue, a_out, out_bytes);
+  if (s.ok()) SaturateRadiance(out_rgb, 3 * size_t(n));
+  return s;
 }
 
 Status DeviceEngine::Warm(const KernelSpec &spec) {

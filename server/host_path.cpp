@@ -1,5 +1,7 @@
 #include "server/host_path.h"
 
+#include "server/output_range.h"
+
 namespace glint {
 
 void HostEvaluateF32(const EvalPlan &plan, const glint::v1::QueryBatch &q, float *out);
@@ -10,6 +12,7 @@ void HostEvaluate(const EvalPlan &plan, const glint::v1::QueryBatch &q, float *o
     HostEvaluateF64(plan, q, out);
   else
     HostEvaluateF32(plan, q, out);
+  SaturateRadiance(out, 3 * size_t(q.count()));
 }
 
 }  // namespace glint

@@ -686,8 +686,8 @@ double LtcAbsolute(const EvaluateRequest &r, const QueryBatch &q, size_t i) {
 }
 
 // fp32 against fp64 on the same inputs, OpenCL device and host path, for the deterministic
-// smooth evaluations whose arithmetic is backward stable: BRDF probes and lit queries with a
-// directional, a point and a polygon light under LTC. Tolerance per query and channel:
+// smooth evaluations without discrete decisions: BRDF probes and lit queries with a directional,
+// a point and a polygon light under LTC. Tolerance per query and channel:
 //   |f32 - f64| <= u (64 + 40 kappa) f64,   u = 2^-24 (fp32 unit roundoff),
 // kappa = the output's condition number with respect to relative perturbations of the inputs,
 // estimated in fp64 on the host by finite differences (3 random perturbations of relative size

@@ -46,8 +46,14 @@ GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
  * the s/p amplitude form). ior < 1 can give total internal reflection. */
 GLINT_FN real F_dielectric(real ior, real cos_theta) {
   real c = clamp(cos_theta, R(0.0), R(1.0));
-  real sin2_t = (R(1.0) - c * c) / (ior * ior);
-  glint_mask tir = sin2_t >= R(1.0); /* total internal reflection: F = 1 */
+  real sin2_i = R(1.0) - c * c;
+  real ior2 = ior * ior;
+  /* Total internal reflection (F = 1) when sin^2(theta_t) = sin2_i / ior^2 >= 1, tested without
+   * the division: ior^2 underflows to 0 for ior < ~1e-19 in fp32, and 0 / 0 at normal
+   * incidence made F NaN (issue 8). Then every angle is TIR, which is the exact limit
+   * F -> 1 as ior -> 0 (F(1) = ((1 - ior) / (1 + ior))^2). */
+  glint_mask tir = sin2_i >= ior2;
+  real sin2_t = sin2_i / glint_select(ior2, R(1.0), tir);
   real cos_t = sqrt(glint_select(R(1.0) - sin2_t, R(0.0), tir));
   real rs = (c - ior * cos_t) / (c + ior * cos_t);
   real rp = (ior * c - cos_t) / (ior * c + cos_t);

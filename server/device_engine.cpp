@@ -5,6 +5,7 @@
 
 #include "server/kernel_source.h"
 #include "server/model_table.h"
+#include "server/output_range.h"
 
 namespace glint {
 
@@ -229,7 +230,9 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const glint::v1:
     GLINT_CL_CHECK(clEnqueueNDRangeKernel(queue.queue.get(), kernel, 1, nullptr, &global, &local, 0,
                                           nullptr, nullptr));
   }
-  return ReadBackAndFinish(queue.queue.get(), args.out.get(), size_t(n) * 3 * sizeof(float));
+  s = ReadBackAndFinish(queue.queue.get(), args.out.get(), size_t(n) * 3 * sizeof(float));
+  if (s.ok()) SaturateRadiance(out_rgb, 3 * size_t(n));
+  return s;
 }
 
 Status DeviceEngine::Warm(const KernelSpec &spec) {

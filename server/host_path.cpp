@@ -4,6 +4,7 @@
 
 #include "server/host_pass.h"
 #include "server/model_table.h"
+#include "server/output_range.h"
 
 namespace glint {
 
@@ -47,6 +48,7 @@ void HostEvaluate(const EvalPlan &plan, const glint::v1::QueryBatch &q, float *o
     (plan.spec.fp64 ? pass.host_f64 : pass.host_f32)(in, out_rgb, accumulate);
     accumulate = true;
   }
+  SaturateRadiance(out_rgb, 3 * size_t(q.count()));
 }
 
 }  // namespace glint

@@ -45,9 +45,9 @@
 #ifndef GLINT_AREA_LECOCQ_H
 #define GLINT_AREA_LECOCQ_H
 
-#include "kernels/compat.h"
 #include "kernels/area/ltc_lookup.h"
 #include "kernels/area/polygon.h"
+#include "kernels/compat.h"
 #include "kernels/smooth_brdf.h"
 
 /* Edge splitting (step 1): a polygon edge of angle theta (in wi space) is cut into
@@ -221,10 +221,17 @@ GLINT_FN real3 area_lecocq_polygon(SmoothMaterial m, const GLINT_GLOBAL float *t
   real3 w[GLINT_POLYGON_MAX_CLIPPED];
   int nc = polygon_clip_to_horizon(v, n, w);
   if (nc < 3) return zero;
+  /* Unit vertices. A vertex at the shading point (the polygon touches the receiver, or an edge
+   * through it was clipped at the horizon) has no direction and is dropped, as in
+   * polygon_form_factor: such a polygon is seen edge-on (its plane contains the shading
+   * point). Replacing it by the normal, as before, integrated a triangle up to the zenith. */
+  int kept = 0;
   for (int i = 0; i < nc; ++i) {
     real l = r3_length(w[i]);
-    w[i] = l > R(0.0) ? r3_div(w[i], l) : make_real3(R(0.0), R(0.0), R(1.0));
+    if (l > R(0.0)) w[kept++] = r3_div(w[i], l);
   }
+  nc = kept;
+  if (nc < 3) return zero;
   /* Step 2: isotropic alpha and the stretch that maps the anisotropic lobe onto it (Eq. H2). */
   real ax = clamp(m.alpha_x, R(1e-4), R(1.0)), ay = clamp(m.alpha_y, R(1e-4), R(1.0));
   real alpha = sqrt(ax * ay);

@@ -60,19 +60,32 @@ GLINT_FN real polygon_edge_integral(real3 a, real3 b) {
 /* Signed integral of cos(theta) over the solid angle of the polygon (in the
  * local frame, +z = normal), divided by pi: the form factor. Positive when the
  * polygon faces the receiver, negative when it is seen from behind. The
- * polygon must already be clipped to z >= 0. */
+ * polygon must already be clipped to z >= 0.
+ * A vertex at the shading point (a polygon touching the receiver, or the
+ * horizon clip of an edge through it) has no direction: normalising it gave
+ * 0/0 = NaN (issue 8). It is skipped, i.e. its two edges are replaced by the
+ * great arc between its neighbours. Such a polygon's plane contains the
+ * shading point, so the exact integral is 0 (it is seen edge-on), and the
+ * remaining vertices all lie on one great circle, where the arcs cancel. */
 GLINT_FN real polygon_form_factor(const GLINT_PRIVATE real3 *v, int n) {
-  if (n < 3) return R(0.0);
   real sum = R(0.0);
-  real3 first = r3_normalize(v[0]);
-  real3 a = first;
+  real3 first = make_real3(R(0.0), R(0.0), R(1.0)), a = first;
+  int m = 0; /* vertices with a direction */
   for (int i = 0; i < n; ++i) {
-    real3 b = (i + 1 < n) ? r3_normalize(v[i + 1]) : first;
+    real l = r3_length(v[i]);
+    if (!(l > R(0.0))) continue;
+    real3 b = r3_div(v[i], l);
     /* b x a rather than a x b: counter-clockwise seen from the receiver
      * (inside the sphere) is clockwise seen from outside. */
-    sum += polygon_edge_integral(b, a);
+    if (m > 0)
+      sum += polygon_edge_integral(b, a);
+    else
+      first = b;
     a = b;
+    ++m;
   }
+  if (m < 3) return R(0.0);
+  sum += polygon_edge_integral(first, a);
   return sum * R(0.5) * GLINT_INV_PI;
 }
 

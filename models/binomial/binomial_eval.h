@@ -65,6 +65,8 @@ GLINT_FN real3 binomial_light(FootprintGrids g, BinomialParams b, real3 l_smooth
   real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
   if (!(p > R(0.0))) return zero;
   real fraction = binomial_fraction(g, p, b.normal_threshold, light_key);
+  /* No reflecting facet: exactly 0, also when l_smooth overflowed to +Inf (0 x Inf = NaN). */
+  if (!(fraction > R(0.0))) return zero;
   return r3_scale(l_smooth, fraction / p);
 }
 

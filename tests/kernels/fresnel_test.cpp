@@ -136,6 +136,35 @@ TEST(KernelFresnel, DielectricTotalInternalReflection) {
   }
 }
 
+// Issue 8: ior^2 underflows (fp32 below ior ~1e-19), and the former (1 - c^2) / ior^2 was 0/0 =
+// NaN at normal incidence. The exact value: ((1 - ior) / (1 + ior))^2 at normal incidence, which
+// tends to 1 as ior -> 0, and total internal reflection (F = 1) wherever sin(theta) > ior; both
+// precisions must give it, from ior 1e-38 up. Large ior: the closed form at normal incidence and
+// the angle form elsewhere. fp32 tolerance: a few roundings of an O(1) result, 1e-6.
+TEST(KernelFresnel, DielectricExtremeIorInBothPrecisions) {
+  for (double ior : {1e-38, 1e-30, 1e-20, 1e-10, 1e-4}) {
+    for (double c : {1.0, 1.0 - 1e-6, 0.5, 1e-4, 0.0}) {
+      const double sin_t = std::sqrt(1 - c * c);
+      const double expected = sin_t > ior ? 1.0 : std::pow((1 - ior) / (1 + ior), 2);
+      const double f32v = f32::fresnel_dielectric(ior, c), f64v = f64::fresnel_dielectric(ior, c);
+      EXPECT_NEAR(f64v, expected, 1e-15) << "ior " << ior << " cos " << c;
+      EXPECT_NEAR(f32v, expected, 1e-6) << "ior " << ior << " cos " << c;
+    }
+  }
+  for (double ior : {1e3, 1e5, 9.99e5}) {
+    const double normal = std::pow((ior - 1) / (ior + 1), 2);
+    EXPECT_NEAR(f64::fresnel_dielectric(ior, 1.0), normal, 1e-15) << "ior " << ior;
+    EXPECT_NEAR(f32::fresnel_dielectric(ior, 1.0), normal, 1e-6) << "ior " << ior;
+    for (double c : {0.5, 1e-4}) {
+      const double expected = ref::fresnel_dielectric_angles(ior, c);
+      // 1e-9: the angle form's own rounding (as kRefTol above; at cos 1e-4 and ior 1e6 it is
+      // ~1e-12 from the sines of ti +- tt with tt ~ 1e-6).
+      EXPECT_NEAR(f64::fresnel_dielectric(ior, c), expected, 1e-9) << "ior " << ior;
+      EXPECT_NEAR(f32::fresnel_dielectric(ior, c), expected, 1e-6) << "ior " << ior;
+    }
+  }
+}
+
 // fresnel_eval dispatches on the kind and evaluates per channel; the dielectric uses a.x only.
 TEST(KernelFresnel, EvalDispatchesPerChannel) {
   constexpr double kRelTol = 1e-9;

@@ -51,6 +51,21 @@ TEST(Validation, GoodRequestsPass) {
   for (float v : {1.0f, 1.0f, 1.0f}) d->add_irradiance(v);
   Status s = Validate(lit);
   EXPECT_TRUE(s.ok()) << s.message();
+  // The edges of the material ranges: roughness 1e-4 (as the float a client sends) and 1,
+  // and any dielectric ior in (0, 1e6), 1e-30 included (issue 8: F_dielectric is exact there).
+  for (float alpha : {1e-4f, 1.0f}) {
+    EvaluateRequest edge = GoodProbe();
+    edge.mutable_material()->set_alpha_x(alpha);
+    edge.mutable_material()->set_alpha_y(alpha);
+    s = Validate(edge);
+    EXPECT_TRUE(s.ok()) << alpha << ": " << s.message();
+  }
+  for (float ior : {1e-30f, 1.5f, 9.99e5f}) {
+    EvaluateRequest edge = GoodProbe();
+    edge.mutable_material()->mutable_dielectric()->set_ior(ior);
+    s = Validate(edge);
+    EXPECT_TRUE(s.ok()) << ior << ": " << s.message();
+  }
   // Within the unit tolerance (1e-3): accepted.
   EvaluateRequest slightly_off = GoodProbe();
   slightly_off.mutable_queries()->set_wo(2, 0.8005f);
@@ -73,10 +88,17 @@ TEST(Validation, RefusalsNameFieldIndexAndExpectation) {
        {"material.ndf", "GGX or BECKMANN"}},
       {"alpha 0",
        [](auto &r) { r.mutable_material()->set_alpha_x(0.0f); },
-       {"material.alpha_x", "(0, 1]"}},
+       {"material.alpha_x", "[1e-4, 1]"}},
       {"alpha > 1",
        [](auto &r) { r.mutable_material()->set_alpha_y(1.5f); },
-       {"material.alpha_y", "(0, 1]"}},
+       {"material.alpha_y", "[1e-4, 1]"}},
+      // Below the roughness floor (issue 8: alpha 1e-20 gave +Inf, 1e-23 NaN).
+      {"alpha below 1e-4",
+       [](auto &r) { r.mutable_material()->set_alpha_x(1e-5f); },
+       {"material.alpha_x: 1e-05; expected a roughness in [1e-4, 1]"}},
+      {"alpha 1e-23",
+       [](auto &r) { r.mutable_material()->set_alpha_y(1e-23f); },
+       {"material.alpha_y: 1e-23;", "[1e-4, 1]"}},
       {"alpha nan", [](auto &r) { r.mutable_material()->set_alpha_y(nan); }, {"material.alpha_y"}},
       {"no fresnel",
        [](auto &r) { r.mutable_material()->clear_schlick(); },
@@ -96,7 +118,10 @@ TEST(Validation, RefusalsNameFieldIndexAndExpectation) {
        {"material.conductor.k", ">= 0"}},
       {"dielectric ior inf",
        [](auto &r) { r.mutable_material()->mutable_dielectric()->set_ior(inf); },
-       {"material.dielectric.ior"}},
+       {"material.dielectric.ior", "(0, 1e6)"}},
+      {"dielectric ior 0",
+       [](auto &r) { r.mutable_material()->mutable_dielectric()->set_ior(0.0f); },
+       {"material.dielectric.ior: 0;", "(0, 1e6)"}},
       {"count 0",
        [](auto &r) { r.mutable_queries()->set_count(0); },
        {"queries.count", "at least one"}},
@@ -265,6 +290,27 @@ TEST(Validation, PolygonLights) {
   EXPECT_NE(s.message().find("area_method: unknown value 9; expected LTC, LECOCQ"),
             std::string::npos)
       << s.message();
+}
+
+// Issue 8: these roughnesses reached the kernels and gave +Inf (1e-20) or NaN (1e-23 .. 1e-38).
+// Below the floor 1e-4 they are refused, naming the field and the range.
+TEST(Validation, RoughnessBelowTheFloorIsRefused) {
+  for (float alpha : {9.9e-5f, 1e-20f, 1e-23f, 1e-25f, 1e-38f, 1e-45f}) {
+    for (bool y : {false, true}) {
+      EvaluateRequest r = GoodProbe();
+      if (y) {
+        r.mutable_material()->set_alpha_y(alpha);
+      } else {
+        r.mutable_material()->set_alpha_x(alpha);
+      }
+      Status s = Validate(r);
+      ASSERT_FALSE(s.ok()) << alpha;
+      EXPECT_EQ(s.message().find(y ? "material.alpha_y: " : "material.alpha_x: "), 0u)
+          << s.message();
+      EXPECT_NE(s.message().find("; expected a roughness in [1e-4, 1]"), std::string::npos)
+          << s.message();
+    }
+  }
 }
 
 TEST(Validation, BatchOverTheLimitPointsToTheStream) {

@@ -100,6 +100,7 @@ typedef float real;
 #define glint_assert(x) assert(x)
 
 using std::acos;
+using std::asin;
 using std::atan2;
 using std::cos;
 using std::erf;

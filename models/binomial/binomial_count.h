@@ -24,9 +24,19 @@
  *     the quantised cell area, so the count matches the footprint exactly.
  *  3. Per grid cell, the number of facets oriented into Omega_h is a draw of
  *     Binomial(w_g N_P, p) from a counter-based hash of (seed, grid, cell,
- *     angular cell, light) - kernels/rng.h - by inversion, so for a fixed cell
- *     the count grows monotonically with p and glints appear in place as a
- *     light or the view moves.
+ *     angular cell, light) - kernels/rng.h - as a quantile of ONE uniform u of
+ *     that hash, in every regime: exact inversion of the binomial CDF while the
+ *     variance is small (up to 64 trials always), a rounded arcsine normal
+ *     approximation with a Cornish-Fisher skew term above the threshold, and
+ *     at each switch the maximum with the value the previous regime reached.
+ *     For fixed u the quantile of a binomial is non-decreasing in p (its CDF
+ *     at any k decreases as p grows), each approximation is built to be too,
+ *     and no switch can lower it: for a fixed cell the count never falls as p
+ *     grows, so glints appear in place as a light grows (a facet that
+ *     reflects a small light also reflects a larger concentric one). See
+ *     binomial_whole.
+ *     The count is a pure function of (seed, grid, cell, light key): the same
+ *     however a batch is split.
  *
  * Written for GLINT_LANES == 1 (per-query loops and branches). */
 #ifndef GLINT_BINOMIAL_COUNT_H
@@ -36,7 +46,8 @@
 #include "kernels/rng.h"
 #include "models/binomial/binomial_params.h"
 
-/* Trials up to this count are sampled exactly (CDF inversion, O(n)). */
+/* Trials up to this count are always sampled exactly (CDF inversion, O(count of the rarer
+ * outcome)); above it only while the variance is below the normal threshold. */
 #define GLINT_BINOMIAL_EXACT_MAX 64
 /* Anisotropy of grid cells is clamped to 2^6: a thinner footprint (grazing
  * view) still gets its facet count from its true area, only its cells stop
@@ -49,7 +60,7 @@ typedef struct {
   real density;          /* facets per unit uv area */
   int p_mode;            /* GLINT_P_MODE_* */
   real r;                /* HEURISTIC_R: p = r D(h) / D(n) (DB23) */
-  real normal_threshold; /* variance n p (1 - p) from which counts are normal */
+  real normal_threshold; /* variance n p (1 - p) from which counts are approximated */
   real slope_cell;       /* angular correlation length of the pattern, slope units */
 } BinomialParams;
 
@@ -154,75 +165,240 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
   return g;
 }
 
-/* Standard normal from two uniforms (Box & Muller 1958). u1 in (0, 1]. */
-GLINT_FN real binomial_gaussian(uint h1, uint h2) {
-  real u1 = R(1.0) - rng_u01(h1);
-  real u2 = rng_u01(h2);
-  return sqrt(R(-2.0) * log(u1)) * cos(R(2.0) * GLINT_PI * u2);
+/* A bound on quantiles of Binomial(n, q): Bernstein's inequality for a sum of independent
+ * trials (each at most 1 above its mean), P(X - n q >= t) <= exp(-t^2 / (2 (var + t / 3))),
+ * var = n q (1 - q), gives P(X >= n q + t) <= exp(-L) for t = L/3 + sqrt(L^2/9 + 2 L var), so
+ * every quantile at levels u < 1 - exp(-L) is at most ceil(n q + t - 1) < the returned
+ * floor(n q + t) + 1 (clamped to n). */
+GLINT_FN real binomial_quantile_bound(real n, real q, real L) {
+  real var = n * q * (R(1.0) - q);
+  real t = L / R(3.0) + sqrt(L * L / R(9.0) + R(2.0) * L * var);
+  return fmin(n, floor(n * q + t) + R(1.0));
 }
 
-/* Binomial(n, q) for integer n <= GLINT_BINOMIAL_EXACT_MAX and q <= 1/2 by
- * inversion of the CDF with the uniform u: pmf(0) = (1 - q)^n =
- * exp(n log1p(-q)) (no cancellation for tiny q; >= 2^-64, no underflow),
- * pmf(k + 1) = pmf(k) (n - k) / (k + 1) q / (1 - q). */
-GLINT_FN real binomial_exact(real n, real q, real u) {
-  real pmf = exp(n * log1p(-q));
+/* The largest count binomial_exact can return for the rarer outcome's probability q: the bound
+ * above at L = 17 > 24 ln 2, beyond every 24-bit uniform (P(X > cap) < 2^-24), so capping the
+ * search there changes no result in exact arithmetic. It stops a search that rounding would
+ * prolong (u = 0 on the failures side, below) and sizes the tail sums. */
+GLINT_FN real binomial_exact_cap(real n, real q) {
+  return binomial_quantile_bound(n, q, R(17.0));
+}
+
+/* The running pmf and CDF of binomial_exact are kept scaled by 2^90: pmf(0) = (1 - q)^n
+ * reaches 2^-160 (n < 4 x 40 trials stay exact up to q = 1/2), below fp32's range; scaled it is
+ * >= 2^-70, and no scaled term exceeds 2^90. It is formed as (exp(A / 2) 2^45)^2, A =
+ * n log1p(-q), so that the scale adds one rounding (inside exp it would add the rounding of
+ * A + 62.4, 2^-19 in fp32). A power of two scales u exactly. */
+#define GLINT_BINOMIAL_PMF_SCALE R(1237940039285380274899124224.0)
+#define GLINT_BINOMIAL_PMF_SCALE_SQRT R(35184372088832.0)
+/* Unit roundoff of `real` (a function, not a macro: the tests include this header for both
+ * precisions in one translation unit). */
+GLINT_FN real binomial_eps(void) {
+  return GLINT_USE_DOUBLE ? R(1.1102230246251565e-16) : R(5.9604644775390625e-8);
+}
+
+/* Whether the quantile of binomial_exact lies beyond k, decided with the tail
+ * S = sum_{k < j <= cap} pmf(j) (continuing the recurrence from pmf(k)) and the total
+ * T = cdf + S: F(k) = cdf / T = 1 - S / T. Both sums carry the same rounding of pmf(0), which
+ * cancels in the ratios, and each side is compared in the form that keeps its relative
+ * precision: v against cdf / T while F(k) <= 1/2, 1 - v against S / T above, where F(k) is
+ * within rounding of 1 (fp32's 2^-24 spacing near 1 is u's own resolution). Direct search:
+ * beyond k iff u >= F(k); failures side: iff v > F'(k). O(cap - k); binomial_exact calls it
+ * only when the running CDF is within its error bound of v. */
+GLINT_FN int binomial_exact_beyond(real n, real k, real cap, real pmf, real cdf, real ratio, real v,
+                                   int flip) {
+  real tail = R(0.0);
+  for (real j = k; j < cap; j += R(1.0)) {
+    pmf *= (n - j) / (j + R(1.0)) * ratio;
+    tail += pmf;
+  }
+  real total = cdf + tail;
+  if (cdf <= tail) return flip ? v * total > cdf : v * total >= cdf;
+  real wt = (R(1.0) - v) * total;
+  return flip ? wt < tail : wt <= tail;
+}
+
+/* The exact quantile F^-1(u; n, p) = min{k : F(k) > u} of Binomial(n, p), integer n, by
+ * sequential search of the CDF: pmf(0) = (1 - q)^n = exp(n log1p(-q)) (no cancellation for
+ * tiny q), pmf(k + 1) = pmf(k) (n - k) / (k + 1) q / (1 - q). For p > 1/2 the search runs over
+ * the rarer outcome (failures, q = 1 - p) from the other end, with v = 1 - u: the failures'
+ * CDF is F'(j) = 1 - F(n - j - 1), so n - min{j : F'(j) >= 1 - u} = min{k : F(k) > u}, the same
+ * quantile of the same uniform. Both halves return the quantile of u itself, which is why the
+ * count is monotone in p across 1/2: the binomial CDF at fixed k decreases as p grows. The
+ * search from the rarer end is O(its count) and keeps pmf(0) in range; only u = 0 (probability
+ * 2^-24) meets the cap on the failures side, where the loop would run to n.
+ *
+ * Rounding: monotone in p needs each comparison of v with F(k) to follow the true F, whose
+ * change between nearby p can be far below the CDF's rounding error. That error is relative:
+ * pmf(0) carries ~5 |n log1p(-q)| eps from exp and log1p (up to 555 eps at n log(1 - q) = -111),
+ * each step of the recurrence <= 7 eps (the ratio's rounding repeats). A comparison is taken
+ * from the running CDF when v is farther from it than twice that bound, and otherwise from the
+ * tail (binomial_exact_beyond), whose relative precision holds near F = 1 too, where fp32's
+ * 2^-24 spacing would otherwise decide. That happens for 1e-5 .. 2e-3 of fp32 searches (most
+ * at n = 64, p = 1/2) and in fp64 only on exact ties. */
+GLINT_FN real binomial_exact(real n, real p, real u) {
+  int flip = p > R(0.5);
+  real q = flip ? R(1.0) - p : p;
+  real v = flip ? R(1.0) - u : u;
+  real vs = v * GLINT_BINOMIAL_PMF_SCALE;
+  real cap = binomial_exact_cap(n, q);
+  real log_pmf0 = n * log1p(-q);
+  real pmf_sqrt = exp(R(0.5) * log_pmf0) * GLINT_BINOMIAL_PMF_SCALE_SQRT;
+  real pmf = pmf_sqrt * pmf_sqrt;
   real cdf = pmf;
   real ratio = q / (R(1.0) - q);
+  real eps = binomial_eps();
+  real rel_error = R(2.0) * eps * (R(8.0) - R(5.0) * log_pmf0);
   real k = R(0.0);
-  while (u >= cdf && k < n) {
+  while (k < cap) {
+    real tol = (rel_error + R(14.0) * eps * k) * cdf;
+    int beyond = fabs(vs - cdf) > tol ? vs > cdf
+                                      : binomial_exact_beyond(n, k, cap, pmf, cdf, ratio, v, flip);
+    if (!beyond) break;
     pmf *= (n - k) / (k + R(1.0)) * ratio;
     k += R(1.0);
     cdf += pmf;
   }
-  return k;
+  return flip ? n - k : k;
 }
 
-/* Poisson(lambda) by inversion (Devroye 1986, X.3.3), for the small means
- * binomial_draw sends here (lambda < 2 * threshold <= 80, so exp(-lambda)
- * stays a normal float). Capped at `cap`. */
-GLINT_FN real binomial_poisson(real lambda, real u, real cap) {
-  real pmf = exp(-lambda);
-  real cdf = pmf;
-  real k = R(0.0);
-  while (u >= cdf && k < cap && pmf > R(0.0)) {
-    k += R(1.0);
-    pmf *= lambda / k;
-    cdf += pmf;
+/* Standard normal quantile for t in (0, 1/2], i.e. z <= 0: Acklam's rational approximation
+ * (P. J. Acklam 2003, "An algorithm for computing the inverse normal cumulative distribution
+ * function"; relative error < 1.15e-9, far below what the draws can resolve). */
+GLINT_FN real binomial_normal_quantile_lower(real t) {
+  if (t < R(0.02425)) {
+    real r = sqrt(R(-2.0) * log(t));
+    return (((((R(-7.784894002430293e-03) * r + R(-3.223964580411365e-01)) * r +
+               R(-2.400758277161838e+00)) *
+                  r +
+              R(-2.549732539343734e+00)) *
+                 r +
+             R(4.374664141464968e+00)) *
+                r +
+            R(2.938163982698783e+00)) /
+           ((((R(7.784695709041462e-03) * r + R(3.224671290700398e-01)) * r +
+              R(2.445134137142996e+00)) *
+                 r +
+             R(3.754408661907416e+00)) *
+                r +
+            R(1.0));
   }
-  return k;
+  real x = t - R(0.5);
+  real r = x * x;
+  return (((((R(-3.969683028665376e+01) * r + R(2.209460984245205e+02)) * r +
+             R(-2.759285104469687e+02)) *
+                r +
+            R(1.383577518672690e+02)) *
+               r +
+           R(-3.066479806614716e+01)) *
+              r +
+          R(2.506628277459239e+00)) *
+         x /
+         (((((R(-5.447609879822406e+01) * r + R(1.615858368580409e+02)) * r +
+             R(-1.556989798598866e+02)) *
+                r +
+            R(6.680131188771972e+01)) *
+               r +
+           R(-1.328068155288572e+01)) *
+              r +
+          R(1.0));
 }
 
-/* A draw of "Binomial(n, p)" for real n >= 0: floor(n) whole trials plus one
- * partial trial that succeeds with probability frac(n) p, so that the mean is
- * n p exactly for every real n (a footprint holding 0.3 facets reflects with
- * probability 0.3 p; with N_P < 1 this is what keeps the estimator unbiased).
- * Whole trials: exact inversion up to GLINT_BINOMIAL_EXACT_MAX; above it a
- * normal approximation when the variance n p (1 - p) reaches `threshold`
- * (continuous, clamped to [0, n], as DB23 and KK24's code do), otherwise a
- * Poisson draw for the rarer outcome (p or 1 - p; the variance bound keeps its
- * mean below 2 threshold). The draw uses `key`'s stream only. */
+/* The standard normal z of the uniform u = m 2^-24: the quantile of the middle of u's bin,
+ * (m + 1/2) 2^-24, formed from the nearer end so that it is exact in fp32 too (|z| <= 5.4), and
+ * odd: the bins of m and 2^24 - 1 - m give -z and z. */
+GLINT_FN real binomial_normal_of_uniform(real u) {
+  const real half_bin = R(2.98023223876953125e-8); /* 2^-25 */
+  if (u >= R(0.5)) return -binomial_normal_quantile_lower((R(1.0) - u) - half_bin);
+  return binomial_normal_quantile_lower(u + half_bin);
+}
+
+/* Binomial(n, p) by a normal approximation written as a quantile of z, so that it is monotone
+ * in p for fixed z:
+ *  - on the arcsine scale (Anscombe 1948, "The transformation of Poisson, binomial and
+ *    negative-binomial data"): asin(sqrt(X / n)) is close to normal with mean
+ *    theta = asin(sqrt(p)) and variance 1/(4n), so X ~ n sin^2(theta + z / (2 sqrt(n)));
+ *  - minus its mean excess, E[sin^2(theta + e)] - p = (1 - 2p)(1 - exp(-1/(2n))) / 2 for
+ *    e ~ N(0, 1/(4n)) (exact), so the mean is n p;
+ *  - minus a Cornish-Fisher term (Cornish & Fisher 1937): the arcsine form's third cumulant is
+ *    1.5 n p (1 - p)(1 - 2p) to leading order, the binomial's n p (1 - p)(1 - 2p); the
+ *    quantile term (1 - 2p)(z^2 - 1) / 12 removes the excess and has mean 0;
+ *  - rounded to the nearest integer, the continuity-corrected count: a number of facets, and
+ *    one the exact counts of the neighbouring regimes can meet (binomial_whole). Rounding adds
+ *    1/12 to the variance and, at standard deviations >= 1, nothing measurable to the mean.
+ * Monotone in p for fixed z: theta grows, the angle is clamped to [0, pi/2] where sin^2 grows,
+ * -(1 - 2p) grows, and the Cornish-Fisher term falls at most at rate 1/6 (|z| < 1; the
+ * arcsine term then grows at rate >= n/2 for variances >= 1). The plain n p + z sqrt(n p (1-p))
+ * is not monotone (sqrt(p (1 - p)) falls above p = 1/2, which a positive z turns into a falling
+ * count, and likewise for z << 0 at small n p). Near p = 1, asin(sqrt(p)) resolves the
+ * failures n (1 - p) to ~n eps, as fine as fp32's p itself. Measured against the pmf by explicit
+ * sums over the draw's exact law (all 2^24 uniforms): total variation 1e-3 .. 3e-3 at variance 9,
+ * 1e-4 at 210; variance n p (1 - p) + O(1): +1.3% at variance 9. */
+GLINT_FN real binomial_arcsine(real n, real p, real z) {
+  real theta = asin(sqrt(p));
+  real phi = clamp(theta + R(0.5) * z / sqrt(n), R(0.0), R(0.5) * GLINT_PI);
+  real s = sin(phi);
+  /* 1 - exp(-x) for x = 1/(2n) < 1/128 (n > 64 here): the series to x^3, relative error x^3/24 */
+  real x = R(0.5) / n;
+  real mean_excess =
+      R(0.5) * (R(1.0) - R(2.0) * p) * x * (R(1.0) - R(0.5) * x * (R(1.0) - x / R(3.0)));
+  real skew = (R(1.0) - R(2.0) * p) * (z * z - R(1.0)) / R(12.0);
+  return clamp(floor(n * (s * s - mean_excess) - skew + R(0.5)), R(0.0), n);
+}
+
+/* Binomial(n, p) for integer n >= 1 and p in (0, 1] from one uniform u, monotone
+ * non-decreasing in p for fixed u in every regime and across every switch:
+ *  - n <= GLINT_BINOMIAL_EXACT_MAX, or where the variance n p (1 - p) is below `threshold`
+ *    (p < p1 or p > p2, the roots of n p (1 - p) = threshold): the exact quantile E(p);
+ *  - between the switches, p1 <= p <= p2: the approximation A(p), z from the same u.
+ * A and E are different functions of u, so at p1 A can be below E for the same u (and at p2
+ * E below A). Each regime therefore continues as the maximum with the value the previous one
+ * reached at its switch: max(A(p), E(p1)) between the switches, max(A(p2), E(p1), E(p))
+ * above p2, so that no switch can lower a count. The maximum differs from A(p) only where the
+ * two quantiles of u differ at p1 (by one count, for a small fraction of u) and only until A
+ * has grown past E(p1): an upward bias in a band of p above p1. Measured on the draw's exact
+ * law (all 2^24 uniforms), relative to n p: at threshold 9, +8e-4 at p1, +1.5e-4 at 1.01 p1,
+ * 2e-6 at 1.1 p1 (n = 1000 and 1e6; 2e-4 at p1 for n = 65); at threshold 40, 6e-5 at p1; at
+ * threshold 1, where counts near p1 are ~1 and no approximation fits them, +2.7% at p1,
+ * +0.6% at 2 p1, 2e-4 at 5 p1. Above p2, <= 3e-5. Elsewhere the mean is n p.
+ * E(p1) is only computed when A(p) is below a bound on it (binomial_quantile_bound), i.e.
+ * within a few counts of p1's: elsewhere the draw costs one A. */
+GLINT_FN real binomial_whole(real n, real p, real threshold, real u) {
+  /* Clearly exact (variance below half the threshold, so p < p1 or p > p2 whatever the
+   * rounding of p1): skip computing p1. */
+  if (n <= (real)GLINT_BINOMIAL_EXACT_MAX || R(4.0) * threshold > n ||
+      n * p * (R(1.0) - p) < R(0.5) * threshold)
+    return binomial_exact(n, p, u);
+  /* p1 = (1 - sqrt(1 - 4 threshold / n)) / 2 without cancellation. */
+  real p1 = R(2.0) * threshold / (n * (R(1.0) + sqrt(R(1.0) - R(4.0) * threshold / n)));
+  real p2 = R(1.0) - p1;
+  if (p < p1) return binomial_exact(n, p, u);
+  real x = binomial_arcsine(n, fmin(p, p2), binomial_normal_of_uniform(u));
+  /* max(x, E(p1)) needs E(p1) only if it can exceed x: E(p1) <= the cap for every u, and <=
+   * the Bernstein bound at L = -log(1 - u) for this u (L enlarged by 1e-3 against its
+   * rounding; plus one count for a comparison that rounding decides, binomial_exact). Whether
+   * it is skipped depends on u and on x, which grows with p: once skipped, it stays skipped. */
+  real level = R(1.001) * -log1p(-u) + R(0.001);
+  if (x < binomial_exact_cap(n, p1) && x < binomial_quantile_bound(n, p1, level) + R(1.0))
+    x = fmax(x, binomial_exact(n, p1, u));
+  if (p > p2) x = fmax(x, binomial_exact(n, p, u));
+  return x;
+}
+
+/* A draw of "Binomial(n, p)" for real n >= 0: floor(n) whole trials plus one partial trial
+ * that succeeds with probability frac(n) p, so that the mean is n p exactly for every real n (a
+ * footprint holding 0.3 facets reflects with probability 0.3 p; with N_P < 1 this is what
+ * keeps the estimator unbiased). The whole trials use one uniform of `key`'s stream in every
+ * regime (binomial_whole); the partial trial its own, succeeding when it is below frac(n) p.
+ * Each part is non-decreasing in p for its fixed uniform, so their sum is: for a given cell,
+ * light and view the count never falls as p grows. */
 GLINT_FN real binomial_draw(real n, real p, real threshold, uint key) {
   if (!(n > R(0.0)) || !(p > R(0.0))) return R(0.0);
   p = fmin(p, R(1.0));
   real whole = floor(n);
   real part = n - whole;
   real k = R(0.0);
-  real u = rng_u01(rng_absorb(key, 1u));
-  if (whole > R(0.0)) {
-    int flip = p > R(0.5);
-    real q = flip ? R(1.0) - p : p;
-    real draw;
-    if (whole <= (real)GLINT_BINOMIAL_EXACT_MAX) {
-      draw = binomial_exact(whole, q, u);
-    } else if (whole * q * (R(1.0) - q) >= threshold) {
-      real g = binomial_gaussian(rng_absorb(key, 2u), rng_absorb(key, 3u));
-      draw = clamp(whole * q + sqrt(whole * q * (R(1.0) - q)) * g, R(0.0), whole);
-    } else {
-      draw = binomial_poisson(whole * q, u, whole);
-    }
-    k = flip ? whole - draw : draw;
-  }
+  if (whole > R(0.0)) k = binomial_whole(whole, p, threshold, rng_u01(rng_absorb(key, 1u)));
   if (part > R(0.0) && rng_u01(rng_absorb(key, 4u)) < part * p) k += R(1.0);
   return k;
 }

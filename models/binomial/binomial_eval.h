@@ -16,7 +16,9 @@
  *     towards the light's centre.
  * p is clamped to [0, 1] (KK24 Sec. 5: p > 1 falls back to the smooth model).
  * Because the same p divides the count, E[L] = L_smooth for any p <= 1: p
- * only decides how sparse and how bright the glints are.
+ * only decides how sparse and how bright the glints are. For a fixed random
+ * stream the count never falls as p grows (binomial_count.h, step 3), so a
+ * larger concentric light keeps every glint of a smaller one.
  *
  * D_H and D_PR come from the LTC table (tools/ltc/README.md columns 6, 7;
  * D_H is KK24 Eq. 29/30 evaluated exactly by the fitting tool).

@@ -111,19 +111,24 @@ GLINT_FN real chermain_cell_sdf(const GLINT_GLOBAL float *table, ChermainParams 
   /* l. 5-6: facets in the cell n = 4^(level - (nLevels - 1)) rho, l_dist = log4(n). */
   real l_dist = level - R(GLINT_CHERMAIN_LEVELS - 1) + p.log_density * R(0.72134752044448170);
   /* l. 7-8: density randomisation, l_dist ~ N(l_dist, zeta^2) (Box-Muller). */
-  real u1 = R(1.0) - rng_u01(rng_hash2(cell_key, 2u));
-  real u2 = rng_u01(rng_hash2(cell_key, 3u));
-  l_dist += p.zeta * sqrt(R(-2.0) * log(u1)) * cos(R(2.0) * GLINT_PI * u2);
+  if (p.zeta > R(0.0)) {
+    real u1 = R(1.0) - rng_u01(rng_hash2(cell_key, 2u));
+    real u2 = rng_u01(rng_hash2(cell_key, 3u));
+    l_dist += p.zeta * sqrt(R(-2.0) * log(u1)) * cos(R(2.0) * GLINT_PI * u2);
+  }
   /* l. 9-10: round and clamp; the last level is the target Beckmann SDF. */
   l_dist = clamp(floor(l_dist + R(0.5)), R(0.0), R(GLINT_CHERMAIN_LEVELS));
   if (l_dist >= R(GLINT_CHERMAIN_LEVELS)) return chermain_target_sdf(sx, sy, alpha_x, alpha_y);
   /* l. 13-16 (order R^-1 S^-1, see the header): into the dictionary's frame
    * (Eq. 10: S^-1 = alpha_dict diag(1 / alpha_x, 1 / alpha_y)), then the
    * inverse of the cell's random rotation theta = 2 pi U_r (Eq. 9). */
-  real theta = R(2.0) * GLINT_PI * rng_u01(rng_hash2(cell_key, 4u));
-  real c = cos(theta), s = sin(theta);
   real qx = sx * (R(GLINT_CHERMAIN_ALPHA_DICT) / alpha_x);
   real qy = sy * (R(GLINT_CHERMAIN_ALPHA_DICT) / alpha_y);
+  /* The product of two marginals is 0 outside the square |x|, |y| <= X_MAX,
+   * hence outside its circumcircle whatever the rotation: skip the work. */
+  if (!(qx * qx + qy * qy <= R(2.0 * GLINT_CHERMAIN_X_MAX * GLINT_CHERMAIN_X_MAX))) return R(0.0);
+  real theta = R(2.0) * GLINT_PI * rng_u01(rng_hash2(cell_key, 4u));
+  real c = cos(theta), s = sin(theta);
   real rx = c * qx + s * qy;
   real ry = -s * qx + c * qy;
   /* l. 17-18: two marginals of the first N. */

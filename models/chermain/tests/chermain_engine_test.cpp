@@ -201,6 +201,54 @@ TEST_F(ChermainEngineTest, BitIdenticalUnderChunkingAndFollowsTheSeed) {
   EXPECT_GT(differ, lit / 2);
 }
 
+// The device kernel at the extremes (fp32 and fp64): footprints 0, 1e-30, 1e30, NaN and a line;
+// uv 0 and 1e7; grazing and normal directions; ln(rho) 0 and 60; alpha 0.01 and 1; zeta 0 and 10;
+// gamma 1 and 16. Every output finite and non-negative.
+TEST_F(ChermainEngineTest, FiniteAndNonNegativeAtTheExtremesOnTheDevice) {
+  v1::QueryBatch q;
+  const float fps[][4] = {{0, 0, 0, 0},         {1e-30f, 0, 0, 1e-30f},
+                          {1e30f, 0, 0, 1e30f}, {NAN, 0, 0, 1e-4f},
+                          {1e-3f, 0, 0, 0},     {3e-5f, 1e-5f, -2e-6f, 4e-6f}};
+  const float uvs[] = {0.0f, -3.7f, 1e7f};
+  const float dirs[][3] = {{0, 0, 1}, {1, 0, 0}, {0.9999999f, 0, 0.0004472f}, {0.6f, 0, 0.8f}};
+  uint32_t n = 0;
+  for (const auto &fp : fps)
+    for (float uv : uvs)
+      for (const auto &wo : dirs)
+        for (const auto &wi : dirs) {
+          q.add_uv(uv);
+          q.add_uv(-uv);
+          for (float f : fp) q.add_footprint(f);
+          for (float c : wo) q.add_wo(c);
+          for (float c : wi) q.add_wi(c);
+          ++n;
+        }
+  q.set_count(n);
+  int lit = 0;
+  for (bool fp64 : {false, true})
+    for (float ld : {0.0f, 60.0f})
+      for (float alpha : {0.01f, 1.0f})
+        for (float zeta : {0.0f, 10.0f})
+          for (float gamma : {1.0f, 16.0f}) {
+            EvaluateRequest settings = Settings(false, fp64, ld);
+            auto *m = settings.mutable_material();
+            m->set_alpha_x(alpha);
+            m->set_alpha_y(alpha);
+            m->mutable_chermain()->set_density_randomisation(zeta);
+            m->mutable_chermain()->set_max_anisotropy(gamma);
+            ASSERT_TRUE(ValidateSettings(settings, {}).ok());
+            EvalPlan plan = MakeEvalPlan(settings, q);
+            auto dev = Device(plan, q);
+            for (size_t i = 0; i < dev.size(); ++i) {
+              ASSERT_TRUE(std::isfinite(dev[i]) && dev[i] >= 0.0f)
+                  << plan.spec.Describe() << " ld " << ld << " alpha " << alpha << " query "
+                  << i / 3;
+              lit += dev[i] > 0.0f;
+            }
+          }
+  EXPECT_GT(lit, 100);
+}
+
 // The dictionary sizes pick different marginals (a smaller one is a prefix): the pattern
 // changes with the size, the device still matches the host.
 TEST_F(ChermainEngineTest, DictionarySizeChangesThePattern) {

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # "Show it" for the Chermain et al. 2020 glint model: renders `--scene plane` previews under the
-# sun of Table 1's sparkling stone and fabric, of examples/materials/sparkle_chermain.json at
+# sun of Table 1's sparkling stone, fabric and car paint (colour table), of examples/materials/sparkle_chermain.json at
 # three densities, and of the smooth Beckmann model, then assembles a labelled contact sheet and
 # prints per-image statistics.
 #
@@ -55,12 +55,13 @@ variant("stone", alpha_x=1.0, alpha_y=1.0, log_density=20, relative_area=0.01, d
 variant("fabric", alpha_x=0.3, alpha_y=0.3, log_density=20, relative_area=0.2, density_randomisation=2)
 for ld in (8, 14, 20):
     variant(f"sparkle_{ld}", log_density=ld)
+json.dump(json.load(open("examples/materials/carpaint_chermain.json")), open(f"{out}/carpaint.json", "w"))
 smooth = {k: v for k, v in base.items() if k != "chermain"}
 smooth["model"] = "SMOOTH"
 json.dump(smooth, open(f"{out}/smooth.json", "w"))
 EOF
 
-NAMES="stone fabric sparkle_8 sparkle_14 sparkle_20 smooth"
+NAMES="stone fabric carpaint sparkle_8 sparkle_14 sparkle_20 smooth"
 for n in $NAMES; do
   "$BUILD_DIR/client/cli/glint" preview --server "$SERVER" --material "$OUT/materials/$n.json" \
     --lights examples/lights/sun.json --scene plane --size "$SIZE" --seed 1 \
@@ -109,6 +110,7 @@ sheet = Image.new("RGB", (cols * (w + pad) + pad, rows_n * (h + top + foot) + 26
 draw = ImageDraw.Draw(sheet)
 label = {"stone": "Table 1 stone: alpha 1, ln rho 20, beta 0.01",
          "fabric": "Table 1 fabric: alpha 0.3, ln rho 20, beta 0.2",
+         "carpaint": "Table 1 2CV paint: alpha 0.1, ln rho 23, beta 0.3, 4 colours",
          "sparkle_8": "alpha 0.15, ln rho 8", "sparkle_14": "alpha 0.15, ln rho 14",
          "sparkle_20": "alpha 0.15, ln rho 20", "smooth": "SMOOTH Beckmann alpha 0.15 (reference)"}
 for k, (n, r) in enumerate(zip(names, rows)):
@@ -118,7 +120,7 @@ for k, (n, r) in enumerate(zip(names, rows)):
     sheet.paste(images[n], (x0, y0 + top))
     draw.text((x0 + 4, y0 + top + h + 3), f"lit {100 * r['lit']:.1f}%, mean/smooth {r['ratio']:.2f}",
               fill=(190, 190, 190), font=font(13))
-draw.text((8, sheet.height - 22), "CHERMAIN, Beckmann, Schlick f0 (0.95, 0.93, 0.88), zeta 2, "
+draw.text((8, sheet.height - 22), "CHERMAIN, Beckmann, Schlick f0 (0.95, 0.93, 0.88) (paint: 1), zeta 2 (paint: 0.01), "
           "max anisotropy 8, N = 192; sun E = 1; scene plane; smooth model uses Smith G",
           fill=(190, 190, 190), font=font(13))
 sheet.save(figure)

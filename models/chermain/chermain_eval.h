@@ -34,7 +34,6 @@
  *    Jacobian alpha_dict^2 / (alpha_x alpha_y) is the same.
  *  - The cell seed is (request seed, coherent cell index s0) through
  *    kernels/rng.h instead of the paper code's integer hash.
- *  - No colour table (not implemented).
  * A footprint of 0 (or NaN) falls back to the smooth Beckmann BRDF with the
  * same V-cavity G, as the paper's code does.
  *
@@ -59,6 +58,8 @@ typedef struct {
   real zeta;        /* density randomisation */
   real max_aniso;   /* gamma */
   int dict_size;    /* N */
+  int n_colors;     /* colour table size (0: white) */
+  real3 colors[GLINT_CHERMAIN_MAX_COLORS];
 } ChermainParams;
 
 GLINT_FN ChermainParams chermain_params_unpack(const GLINT_GLOBAL float *packed) {
@@ -68,6 +69,11 @@ GLINT_FN ChermainParams chermain_params_unpack(const GLINT_GLOBAL float *packed)
   p.zeta = (real)packed[2];
   p.max_aniso = (real)packed[3];
   p.dict_size = (int)packed[4];
+  p.n_colors = (int)packed[5];
+  for (int c = 0; c < GLINT_CHERMAIN_MAX_COLORS; ++c) {
+    const GLINT_GLOBAL float *rgb = packed + GLINT_CHERMAIN_COLOR_OFFSET + 3 * c;
+    p.colors[c] = make_real3((real)rgb[0], (real)rgb[1], (real)rgb[2]);
+  }
   return p;
 }
 
@@ -104,10 +110,11 @@ GLINT_FN real chermain_target_sdf(real sx, real sy, real alpha_x, real alpha_y) 
 
 /* Alg. 3: the SDF of the cell with coherent index s0 (Eq. 8) at hierarchy
  * level `level`, at slope (sx, sy). `cell_key` = hash of (seed, s0). */
-GLINT_FN real chermain_cell_sdf(const GLINT_GLOBAL float *table, ChermainParams p, real alpha_x,
-                                real alpha_y, uint cell_key, real level, real sx, real sy) {
+GLINT_FN real3 chermain_cell_sdf(const GLINT_GLOBAL float *table, ChermainParams p, real alpha_x,
+                                 real alpha_y, uint cell_key, real level, real sx, real sy) {
+  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
   /* l. 3-4: discard the cell with probability 1 - beta. */
-  if (rng_u01(rng_hash2(cell_key, 1u)) >= p.beta) return R(0.0);
+  if (rng_u01(rng_hash2(cell_key, 1u)) >= p.beta) return zero;
   /* l. 5-6: facets in the cell n = 4^(level - (nLevels - 1)) rho, l_dist = log4(n). */
   real l_dist = level - R(GLINT_CHERMAIN_LEVELS - 1) + p.log_density * R(0.72134752044448170);
   /* l. 7-8: density randomisation, l_dist ~ N(l_dist, zeta^2) (Box-Muller). */
@@ -118,7 +125,17 @@ GLINT_FN real chermain_cell_sdf(const GLINT_GLOBAL float *table, ChermainParams 
   }
   /* l. 9-10: round and clamp; the last level is the target Beckmann SDF. */
   l_dist = clamp(floor(l_dist + R(0.5)), R(0.0), R(GLINT_CHERMAIN_LEVELS));
-  if (l_dist >= R(GLINT_CHERMAIN_LEVELS)) return chermain_target_sdf(sx, sy, alpha_x, alpha_y);
+  if (l_dist >= R(GLINT_CHERMAIN_LEVELS)) {
+    real t = chermain_target_sdf(sx, sy, alpha_x, alpha_y);
+    return make_real3(t, t, t);
+  }
+  /* l. 11-12: the cell's colour (white without a table); the last level, above, has none. */
+  real3 color = make_real3(R(1.0), R(1.0), R(1.0));
+  if (p.n_colors > 0) {
+    real nc = (real)p.n_colors;
+    int c = (int)fmin(floor(nc * rng_u01(rng_hash2(cell_key, 7u))), nc - R(1.0));
+    color = p.colors[c];
+  }
   /* l. 13-16 (order R^-1 S^-1, see the header): into the dictionary's frame
    * (Eq. 10: S^-1 = alpha_dict diag(1 / alpha_x, 1 / alpha_y)), then the
    * inverse of the cell's random rotation theta = 2 pi U_r (Eq. 9). */
@@ -126,7 +143,7 @@ GLINT_FN real chermain_cell_sdf(const GLINT_GLOBAL float *table, ChermainParams 
   real qy = sy * (R(GLINT_CHERMAIN_ALPHA_DICT) / alpha_y);
   /* The product of two marginals is 0 outside the square |x|, |y| <= X_MAX,
    * hence outside its circumcircle whatever the rotation: skip the work. */
-  if (!(qx * qx + qy * qy <= R(2.0 * GLINT_CHERMAIN_X_MAX * GLINT_CHERMAIN_X_MAX))) return R(0.0);
+  if (!(qx * qx + qy * qy <= R(2.0 * GLINT_CHERMAIN_X_MAX * GLINT_CHERMAIN_X_MAX))) return zero;
   real theta = R(2.0) * GLINT_PI * rng_u01(rng_hash2(cell_key, 4u));
   real c = cos(theta), s = sin(theta);
   real rx = c * qx + s * qy;
@@ -138,8 +155,9 @@ GLINT_FN real chermain_cell_sdf(const GLINT_GLOBAL float *table, ChermainParams 
   /* l. 19 (Eq. 11 with Eq. 5): product of the marginals, times the Jacobian
    * alpha_dict^2 / (alpha_x alpha_y) of the scaling. */
   int lv = (int)l_dist;
-  return chermain_marginal(table, i, lv, rx) * chermain_marginal(table, j, lv, ry) *
-         (R(GLINT_CHERMAIN_ALPHA_DICT * GLINT_CHERMAIN_ALPHA_DICT) / (alpha_x * alpha_y));
+  real sdf = chermain_marginal(table, i, lv, rx) * chermain_marginal(table, j, lv, ry) *
+             (R(GLINT_CHERMAIN_ALPHA_DICT * GLINT_CHERMAIN_ALPHA_DICT) / (alpha_x * alpha_y));
+  return r3_scale(color, sdf);
 }
 
 /* The query's footprint (Alg. 1 l. 3-7). */
@@ -186,9 +204,9 @@ GLINT_FN ChermainFootprint chermain_footprint(ChermainParams p, real u, real v,
 }
 
 /* Alg. 2: the footprint-weighted SDF of one hierarchy level at slope (sx, sy). */
-GLINT_FN real chermain_level_sdf(const GLINT_GLOBAL float *table, ChermainParams p,
-                                 ChermainFootprint f, real alpha_x, real alpha_y, uint seed_key,
-                                 real level, real sx, real sy) {
+GLINT_FN real3 chermain_level_sdf(const GLINT_GLOBAL float *table, ChermainParams p,
+                                  ChermainFootprint f, real alpha_x, real alpha_y, uint seed_key,
+                                  real level, real sx, real sy) {
   /* Cell units of this level: 1 cell = 2^(level - 15) uv. The semi-axes in
    * cells are kept in [1e-3, 2 gamma] (below 1e-3 of a cell the footprint is a
    * point and the fallback cell below takes over; the clamp keeps the
@@ -205,7 +223,8 @@ GLINT_FN real chermain_level_sdf(const GLINT_GLOBAL float *table, ChermainParams
   real sxy = (a * a - b * b) * c * s;
   real ey = sqrt(syy);
   real scale = exp2(level); /* coherent index s0 = cell * 2^level (Eq. 8) */
-  real sum_w = R(0.0), sum = R(0.0);
+  real sum_w = R(0.0);
+  real3 sum = make_real3(R(0.0), R(0.0), R(0.0));
   int cells = 0;
   real k_lo = -floor(-(fv - ey - R(0.5))), k_hi = floor(fv + ey - R(0.5));
   for (real ky = k_lo; ky <= k_hi && cells < GLINT_CHERMAIN_MAX_CELLS; ky += R(1.0)) {
@@ -227,10 +246,11 @@ GLINT_FN real chermain_level_sdf(const GLINT_GLOBAL float *table, ChermainParams
       uint key = rng_absorb(seed_key, rng_float_key((float)((iu + kx) * scale)));
       key = rng_absorb(key, rng_float_key((float)((iv + ky) * scale)));
       sum_w += w;
-      sum += w * chermain_cell_sdf(table, p, alpha_x, alpha_y, key, level, sx, sy);
+      sum = r3_add(sum,
+                   r3_scale(chermain_cell_sdf(table, p, alpha_x, alpha_y, key, level, sx, sy), w));
     }
   }
-  if (sum_w > R(0.0)) return sum / sum_w;
+  if (sum_w > R(0.0)) return r3_scale(sum, R(1.0) / sum_w);
   /* No cell centre inside the footprint: the cell that holds uv. */
   uint key = rng_absorb(seed_key, rng_float_key((float)(iu * scale)));
   key = rng_absorb(key, rng_float_key((float)(iv * scale)));
@@ -240,15 +260,18 @@ GLINT_FN real chermain_level_sdf(const GLINT_GLOBAL float *table, ChermainParams
 /* Alg. 1 l. 8 (Eq. 12): the footprint's P-SDF at slope (sx, sy), the lerp of
  * the two levels around its LOD; the target Beckmann SDF when the footprint is
  * unusable. */
-GLINT_FN real chermain_pndf_sdf(const GLINT_GLOBAL float *table, ChermainParams p,
-                                ChermainFootprint f, real alpha_x, real alpha_y, uint seed_key,
-                                real sx, real sy) {
-  if (f.smooth) return chermain_target_sdf(sx, sy, alpha_x, alpha_y);
-  real sdf = chermain_level_sdf(table, p, f, alpha_x, alpha_y, seed_key, f.level0, sx, sy);
+GLINT_FN real3 chermain_pndf_sdf(const GLINT_GLOBAL float *table, ChermainParams p,
+                                 ChermainFootprint f, real alpha_x, real alpha_y, uint seed_key,
+                                 real sx, real sy) {
+  if (f.smooth) {
+    real t = chermain_target_sdf(sx, sy, alpha_x, alpha_y);
+    return make_real3(t, t, t);
+  }
+  real3 sdf = chermain_level_sdf(table, p, f, alpha_x, alpha_y, seed_key, f.level0, sx, sy);
   if (f.w1 > R(0.0)) {
-    real up =
+    real3 up =
         chermain_level_sdf(table, p, f, alpha_x, alpha_y, seed_key, f.level0 + R(1.0), sx, sy);
-    sdf = (R(1.0) - f.w1) * sdf + f.w1 * up;
+    sdf = r3_add(r3_scale(sdf, R(1.0) - f.w1), r3_scale(up, f.w1));
   }
   return sdf;
 }
@@ -265,15 +288,16 @@ GLINT_FN real3 chermain_reflect_cos(const GLINT_GLOBAL float *table, ChermainPar
   real3 h = r3_div(hs, h_len);
   if (!(h.z > R(0.0))) return zero;
   /* Alg. 1 l. 2 (Eq. 1): the half-vector's slope. */
-  real sdf = chermain_pndf_sdf(table, p, f, m.alpha_x, m.alpha_y, seed_key, -h.x / h.z, -h.y / h.z);
-  /* Alg. 1 l. 10 (Eq. 13). */
+  real3 sdf =
+      chermain_pndf_sdf(table, p, f, m.alpha_x, m.alpha_y, seed_key, -h.x / h.z, -h.y / h.z);
+  /* Alg. 1 l. 10 (Eq. 13); the colour table makes D_P an RGB value. */
   real hz2 = h.z * h.z;
   real hz4 = hz2 * hz2;
-  real D = hz4 > R(0.0) ? sdf / hz4 : R(0.0);
+  real3 D = hz4 > R(0.0) ? r3_scale(sdf, R(1.0) / hz4) : make_real3(R(0.0), R(0.0), R(0.0));
   /* Alg. 1 l. 11 times cos_i: F G1(wo, h) G1(wi, h) D / (4 cos_o). */
   real g2 = chermain_g1(wo, h) * chermain_g1(wi, h);
   real3 F = fresnel_eval(m.fresnel, r3_dot(wo, h));
-  return r3_scale(F, g2 * D / (R(4.0) * wo.z));
+  return r3_scale(r3_mul(F, D), g2 / (R(4.0) * wo.z));
 }
 
 /* Reflected radiance towards wo (RGB) for query i: a BRDF probe, or the

@@ -48,7 +48,17 @@ Status ValidateChermainParams(const Material &m) {
                c.dictionary_size() == 192)) {
     o << "material.chermain.dictionary_size: " << c.dictionary_size()
       << "; expected 16, 64 or 192 (0 = 192)";
+  } else if (c.colors_size() % 3 != 0 || c.colors_size() > 3 * GLINT_CHERMAIN_MAX_COLORS) {
+    o << "material.chermain.colors: " << c.colors_size()
+      << " values; expected RGB triplets, at most " << GLINT_CHERMAIN_MAX_COLORS << " colours";
   } else {
+    for (int k = 0; k < c.colors_size(); ++k) {
+      if (!(c.colors(k) >= 0.0f && c.colors(k) <= 1.0f)) {
+        o << "material.chermain.colors[" << k << "]: " << c.colors(k)
+          << "; expected a reflectance factor in [0, 1]";
+        return Status::InvalidArgument(o.str());
+      }
+    }
     return Status::Ok();
   }
   return Status::InvalidArgument(o.str());
@@ -83,7 +93,7 @@ Status ValidateChermainQueries(const glint::v1::EvaluateRequest &, const glint::
 }
 
 void PackChermainParams(const Material &m, float *params) {
-  static_assert(GLINT_CHERMAIN_FLOATS == GLINT_MODEL_PARAM_FLOATS);
+  static_assert(GLINT_CHERMAIN_FLOATS <= GLINT_MODEL_PARAM_FLOATS);
   const auto &c = m.chermain();
   params[0] = c.log_density();
   params[1] = c.relative_area() > 0.0f ? c.relative_area() : GLINT_CHERMAIN_DEFAULT_RELATIVE_AREA;
@@ -92,6 +102,8 @@ void PackChermainParams(const Material &m, float *params) {
       c.max_anisotropy() > 0.0f ? c.max_anisotropy() : GLINT_CHERMAIN_DEFAULT_MAX_ANISOTROPY;
   params[4] =
       c.dictionary_size() > 0 ? float(c.dictionary_size()) : GLINT_CHERMAIN_DEFAULT_DICTIONARY_SIZE;
+  params[5] = float(c.colors_size() / 3);
+  for (int k = 0; k < c.colors_size(); ++k) params[GLINT_CHERMAIN_COLOR_OFFSET + k] = c.colors(k);
 }
 
 const float *ChermainTable(size_t *floats) {

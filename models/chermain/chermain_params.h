@@ -3,11 +3,14 @@
  * packs it), its kernels (chermain_eval.h unpacks it) and the dictionary
  * generator (tools/chermain): plain #defines, valid OpenCL C and C++.
  *   [log_density, relative_area, density_randomisation, max_anisotropy,
- *    dictionary_size, 0, 0, 0] */
+ *    dictionary_size, n_colors, 0, 0, colour 0 rgb, colour 1 rgb, ..., colour 7 rgb] */
 #ifndef GLINT_CHERMAIN_PARAMS_H
 #define GLINT_CHERMAIN_PARAMS_H
 
-#define GLINT_CHERMAIN_FLOATS 8
+#define GLINT_CHERMAIN_FLOATS 32
+/* The colour table (Alg. 3 l. 11-12): up to 8 RGB colours from float 8 on. */
+#define GLINT_CHERMAIN_MAX_COLORS 8
+#define GLINT_CHERMAIN_COLOR_OFFSET 8
 
 /* The dictionary (paper Sec. 4.4, 7.3): multiscale 1D marginals of nLevels
  * levels, each tabulated at GLINT_CHERMAIN_BINS nodes over

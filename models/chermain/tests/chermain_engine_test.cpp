@@ -57,6 +57,7 @@ EvaluateRequest Settings(bool lights, bool fp64, float log_density = 20.0f) {
   for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
   m->mutable_chermain()->set_log_density(log_density);
   m->mutable_chermain()->set_density_randomisation(2.0f);
+  for (float c : {1.0f, 0.8f, 0.2f, 0.3f, 0.6f, 1.0f}) m->mutable_chermain()->add_colors(c);
   if (lights) {
     auto *d = r.add_lights()->mutable_directional();
     for (float v : {0.3f, 0.1f, 0.9486833f}) d->add_direction(v);
@@ -120,6 +121,17 @@ TEST_F(ChermainEngineTest, ValidationNamesTheField) {
   s = ValidateSettings(r, {});
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.message().find("material.chermain.log_density: -1"), std::string::npos)
+      << s.message();
+
+  r = Settings(true, false);
+  r.mutable_material()->mutable_chermain()->set_colors(4, 1.5f);
+  s = ValidateSettings(r, {});
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("material.chermain.colors[4]: 1.5"), std::string::npos) << s.message();
+  r.mutable_material()->mutable_chermain()->add_colors(0.5f);
+  s = ValidateSettings(r, {});
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("material.chermain.colors: 7 values"), std::string::npos)
       << s.message();
 
   r = Settings(false, false);

@@ -44,6 +44,7 @@ struct Cfg {
   double u = 0.3, v = 0.7;
   double fp[4] = {0x1p-15, 0, 0, 0x1p-15};
   unsigned seed_lo = 7;
+  std::vector<double> colors;  // RGB triplets (Alg. 3 l. 11-12); empty = white
 };
 }  // namespace glint::test
 
@@ -315,6 +316,39 @@ TEST(ChermainMean, MeanOverPositionsIsTheExpectedBrdf) {
                   std::fabs(expected - ct), bound);
       EXPECT_LE(std::fabs(expected - ct), bound) << "case pair " << p;
     }
+  }
+}
+
+// Alg. 3 l. 11-12: each cell's SDF times a colour drawn uniformly from the table, independently
+// of the marginals, so the mean over positions of each channel is the mean colour times the
+// expected BRDF (explicit sums, ExpectedSdf) when no cell reaches the last level (which is left
+// white): ln(rho) = 20, zeta = 2 puts it 8 standard deviations away. 4 standard errors.
+TEST(ChermainMean, ColourTableScalesTheMeanByTheMeanColour) {
+  Cfg s;
+  s.colors = {1.0, 0.2, 0.1, 0.8, 0.5, 0.1, 0.9, 0.1, 0.3};  // means 0.9, 0.267, 0.167
+  const double mean_color[3] = {0.9, 0.8 / 3, 0.5 / 3};
+  const V3 wi = Dir(0.3, 0.0), wo = Dir(0.5, 3.0);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> pos(-500.0, 500.0);
+  const int M = 20000;
+  double sum[3] = {}, sum2[3] = {};
+  for (int k = 0; k < M; ++k) {
+    s.u = pos(rng);
+    s.v = pos(rng);
+    const auto f = k64::ReflectCosRgb(s, wi, wo);
+    for (int c = 0; c < 3; ++c) {
+      sum[c] += f[c];
+      sum2[c] += f[c] * f[c];
+    }
+  }
+  const double expected =
+      MicrofacetCos(wi, wo, [&](double x, double y) { return ExpectedSdf(s, 0, x, y); });
+  for (int c = 0; c < 3; ++c) {
+    const double mean = sum[c] / M;
+    const double se = std::sqrt(std::max(sum2[c] / M - mean * mean, 0.0) / (M - 1));
+    std::printf("channel %d: mean %.5f +- %.1e, mean colour x expected %.5f\n", c, mean, se,
+                mean_color[c] * expected);
+    EXPECT_NEAR(mean, mean_color[c] * expected, 4 * se) << "channel " << c;
   }
 }
 

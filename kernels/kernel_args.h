@@ -27,16 +27,16 @@ typedef struct {
 } EvalSpec;
 
 typedef struct {
-  uint n;                             /* queries */
-  const GLINT_GLOBAL float *uv;       /* 2 per query (glint models) */
+  uint n;                              /* queries */
+  const GLINT_GLOBAL float *uv;        /* 2 per query (glint models) */
   const GLINT_GLOBAL float *footprint; /* 4 per query: du/dx, dv/dx, du/dy, dv/dy */
-  const GLINT_GLOBAL float *wo;       /* 3 per query */
-  const GLINT_GLOBAL float *wi;       /* 3 per query, probes only */
-  const GLINT_GLOBAL float *position; /* 3 per query, framed only */
+  const GLINT_GLOBAL float *wo;        /* 3 per query */
+  const GLINT_GLOBAL float *wi;        /* 3 per query, probes only */
+  const GLINT_GLOBAL float *position;  /* 3 per query, framed only */
   const GLINT_GLOBAL float *normal;
   const GLINT_GLOBAL float *tangent;
-  const GLINT_GLOBAL float *material; /* GLINT_MATERIAL_FLOATS */
-  const GLINT_GLOBAL float *params;   /* GLINT_MODEL_PARAM_FLOATS, the model's own */
+  const GLINT_GLOBAL float *material;    /* GLINT_MATERIAL_FLOATS */
+  const GLINT_GLOBAL float *params;      /* GLINT_MODEL_PARAM_FLOATS, the model's own */
   const GLINT_GLOBAL float *directional; /* GLINT_LIGHT_FLOATS per light */
   uint n_directional;
   const GLINT_GLOBAL float *point; /* GLINT_LIGHT_FLOATS per light */
@@ -44,36 +44,39 @@ typedef struct {
   const GLINT_GLOBAL float *polygons; /* GLINT_POLYGON_FLOATS per light */
   uint n_polygon;
   const GLINT_GLOBAL float *ltc_table; /* of the material's NDF (kernels/area/ltc_lookup.h) */
-  int area_method;                     /* GLINT_AREA_* */
-  int area_samples;                    /* REFERENCE nodes per dimension, MONTE_CARLO samples */
-  uint seed_lo, seed_hi;               /* the request seed (kernels/rng.h) */
+  /* The model's own read-only table (Model::table, e.g. the Chermain
+   * dictionary); the dummy buffer for models without one. */
+  const GLINT_GLOBAL float *model_table;
+  int area_method;       /* GLINT_AREA_* */
+  int area_samples;      /* REFERENCE nodes per dimension, MONTE_CARLO samples */
+  uint seed_lo, seed_hi; /* the request seed (kernels/rng.h) */
 } KernelInputs;
 
 #ifdef __OPENCL_VERSION__
 /* `accumulate`: add to `out` (an earlier pass of the same model wrote it)
  * instead of overwriting it. */
-#define GLINT_KERNEL_ARGS                                                                        \
-  uint n, __global const float *uv, __global const float *footprint, __global const float *wo,  \
-      __global const float *wi, __global const float *position, __global const float *normal,   \
-      __global const float *tangent, __global const float *material,                           \
-      __global const float *params, __global const float *directional, uint n_directional,     \
-      __global const float *point, uint n_point, __global const float *polygons, uint n_polygon, \
-      __global const float *ltc_table, int area_method, int area_samples, uint seed_lo,         \
-      uint seed_hi, int accumulate, __global float *out
+#define GLINT_KERNEL_ARGS                                                                          \
+  uint n, __global const float *uv, __global const float *footprint, __global const float *wo,     \
+      __global const float *wi, __global const float *position, __global const float *normal,      \
+      __global const float *tangent, __global const float *material, __global const float *params, \
+      __global const float *directional, uint n_directional, __global const float *point,          \
+      uint n_point, __global const float *polygons, uint n_polygon,                                \
+      __global const float *ltc_table, __global const float *model_table, int area_method,         \
+      int area_samples, uint seed_lo, uint seed_hi, int accumulate, __global float *out
 
 /* The struct from the arguments, inside a kernel declared with GLINT_KERNEL_ARGS. */
-#define GLINT_KERNEL_INPUTS()                                                                   \
-  kernel_inputs_make(n, uv, footprint, wo, wi, position, normal, tangent, material, params,     \
+#define GLINT_KERNEL_INPUTS()                                                                    \
+  kernel_inputs_make(n, uv, footprint, wo, wi, position, normal, tangent, material, params,      \
                      directional, n_directional, point, n_point, polygons, n_polygon, ltc_table, \
-                     area_method, area_samples, seed_lo, seed_hi)
+                     model_table, area_method, area_samples, seed_lo, seed_hi)
 
 GLINT_FN KernelInputs kernel_inputs_make(
     uint n, __global const float *uv, __global const float *footprint, __global const float *wo,
     __global const float *wi, __global const float *position, __global const float *normal,
     __global const float *tangent, __global const float *material, __global const float *params,
     __global const float *directional, uint n_directional, __global const float *point,
-    uint n_point, __global const float *polygons, uint n_polygon,
-    __global const float *ltc_table, int area_method, int area_samples, uint seed_lo,
+    uint n_point, __global const float *polygons, uint n_polygon, __global const float *ltc_table,
+    __global const float *model_table, int area_method, int area_samples, uint seed_lo,
     uint seed_hi) {
   KernelInputs in;
   in.n = n;
@@ -93,6 +96,7 @@ GLINT_FN KernelInputs kernel_inputs_make(
   in.polygons = polygons;
   in.n_polygon = n_polygon;
   in.ltc_table = ltc_table;
+  in.model_table = model_table;
   in.area_method = area_method;
   in.area_samples = area_samples;
   in.seed_lo = seed_lo;

@@ -26,8 +26,9 @@
 /* Material block: [alpha_x, alpha_y, a.rgb, b.rgb] with (a, b) = Schlick
  * (f0, 0), conductor (eta, k) or dielectric (ior x 3, 0). */
 #define GLINT_MATERIAL_FLOATS 8
-/* A model's own parameter block (models/<name>/), zero-padded. */
-#define GLINT_MODEL_PARAM_FLOATS 8
+/* A model's own parameter block (models/<name>/), zero-padded: 32 floats for the
+ * largest, CHERMAIN's 8 parameters and colour table of 8 RGB colours. */
+#define GLINT_MODEL_PARAM_FLOATS 32
 
 /* Directional light: [dir.xyz (towards the light), E.rgb, cone solid angle, 0].
  * Point light:       [pos.xyz, I.rgb, radius, 0]. */

@@ -33,6 +33,10 @@ done
 "$GLINT" preview --server "$SERVER" --material examples/materials/sparkle_binomial.json \
   --lights examples/lights/rect_small.json --scene plane --size 512x384 --seed 1 \
   --out "$OUT/preview_glints.exr"
+# Procedural glints (Chermain et al. 2020): a sparkly metal plane under the sun.
+"$GLINT" preview --server "$SERVER" --material examples/materials/sparkle_chermain.json \
+  --lights examples/lights/sun.json --scene plane --size 512x384 --seed 1 \
+  --out "$OUT/preview_chermain.exr"
 echo
 echo "Preview images are in $OUT:"
 ls -1 "$OUT"/preview_*

@@ -26,6 +26,7 @@ struct KernelArguments {
   ClBuffer directional, point, polygons, out;
   cl_uint n_directional = 0, n_point = 0, n_polygon = 0;
   cl_mem ltc_table = nullptr;
+  cl_mem model_table = nullptr;  // nullptr: bound to the dummy buffer
   cl_int area_method = 0, area_samples = 0;
   cl_uint seed_lo = 0, seed_hi = 0;
 };
@@ -46,7 +47,7 @@ Status MakeInput(cl_context ctx, const Array &a, ClBuffer *buf) {
 }
 
 Status MakeArguments(cl_context ctx, const EvalPlan &plan, const glint::v1::QueryBatch &q,
-                     cl_mem ltc_table, float *out_rgb, KernelArguments *a) {
+                     cl_mem ltc_table, cl_mem model_table, float *out_rgb, KernelArguments *a) {
   a->n = q.count();
   for (auto [input, buf] : {std::pair{&q.uv(), &a->uv},
                             {&q.footprint(), &a->footprint},
@@ -67,6 +68,7 @@ Status MakeArguments(cl_context ctx, const EvalPlan &plan, const glint::v1::Quer
   a->n_point = plan.n_point;
   a->n_polygon = plan.n_polygon;
   a->ltc_table = ltc_table;
+  a->model_table = model_table;
   a->area_method = plan.area_method;
   a->area_samples = plan.area_samples;
   a->seed_lo = plan.seed_lo;
@@ -91,13 +93,31 @@ Status BindKernelArguments(cl_kernel kernel, const KernelArguments &a, cl_mem du
     return clSetKernelArg(kernel, index++, sizeof(cl_mem), &m);
   };
   const cl_int acc = accumulate ? 1 : 0;
-  for (cl_int err :
-       {value(a.n),         buffer(a.uv),         buffer(a.footprint),   buffer(a.wo),
-        buffer(a.wi),       buffer(a.position),   buffer(a.normal),      buffer(a.tangent),
-        buffer(a.material), buffer(a.params),     buffer(a.directional), value(a.n_directional),
-        buffer(a.point),    value(a.n_point),     buffer(a.polygons),    value(a.n_polygon),
-        value(a.ltc_table), value(a.area_method), value(a.area_samples), value(a.seed_lo),
-        value(a.seed_hi),   value(acc),           buffer(a.out)}) {
+  const cl_mem model_table = a.model_table ? a.model_table : dummy;
+  for (cl_int err : {value(a.n),
+                     buffer(a.uv),
+                     buffer(a.footprint),
+                     buffer(a.wo),
+                     buffer(a.wi),
+                     buffer(a.position),
+                     buffer(a.normal),
+                     buffer(a.tangent),
+                     buffer(a.material),
+                     buffer(a.params),
+                     buffer(a.directional),
+                     value(a.n_directional),
+                     buffer(a.point),
+                     value(a.n_point),
+                     buffer(a.polygons),
+                     value(a.n_polygon),
+                     value(a.ltc_table),
+                     value(model_table),
+                     value(a.area_method),
+                     value(a.area_samples),
+                     value(a.seed_lo),
+                     value(a.seed_hi),
+                     value(acc),
+                     buffer(a.out)}) {
     if (err != CL_SUCCESS)
       return Status::Internal("clSetKernelArg " + std::to_string(index) +
                               " failed: " + ClErrorName(err));
@@ -147,6 +167,18 @@ Status DeviceEngine::Create(const DeviceEngineOptions &options,
     if (err != CL_SUCCESS)
       return Status::Internal("clCreateBuffer (LTC table) failed: " + ClErrorName(err));
   }
+  for (const Model *model : Models()) {
+    if (!model->table) continue;
+    size_t floats = 0;
+    const float *table = model->table(&floats);
+    cl_int err = CL_SUCCESS;
+    engine->model_tables_[model->id].reset(
+        clCreateBuffer(ctx, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, floats * sizeof(float),
+                       const_cast<float *>(table), &err));
+    if (err != CL_SUCCESS)
+      return Status::Internal(std::string("clCreateBuffer (") + model->name +
+                              " table) failed: " + ClErrorName(err));
+  }
   for (int i = 0; i < std::max(1, options.workers); ++i) {
     auto queue = std::make_unique<Queue>();
     cl_int err = CL_SUCCESS;
@@ -165,6 +197,7 @@ Status DeviceEngine::Create(const DeviceEngineOptions &options,
 DeviceEngine::~DeviceEngine() {
   queues_.clear();
   for (ClBuffer &t : ltc_tables_) t.reset();
+  model_tables_.clear();
 }
 
 Status DeviceEngine::KernelFor(Queue &queue, const ModelPass &pass, const KernelSpec &spec,
@@ -212,9 +245,10 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const glint::v1:
   }
 
   KernelArguments args;
-  Status s =
-      MakeArguments(runtime_->context(), plan, q,
-                    ltc_tables_[plan.spec.ndf == GLINT_NDF_BECKMANN ? 1 : 0].get(), out_rgb, &args);
+  auto table = model_tables_.find(model->id);
+  Status s = MakeArguments(
+      runtime_->context(), plan, q, ltc_tables_[plan.spec.ndf == GLINT_NDF_BECKMANN ? 1 : 0].get(),
+      table == model_tables_.end() ? nullptr : table->second.get(), out_rgb, &args);
   if (!s.ok()) return s;
   for (size_t k = 0; k < passes.size(); ++k) {
     cl_kernel kernel = nullptr;

@@ -59,6 +59,7 @@ class DeviceEngine {
   std::unique_ptr<ClRuntime> runtime_;
   std::map<std::string, std::string> sources_;  // expanded kernel source per pass file
   ClBuffer ltc_tables_[2];                      // GGX, Beckmann (read-only, shared by queues)
+  std::map<int, ClBuffer> model_tables_;        // Model::table by model id (read-only, shared)
   std::vector<std::unique_ptr<Queue>> queues_;
 };
 

@@ -26,6 +26,7 @@ struct HostInputs {
   const float *polygons = nullptr;
   uint32_t n_polygon = 0;
   const float *ltc_table = nullptr;
+  const float *model_table = nullptr;  // Model::table, or nullptr
   int area_method = 1, area_samples = 64;
   uint32_t seed_lo = 0, seed_hi = 0;
 };
@@ -62,6 +63,7 @@ void RunHostPass(const HostInputs &h, QueryFn query_fn, float *out, bool accumul
   in.polygons = h.polygons;
   in.n_polygon = h.n_polygon;
   in.ltc_table = h.ltc_table;
+  in.model_table = h.model_table;
   in.area_method = h.area_method;
   in.area_samples = h.area_samples;
   in.seed_lo = h.seed_lo;

@@ -5,6 +5,7 @@
 // wire) is shared; docs/architecture.md walks through adding a model.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -49,6 +50,12 @@ struct Model {
   // A query batch (after the common query checks), `first_query` = its offset in a stream.
   Status (*validate_queries)(const glint::v1::EvaluateRequest &settings,
                              const glint::v1::QueryBatch &queries, uint64_t first_query) = nullptr;
+
+  // A read-only table of static data the model's kernels read as `in.model_table`
+  // (kernels/kernel_args.h), e.g. the Chermain dictionary: returns it and its size in
+  // floats. The device engine uploads it once as a buffer, like the LTC tables; the host
+  // path passes the pointer. nullptr: the model has none (kernels see the dummy buffer).
+  const float *(*table)(size_t *floats) = nullptr;
 
   // Packs the params block (GLINT_MODEL_PARAM_FLOATS floats, zero-initialised).
   void (*pack_params)(const glint::v1::Material &m, float *params) = nullptr;

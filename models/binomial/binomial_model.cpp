@@ -84,7 +84,7 @@ Status ValidateBinomialQueries(const glint::v1::EvaluateRequest &, const glint::
 }
 
 void PackBinomialParams(const Material &m, float *params) {
-  static_assert(GLINT_BINOMIAL_FLOATS == GLINT_MODEL_PARAM_FLOATS);
+  static_assert(GLINT_BINOMIAL_FLOATS <= GLINT_MODEL_PARAM_FLOATS);
   const auto &b = m.binomial();
   params[0] = static_cast<float>(b.density());
   params[1] = b.p_mode() == glint::v1::HEURISTIC_R ? GLINT_P_MODE_HEURISTIC_R : GLINT_P_MODE_AREA;

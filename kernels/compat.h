@@ -123,7 +123,9 @@ using std::sqrt;
 typedef unsigned int uint;
 typedef int glint_mask; /* result of a comparison of two reals */
 
-GLINT_FN real clamp(real x, real lo, real hi) { return fmin(fmax(x, lo), hi); }
+GLINT_FN real clamp(real x, real lo, real hi) {
+  return fmin(fmax(x, lo), hi);
+}
 #endif
 
 /* ------------------------------ common --------------------------------- */
@@ -141,23 +143,41 @@ GLINT_FN real3 make_real3(real x, real y, real z) {
   return v;
 }
 
-GLINT_FN real3 r3_add(real3 a, real3 b) { return make_real3(a.x + b.x, a.y + b.y, a.z + b.z); }
-GLINT_FN real3 r3_sub(real3 a, real3 b) { return make_real3(a.x - b.x, a.y - b.y, a.z - b.z); }
+GLINT_FN real3 r3_add(real3 a, real3 b) {
+  return make_real3(a.x + b.x, a.y + b.y, a.z + b.z);
+}
+GLINT_FN real3 r3_sub(real3 a, real3 b) {
+  return make_real3(a.x - b.x, a.y - b.y, a.z - b.z);
+}
 /* Component-wise product (RGB times RGB). */
-GLINT_FN real3 r3_mul(real3 a, real3 b) { return make_real3(a.x * b.x, a.y * b.y, a.z * b.z); }
-GLINT_FN real3 r3_scale(real3 a, real s) { return make_real3(a.x * s, a.y * s, a.z * s); }
-GLINT_FN real3 r3_div(real3 a, real s) { return make_real3(a.x / s, a.y / s, a.z / s); }
-GLINT_FN real r3_dot(real3 a, real3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+GLINT_FN real3 r3_mul(real3 a, real3 b) {
+  return make_real3(a.x * b.x, a.y * b.y, a.z * b.z);
+}
+GLINT_FN real3 r3_scale(real3 a, real s) {
+  return make_real3(a.x * s, a.y * s, a.z * s);
+}
+GLINT_FN real3 r3_div(real3 a, real s) {
+  return make_real3(a.x / s, a.y / s, a.z / s);
+}
+GLINT_FN real r3_dot(real3 a, real3 b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
 GLINT_FN real3 r3_cross(real3 a, real3 b) {
   return make_real3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
-GLINT_FN real r3_length(real3 a) { return sqrt(r3_dot(a, a)); }
-GLINT_FN real3 r3_normalize(real3 a) { return r3_div(a, r3_length(a)); }
+GLINT_FN real r3_length(real3 a) {
+  return sqrt(r3_dot(a, a));
+}
+GLINT_FN real3 r3_normalize(real3 a) {
+  return r3_div(a, r3_length(a));
+}
 
 /* OpenCL's select(a, b, c): c ? b : a, per lane. A conditional expression on
  * values that are already computed: a select instruction, never a branch
  * (for OpenCL vectors, `?:` with a vector condition is select()). */
-GLINT_FN real glint_select(real a, real b, glint_mask c) { return c ? b : a; }
+GLINT_FN real glint_select(real a, real b, glint_mask c) {
+  return c ? b : a;
+}
 GLINT_FN real3 r3_select(real3 a, real3 b, glint_mask c) {
   return make_real3(glint_select(a.x, b.x, c), glint_select(a.y, b.y, c),
                     glint_select(a.z, b.z, c));
@@ -177,29 +197,51 @@ GLINT_FN real3 r3_select(real3 a, real3 b, glint_mask c) {
 #ifndef __OPENCL_VERSION__
 /* Host-only conveniences for C++ code outside kernels/ (the shared headers use
  * the r3_* functions so that host and device run the same code). */
-GLINT_FN real3 operator+(real3 a, real3 b) { return r3_add(a, b); }
-GLINT_FN real3 operator-(real3 a, real3 b) { return r3_sub(a, b); }
-GLINT_FN real3 operator-(real3 a) { return make_real3(-a.x, -a.y, -a.z); }
-GLINT_FN real3 operator*(real3 a, real3 b) { return r3_mul(a, b); }
-GLINT_FN real3 operator*(real3 a, real s) { return r3_scale(a, s); }
-GLINT_FN real3 operator*(real s, real3 a) { return r3_scale(a, s); }
-GLINT_FN real3 operator/(real3 a, real s) { return r3_div(a, s); }
+GLINT_FN real3 operator+(real3 a, real3 b) {
+  return r3_add(a, b);
+}
+GLINT_FN real3 operator-(real3 a, real3 b) {
+  return r3_sub(a, b);
+}
+GLINT_FN real3 operator-(real3 a) {
+  return make_real3(-a.x, -a.y, -a.z);
+}
+GLINT_FN real3 operator*(real3 a, real3 b) {
+  return r3_mul(a, b);
+}
+GLINT_FN real3 operator*(real3 a, real s) {
+  return r3_scale(a, s);
+}
+GLINT_FN real3 operator*(real s, real3 a) {
+  return r3_scale(a, s);
+}
+GLINT_FN real3 operator/(real3 a, real s) {
+  return r3_div(a, s);
+}
 GLINT_FN real3 &operator+=(real3 &a, real3 b) {
   a = a + b;
   return a;
 }
-GLINT_FN real dot(real3 a, real3 b) { return r3_dot(a, b); }
-GLINT_FN real3 cross(real3 a, real3 b) { return r3_cross(a, b); }
-GLINT_FN real length(real3 a) { return r3_length(a); }
-GLINT_FN real3 normalize(real3 a) { return r3_normalize(a); }
+GLINT_FN real dot(real3 a, real3 b) {
+  return r3_dot(a, b);
+}
+GLINT_FN real3 cross(real3 a, real3 b) {
+  return r3_cross(a, b);
+}
+GLINT_FN real length(real3 a) {
+  return r3_length(a);
+}
+GLINT_FN real3 normalize(real3 a) {
+  return r3_normalize(a);
+}
 #endif
 
 /* Literal in the working precision. fp32 device builds also pass
  * -cl-single-precision-constant so literals never force double arithmetic. */
-#define R(x) ((real)(x))
+#define GLINT_R(x) ((real)(x))
 
-#define GLINT_PI R(3.14159265358979323846)
-#define GLINT_INV_PI R(0.31830988618379067154)
-#define GLINT_SQRT_PI R(1.77245385090551602730)
+#define GLINT_PI GLINT_R(3.14159265358979323846)
+#define GLINT_INV_PI GLINT_R(0.31830988618379067154)
+#define GLINT_SQRT_PI GLINT_R(1.77245385090551602730)
 
 #endif /* GLINT_COMPAT_H */

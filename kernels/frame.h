@@ -24,9 +24,9 @@ GLINT_FN ShadingFrame frame_from_normal_tangent(real3 normal, real3 tangent) {
 /* The frame of queries that carry none: world space is the local frame. */
 GLINT_FN ShadingFrame frame_identity(void) {
   ShadingFrame f;
-  f.t = make_real3(R(1.0), R(0.0), R(0.0));
-  f.b = make_real3(R(0.0), R(1.0), R(0.0));
-  f.n = make_real3(R(0.0), R(0.0), R(1.0));
+  f.t = make_real3(GLINT_R(1.0), GLINT_R(0.0), GLINT_R(0.0));
+  f.b = make_real3(GLINT_R(0.0), GLINT_R(1.0), GLINT_R(0.0));
+  f.n = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0));
   return f;
 }
 

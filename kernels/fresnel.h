@@ -9,9 +9,9 @@
 /* Schlick 1994, "An Inexpensive BRDF Model for Physically-based Rendering",
  * Eq. 15: F = f0 + (1 - f0)(1 - cos)^5. */
 GLINT_FN real F_schlick(real f0, real cos_theta) {
-  real m = clamp(R(1.0) - cos_theta, R(0.0), R(1.0));
+  real m = clamp(GLINT_R(1.0) - cos_theta, GLINT_R(0.0), GLINT_R(1.0));
   real m2 = m * m;
-  return f0 + (R(1.0) - f0) * (m2 * m2 * m);
+  return f0 + (GLINT_R(1.0) - f0) * (m2 * m2 * m);
 }
 
 /* Exact unpolarised reflectance of a conductor with complex IOR eta + i k.
@@ -20,44 +20,44 @@ GLINT_FN real F_schlick(real f0, real cos_theta) {
  *   Rs = (a2b2 + c^2 - 2 a c) / (a2b2 + c^2 + 2 a c)
  *   Rp = Rs (c^2 a2b2 + s^4 - 2 a c s^2) / (c^2 a2b2 + s^4 + 2 a c s^2). */
 GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
-  real c = clamp(cos_theta, R(0.0), R(1.0));
+  real c = clamp(cos_theta, GLINT_R(0.0), GLINT_R(1.0));
   real c2 = c * c;
-  real s2 = R(1.0) - c2;
+  real s2 = GLINT_R(1.0) - c2;
   real t0 = eta * eta - k * k - s2;
-  real a2b2 = sqrt(fmax(t0 * t0 + R(4.0) * eta * eta * k * k, R(0.0)));
+  real a2b2 = sqrt(fmax(t0 * t0 + GLINT_R(4.0) * eta * eta * k * k, GLINT_R(0.0)));
   /* a^2 = (a2b2 + t0) / 2 cancels when t0 < 0 and |t0| >> 2 eta k (small eta, large k: silver,
    * gold in the red), costing fp32 up to 1e-5 in F. As a2b2^2 - t0^2 = 4 eta^2 k^2, it equals
    * 2 eta^2 k^2 / (a2b2 - t0) there, with a2b2 - t0 >= 2 |t0| > 0: no cancellation. Both forms
    * are computed (branch-free, see compat.h); the fmax guards keep the unused one finite. */
-  real a_sum = sqrt(fmax(R(0.5) * (a2b2 + t0), R(0.0)));
-  real a_quot = fabs(eta * k) * sqrt(R(2.0) / fmax(a2b2 - t0, R(1e-30)));
-  real a = glint_select(a_quot, a_sum, t0 >= R(0.0));
+  real a_sum = sqrt(fmax(GLINT_R(0.5) * (a2b2 + t0), GLINT_R(0.0)));
+  real a_quot = fabs(eta * k) * sqrt(GLINT_R(2.0) / fmax(a2b2 - t0, GLINT_R(1e-30)));
+  real a = glint_select(a_quot, a_sum, t0 >= GLINT_R(0.0));
   real t1 = a2b2 + c2;
-  real t2 = R(2.0) * a * c;
+  real t2 = GLINT_R(2.0) * a * c;
   real rs = (t1 - t2) / (t1 + t2);
   real t3 = c2 * a2b2 + s2 * s2;
   real t4 = t2 * s2;
   real rp = rs * (t3 - t4) / (t3 + t4);
-  return clamp(R(0.5) * (rs + rp), R(0.0), R(1.0));
+  return clamp(GLINT_R(0.5) * (rs + rp), GLINT_R(0.0), GLINT_R(1.0));
 }
 
 /* Exact unpolarised reflectance of a dielectric interface, light arriving
  * from the side with index 1 onto index `ior` (Walter et al. 2007 Eq. 22 in
  * the s/p amplitude form). ior < 1 can give total internal reflection. */
 GLINT_FN real F_dielectric(real ior, real cos_theta) {
-  real c = clamp(cos_theta, R(0.0), R(1.0));
-  real sin2_i = R(1.0) - c * c;
+  real c = clamp(cos_theta, GLINT_R(0.0), GLINT_R(1.0));
+  real sin2_i = GLINT_R(1.0) - c * c;
   real ior2 = ior * ior;
   /* Total internal reflection (F = 1) when sin^2(theta_t) = sin2_i / ior^2 >= 1, tested without
    * the division: ior^2 underflows to 0 for ior < ~1e-19 in fp32, and 0 / 0 at normal
    * incidence made F NaN (issue 8). Then every angle is TIR, which is the exact limit
    * F -> 1 as ior -> 0 (F(1) = ((1 - ior) / (1 + ior))^2). */
   glint_mask tir = sin2_i >= ior2;
-  real sin2_t = sin2_i / glint_select(ior2, R(1.0), tir);
-  real cos_t = sqrt(glint_select(R(1.0) - sin2_t, R(0.0), tir));
+  real sin2_t = sin2_i / glint_select(ior2, GLINT_R(1.0), tir);
+  real cos_t = sqrt(glint_select(GLINT_R(1.0) - sin2_t, GLINT_R(0.0), tir));
   real rs = (c - ior * cos_t) / (c + ior * cos_t);
   real rp = (ior * c - cos_t) / (ior * c + cos_t);
-  return glint_select(R(0.5) * (rs * rs + rp * rp), R(1.0), tir);
+  return glint_select(GLINT_R(0.5) * (rs * rs + rp * rp), GLINT_R(1.0), tir);
 }
 
 /* params: schlick (f0.rgb), conductor (eta.rgb, k.rgb), dielectric (ior). */

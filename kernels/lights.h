@@ -28,9 +28,9 @@ GLINT_FN real3 directional_light_irradiance(const GLINT_GLOBAL float *rec) {
  * header once per precision). */
 GLINT_FN real lights_real_max(void) {
 #if GLINT_USE_DOUBLE
-  return R(1.7976931348623157e308);
+  return GLINT_R(1.7976931348623157e308);
 #else
-  return R(3.40282346638528859812e38);
+  return GLINT_R(3.40282346638528859812e38);
 #endif
 }
 
@@ -44,13 +44,14 @@ GLINT_FN real3 point_light_dir(const GLINT_GLOBAL float *rec, real3 p,
                                GLINT_PRIVATE real3 *irradiance) {
   real3 d = r3_sub(light_load3(rec, 0), p);
   real d2 = r3_dot(d, d);
-  glint_mask at_light = !(d2 > R(0.0));
-  real d2_safe = glint_select(d2, R(1.0), at_light); /* keeps dead lanes finite */
+  glint_mask at_light = !(d2 > GLINT_R(0.0));
+  real d2_safe = glint_select(d2, GLINT_R(1.0), at_light); /* keeps dead lanes finite */
   real3 e = r3_div(light_load3(rec, 3), d2_safe);
   const real e_max = lights_real_max();
   e = make_real3(fmin(e.x, e_max), fmin(e.y, e_max), fmin(e.z, e_max));
-  *irradiance = r3_select(e, make_real3(R(0.0), R(0.0), R(0.0)), at_light);
-  return r3_select(r3_div(d, sqrt(d2_safe)), make_real3(R(0.0), R(0.0), R(1.0)), at_light);
+  *irradiance = r3_select(e, make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0)), at_light);
+  return r3_select(r3_div(d, sqrt(d2_safe)), make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0)),
+                   at_light);
 }
 
 #endif /* GLINT_LIGHTS_H */

@@ -21,8 +21,8 @@ GLINT_FN real D_ggx_aniso(real3 h, real alpha_x, real alpha_y) {
   real sx = h.x / alpha_x;
   real sy = h.y / alpha_y;
   real q = sx * sx + sy * sy + h.z * h.z;
-  real d = R(1.0) / (GLINT_PI * alpha_x * alpha_y * q * q);
-  return glint_select(d, R(0.0), h.z <= R(0.0));
+  real d = GLINT_R(1.0) / (GLINT_PI * alpha_x * alpha_y * q * q);
+  return glint_select(d, GLINT_R(0.0), h.z <= GLINT_R(0.0));
 }
 
 /* Beckmann, anisotropic (Heitz 2014 Eq. 84):
@@ -38,8 +38,8 @@ GLINT_FN real D_beckmann_aniso(real3 h, real alpha_x, real alpha_y) {
   /* exp(-80) ~ 1.8e-35: beyond it D is below any float result, and hz^4 may
    * already have underflowed, which would turn 0/0 into NaN. The exponent is
    * clamped only so that dead lanes (hz <= 0, t2 > 80 or NaN) stay tame. */
-  real d = exp(-fmin(t2, R(80.0))) / (GLINT_PI * alpha_x * alpha_y * hz2 * hz2);
-  return glint_select(d, R(0.0), (h.z <= R(0.0)) | (t2 > R(80.0)));
+  real d = exp(-fmin(t2, GLINT_R(80.0))) / (GLINT_PI * alpha_x * alpha_y * hz2 * hz2);
+  return glint_select(d, GLINT_R(0.0), (h.z <= GLINT_R(0.0)) | (t2 > GLINT_R(80.0)));
 }
 
 /* Projected roughness s = sqrt(ax^2 wx^2 + ay^2 wy^2): Lambda depends on the
@@ -58,10 +58,10 @@ GLINT_FN real projected_roughness(real3 w, real alpha_x, real alpha_y) {
  * the last form avoiding cancellation when s << wz. */
 GLINT_FN real z_lambda_ggx(real3 w, real alpha_x, real alpha_y) {
   real s = projected_roughness(w, alpha_x, alpha_y);
-  real z = fmax(w.z, R(0.0));
+  real z = fmax(w.z, GLINT_R(0.0));
   real root = sqrt(z * z + s * s);
-  real denom = R(2.0) * (root + z);
-  return glint_select(R(0.0), s * s / denom, denom > R(0.0));
+  real denom = GLINT_R(2.0) * (root + z);
+  return glint_select(GLINT_R(0.0), s * s / denom, denom > GLINT_R(0.0));
 }
 
 /* Beckmann: Lambda = (erf(a) - 1)/2 + exp(-a^2) / (2 a sqrt(pi)), a = wz/s
@@ -70,15 +70,15 @@ GLINT_FN real z_lambda_ggx(real3 w, real alpha_x, real alpha_y) {
  * finite as wz -> 0 (-> s / (2 sqrt(pi))) and as s -> 0 (-> 0). */
 GLINT_FN real z_lambda_beckmann(real3 w, real alpha_x, real alpha_y) {
   real s = projected_roughness(w, alpha_x, alpha_y);
-  real z = fmax(w.z, R(0.0));
+  real z = fmax(w.z, GLINT_R(0.0));
   real a = z / s;
   /* s <= 0: no roughness seen from w, Lambda = 0. a > 9: both terms < 1e-36
    * relative, Lambda = 0. Dead lanes evaluate at a = 0 (finite), then drop. */
-  glint_mask dead = (s <= R(0.0)) | (a > R(9.0));
-  real a_live = glint_select(a, R(0.0), dead);
-  real v = (s * exp(-a_live * a_live) / GLINT_SQRT_PI - z * erfc(a_live)) * R(0.5);
-  v = fmax(v, R(0.0)); /* rounding may leave a tiny negative */
-  return glint_select(v, R(0.0), dead);
+  glint_mask dead = (s <= GLINT_R(0.0)) | (a > GLINT_R(9.0));
+  real a_live = glint_select(a, GLINT_R(0.0), dead);
+  real v = (s * exp(-a_live * a_live) / GLINT_SQRT_PI - z * erfc(a_live)) * GLINT_R(0.5);
+  v = fmax(v, GLINT_R(0.0)); /* rounding may leave a tiny negative */
+  return glint_select(v, GLINT_R(0.0), dead);
 }
 
 GLINT_FN real ndf_D(int ndf, real3 h, real alpha_x, real alpha_y) {
@@ -95,13 +95,12 @@ GLINT_FN real ndf_z_lambda(int ndf, real3 w, real alpha_x, real alpha_y) {
  * G2 = 1 / (1 + Lambda_o + Lambda_i) (Heitz 2014 Eq. 99), rewritten as
  *   V = 1 / (4 (zo zi + zi (zo Lambda_o) + zo (zi Lambda_i)))
  * so it stays finite at grazing angles. Returns 0 below either horizon. */
-GLINT_FN real smith_visibility_correlated(int ndf, real3 wo, real3 wi, real alpha_x,
-                                          real alpha_y) {
+GLINT_FN real smith_visibility_correlated(int ndf, real3 wo, real3 wi, real alpha_x, real alpha_y) {
   real zlo = ndf_z_lambda(ndf, wo, alpha_x, alpha_y);
   real zli = ndf_z_lambda(ndf, wi, alpha_x, alpha_y);
-  real denom = R(4.0) * (wo.z * wi.z + wi.z * zlo + wo.z * zli);
-  real v = glint_select(R(0.0), R(1.0) / denom, denom > R(0.0));
-  return glint_select(v, R(0.0), (wo.z <= R(0.0)) | (wi.z <= R(0.0)));
+  real denom = GLINT_R(4.0) * (wo.z * wi.z + wi.z * zlo + wo.z * zli);
+  real v = glint_select(GLINT_R(0.0), GLINT_R(1.0) / denom, denom > GLINT_R(0.0));
+  return glint_select(v, GLINT_R(0.0), (wo.z <= GLINT_R(0.0)) | (wi.z <= GLINT_R(0.0)));
 }
 
 /* V cos_i = G2 / (4 cos_o), the factor smooth_reflect_cos needs. V itself overflows in fp32
@@ -112,11 +111,11 @@ GLINT_FN real smith_visibility_correlated(int ndf, real3 wo, real3 wi, real alph
 GLINT_FN real smith_visibility_cos_i(int ndf, real3 wo, real3 wi, real alpha_x, real alpha_y) {
   real zlo = ndf_z_lambda(ndf, wo, alpha_x, alpha_y);
   real zli = ndf_z_lambda(ndf, wi, alpha_x, alpha_y);
-  glint_mask dead = (wo.z <= R(0.0)) | (wi.z <= R(0.0));
-  real zi = glint_select(wi.z, R(1.0), dead); /* dead lanes: no 0/0 */
-  real denom = R(4.0) * (wo.z + zlo + wo.z * (zli / zi));
-  real v = glint_select(R(0.0), R(1.0) / denom, denom > R(0.0));
-  return glint_select(v, R(0.0), dead);
+  glint_mask dead = (wo.z <= GLINT_R(0.0)) | (wi.z <= GLINT_R(0.0));
+  real zi = glint_select(wi.z, GLINT_R(1.0), dead); /* dead lanes: no 0/0 */
+  real denom = GLINT_R(4.0) * (wo.z + zlo + wo.z * (zli / zi));
+  real v = glint_select(GLINT_R(0.0), GLINT_R(1.0) / denom, denom > GLINT_R(0.0));
+  return glint_select(v, GLINT_R(0.0), dead);
 }
 
 #endif /* GLINT_NDF_H */

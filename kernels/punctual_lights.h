@@ -17,11 +17,11 @@
 #define GLINT_LIGHT_KIND_POINT 2u
 
 typedef struct {
-  real3 wi;          /* unit direction towards the light, local frame */
-  real3 irradiance;  /* E on a surface facing the light (RGB) */
-  real solid_angle;  /* of the light's cone (directional) or sphere (point), 0 for a delta light */
-  uint kind;         /* GLINT_LIGHT_KIND_* */
-  uint index;        /* within its kind */
+  real3 wi;         /* unit direction towards the light, local frame */
+  real3 irradiance; /* E on a surface facing the light (RGB) */
+  real solid_angle; /* of the light's cone (directional) or sphere (point), 0 for a delta light */
+  uint kind;        /* GLINT_LIGHT_KIND_* */
+  uint index;       /* within its kind */
 } PunctualLight;
 
 GLINT_FN uint punctual_light_count(EvalSpec spec, KernelInputs in) {
@@ -31,8 +31,9 @@ GLINT_FN uint punctual_light_count(EvalSpec spec, KernelInputs in) {
 /* Solid angle 2 pi (1 - cos gamma) of a cone with sin(gamma) = s, written as
  * 2 pi s^2 / (1 + cos gamma) so small cones do not cancel. */
 GLINT_FN real cap_solid_angle(real s) {
-  s = clamp(s, R(0.0), R(1.0));
-  return R(2.0) * GLINT_PI * s * s / (R(1.0) + sqrt(fmax(R(1.0) - s * s, R(0.0))));
+  s = clamp(s, GLINT_R(0.0), GLINT_R(1.0));
+  return GLINT_R(2.0) * GLINT_PI * s * s /
+         (GLINT_R(1.0) + sqrt(fmax(GLINT_R(1.0) - s * s, GLINT_R(0.0))));
 }
 
 GLINT_FN PunctualLight punctual_light(EvalSpec spec, KernelInputs in, ShadingPoint sp, uint l) {
@@ -54,7 +55,7 @@ GLINT_FN PunctualLight punctual_light(EvalSpec spec, KernelInputs in, ShadingPoi
      * (the whole sky from inside it). */
     real dist = r3_length(r3_sub(light_load3(rec, 0), sp.p));
     real radius = (real)rec[6];
-    light.solid_angle = cap_solid_angle(glint_select(R(1.0), radius / dist, dist > radius));
+    light.solid_angle = cap_solid_angle(glint_select(GLINT_R(1.0), radius / dist, dist > radius));
     light.kind = GLINT_LIGHT_KIND_POINT;
     light.index = k;
   }

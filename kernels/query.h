@@ -31,7 +31,7 @@ GLINT_FN real3 query_load3(const GLINT_GLOBAL float *a, uint i) {
 /* Query i's directions (and frame when the spec has one). */
 GLINT_FN QueryInputs query_load(EvalSpec spec, KernelInputs in, uint i) {
   QueryInputs q;
-  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   q.wo = query_load3(in.wo, i);
   q.wi = zero;
   q.position = zero;
@@ -57,7 +57,7 @@ typedef struct {
 GLINT_FN ShadingPoint shading_point(EvalSpec spec, QueryInputs q) {
   ShadingPoint sp;
   sp.wo = r3_normalize(q.wo);
-  sp.p = make_real3(R(0.0), R(0.0), R(0.0));
+  sp.p = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   sp.frame = frame_identity();
   if (spec.has_frame) {
     sp.frame = frame_from_normal_tangent(q.normal, q.tangent);

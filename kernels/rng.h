@@ -38,7 +38,7 @@ GLINT_FN uint rng_hash3(uint a, uint b, uint c) {
 /* Uniform in [0, 1) with 24 random bits: k * 2^-24 is exact in float and in
  * double, so fp32 and fp64 kernels see the same numbers. */
 GLINT_FN real rng_u01(uint h) {
-  return (real)(h >> 8) * R(5.9604644775390625e-8);
+  return (real)(h >> 8) * GLINT_R(5.9604644775390625e-8);
 }
 
 /* The bit pattern of a float, to key random streams by input values (a

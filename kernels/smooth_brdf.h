@@ -39,13 +39,13 @@ GLINT_FN real3 smooth_reflect_cos(SmoothMaterial m, real3 wi, real3 wo) {
   real h_len = r3_length(h);
   /* Branch-free: every lane computes, dead ones (either direction at or below
    * the horizon, or wi = -wo) use h_len = 1 to stay finite and give 0. */
-  glint_mask dead = (wi.z <= R(0.0)) | (wo.z <= R(0.0)) | !(h_len > R(0.0));
-  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
+  glint_mask dead = (wi.z <= GLINT_R(0.0)) | (wo.z <= GLINT_R(0.0)) | !(h_len > GLINT_R(0.0));
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   /* No lane live: skip the rest (host: the early return). On the device this
    * pays off for coherent batches, e.g. +30-50% for a lit sphere where a light
    * is behind whole blocks, and costs ~10% on random queries (measured). */
   if (!glint_any(!dead)) return zero;
-  h = r3_div(h, glint_select(h_len, R(1.0), dead));
+  h = r3_div(h, glint_select(h_len, GLINT_R(1.0), dead));
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
   /* V cos_i in one piece: V alone overflows fp32 at cosines ~1e-36 (see ndf.h). */
   real V_cos_i = smith_visibility_cos_i(m.ndf, wo, wi, m.alpha_x, m.alpha_y);

@@ -28,7 +28,7 @@ std::string KernelSpec::BuildOptions() const {
   o << "-DGLINT_NDF=" << ndf << " -DGLINT_FRESNEL=" << fresnel << " -DGLINT_PROBE=" << probe
     << " -DGLINT_HAS_FRAME=" << has_frame << " -DGLINT_HAS_DIRECTIONAL=" << has_directional
     << " -DGLINT_HAS_POINT=" << has_point << " -DGLINT_USE_DOUBLE=" << fp64;
-  // Literals such as R(0.5) must not promote fp32 arithmetic to double.
+  // Literals such as GLINT_R(0.5) must not promote fp32 arithmetic to double.
   if (!fp64) o << " -cl-single-precision-constant";
   return o.str();
 }

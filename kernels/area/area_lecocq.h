@@ -52,12 +52,12 @@
 
 /* Edge splitting (step 1): a polygon edge of angle theta (in wi space) is cut into
  * ceil(theta / GLINT_LECOCQ_SPLIT) pieces, at most GLINT_LECOCQ_MAX_SPLIT. */
-#define GLINT_LECOCQ_SPLIT R(0.19634954084936207) /* pi / 16 */
+#define GLINT_LECOCQ_SPLIT GLINT_R(0.19634954084936207) /* pi / 16 */
 #define GLINT_LECOCQ_MAX_SPLIT 16
 /* Pearson mixing is blended in over N in [3, 5]: below, the fitted Lorentzian is the better
  * model of the nearly flat I (README "Edge integrand"). */
-#define GLINT_LECOCQ_PEARSON_N0 R(3.0)
-#define GLINT_LECOCQ_PEARSON_N1 R(5.0)
+#define GLINT_LECOCQ_PEARSON_N0 GLINT_R(3.0)
+#define GLINT_LECOCQ_PEARSON_N1 GLINT_R(5.0)
 
 /* clang-format off */
 /* BEGIN GENERATED (glint_fit_lecocq) */
@@ -66,27 +66,27 @@
  * g_P: worst 0.0368025 (mean 0.0116316, best possible 0.00931325), N >= 4
  * kappa GGX: worst KS distance 0.101898, Beckmann 0.0716842 */
 GLINT_FN real lecocq_width_lorentz(real N, real p) {
-  real v = R(1.0) / sqrt(N + R(1.0));
-  return R(1.0) + p * (R(0.296937501) + p * (R(-0.267581437) + p * R(0.140701114)) + v * (R(0.207143391) + R(-0.254562433) * p + R(0.0665726972) * v));
+  real v = GLINT_R(1.0) / sqrt(N + GLINT_R(1.0));
+  return GLINT_R(1.0) + p * (GLINT_R(0.296937501) + p * (GLINT_R(-0.267581437) + p * GLINT_R(0.140701114)) + v * (GLINT_R(0.207143391) + GLINT_R(-0.254562433) * p + GLINT_R(0.0665726972) * v));
 }
 GLINT_FN real lecocq_width_pearson(real N, real p) {
-  real v = R(1.0) / sqrt(N + R(1.0));
-  return R(1.0) + p * (R(2.30351549) + p * (R(-3.6194184) + p * R(2.09395572)) + v * (R(1.63630817) + R(-4.66045176) * p + R(12.5433032) * v));
+  real v = GLINT_R(1.0) / sqrt(N + GLINT_R(1.0));
+  return GLINT_R(1.0) + p * (GLINT_R(2.30351549) + p * (GLINT_R(-3.6194184) + p * GLINT_R(2.09395572)) + v * (GLINT_R(1.63630817) + GLINT_R(-4.66045176) * p + GLINT_R(12.5433032) * v));
 }
 GLINT_FN real lecocq_kappa_ggx(real a) {
-  return R(1.06336013) + a * (R(0.0105521804) + a * (R(1.34550795) + a * R(-0.421675772)));
+  return GLINT_R(1.06336013) + a * (GLINT_R(0.0105521804) + a * (GLINT_R(1.34550795) + a * GLINT_R(-0.421675772)));
 }
 GLINT_FN real lecocq_kappa_beckmann(real a) {
-  return R(2.00001067) + a * (R(-0.00441659971) + a * (R(1.40486755) + a * R(-0.35508843)));
+  return GLINT_R(2.00001067) + a * (GLINT_R(-0.00441659971) + a * (GLINT_R(1.40486755) + a * GLINT_R(-0.35508843)));
 }
 /* END GENERATED (glint_fit_lecocq) */
 /* clang-format on */
 
 /* Phong exponent N of the lobe (h.z)^N standing for D(h)(h.z) (step 3, README Eq. H3). */
 GLINT_FN real lecocq_phong_exponent(int ndf, real alpha) {
-  real a = clamp(alpha, R(1e-4), R(1.0));
+  real a = clamp(alpha, GLINT_R(1e-4), GLINT_R(1.0));
   real kappa = ndf == GLINT_NDF_BECKMANN ? lecocq_kappa_beckmann(a) : lecocq_kappa_ggx(a);
-  return fmax(kappa / (a * a) - R(1.0), R(1.0));
+  return fmax(kappa / (a * a) - GLINT_R(1.0), GLINT_R(1.0));
 }
 
 /* Peak-function integrals in t (README Eq. L2, P2), for t in [-pi/2, pi/2]:
@@ -97,8 +97,8 @@ GLINT_FN real lecocq_f1(real r, real st, real ct) {
   return atan2(r * st, ct) / r;
 }
 GLINT_FN real lecocq_f2(real q, real r, real st, real ct) {
-  return (R(2.0) + q) / (R(2.0) * (R(1.0) + q)) * lecocq_f1(r, st, ct) +
-         q * st * ct / (R(2.0) * (R(1.0) + q) * (R(1.0) + q * st * st));
+  return (GLINT_R(2.0) + q) / (GLINT_R(2.0) * (GLINT_R(1.0) + q)) * lecocq_f1(r, st, ct) +
+         q * st * ct / (GLINT_R(2.0) * (GLINT_R(1.0) + q) * (GLINT_R(1.0) + q * st * st));
 }
 
 /* int_{t0}^{t1} I(t) dt of README Eq. E3 with I replaced by LSM15's peak function (step 5):
@@ -107,26 +107,26 @@ GLINT_FN real lecocq_peak_integral(real s2, real N, real pearson_w, real st0, re
                                    real ct1) {
   /* Peak value I(0) = (1 - c^(N+1)) / s^2 (README Eq. E4), J0 = I(0) - 1; c^(N+1) by
    * exp/log1p so that s -> 0 (edge through the lobe axis) keeps its digits. */
-  real hn = R(0.5) * (N + R(1.0));
+  real hn = GLINT_R(0.5) * (N + GLINT_R(1.0));
   real one_minus_p = -expm1(hn * log1p(-s2));
-  real A = s2 > R(1e-30) ? one_minus_p / s2 : hn;
-  A = fmax(A, R(1.0));
-  real J0 = A - R(1.0);
-  real p = R(1.0) - one_minus_p; /* c^(N+1), the shape parameter of the width fits */
+  real A = s2 > GLINT_R(1e-30) ? one_minus_p / s2 : hn;
+  A = fmax(A, GLINT_R(1.0));
+  real J0 = A - GLINT_R(1.0);
+  real p = GLINT_R(1.0) - one_minus_p; /* c^(N+1), the shape parameter of the width fits */
   /* Lorentzian in sin t, q = J0 / g^2 (README Eq. L1-L2). */
   real gl = lecocq_width_lorentz(N, p);
   real ql = J0 / (gl * gl);
-  real rl = sqrt(R(1.0) + ql);
+  real rl = sqrt(GLINT_R(1.0) + ql);
   real lor = A * (lecocq_f1(rl, st1, ct1) - lecocq_f1(rl, st0, ct0));
-  if (!(pearson_w > R(0.0))) return lor;
+  if (!(pearson_w > GLINT_R(0.0))) return lor;
   /* Lorentzian + Pearson VII, weight k from I(pi/2) = 1 (README Eq. P3). */
   real gp = lecocq_width_pearson(N, p);
   real qp = J0 / (gp * gp);
-  real rp = sqrt(R(1.0) + qp);
-  real k = (R(2.0) + qp - gp * gp) / A;
+  real rp = sqrt(GLINT_R(1.0) + qp);
+  real k = (GLINT_R(2.0) + qp - gp * gp) / A;
   real mix = A * (k * (lecocq_f1(rp, st1, ct1) - lecocq_f1(rp, st0, ct0)) +
-                  (R(1.0) - k) * (lecocq_f2(qp, rp, st1, ct1) - lecocq_f2(qp, rp, st0, ct0)));
-  return (R(1.0) - pearson_w) * lor + pearson_w * mix;
+                  (GLINT_R(1.0) - k) * (lecocq_f2(qp, rp, st1, ct1) - lecocq_f2(qp, rp, st0, ct0)));
+  return (GLINT_R(1.0) - pearson_w) * lor + pearson_w * mix;
 }
 
 /* One great-arc edge a -> b (unit vectors, z >= 0) of the region in h' space. Adds to acc:
@@ -137,23 +137,24 @@ GLINT_FN real lecocq_peak_integral(real s2, real N, real pearson_w, real st0, re
 GLINT_FN void lecocq_edge(real3 a, real3 b, real N, real pearson_w, GLINT_PRIVATE real *acc) {
   real3 cr = r3_cross(a, b);
   real len = r3_length(cr);
-  if (!(len > R(1e-20))) return; /* zero-length edge: no contribution */
+  if (!(len > GLINT_R(1e-20))) return; /* zero-length edge: no contribution */
   real theta = atan2(len, r3_dot(a, b));
   real3 n = r3_div(cr, len);
   real s = n.z;
-  real s2 = fmin(s * s, R(1.0));
+  real s2 = fmin(s * s, GLINT_R(1.0));
   /* u(theta') = a cos + bp sin along the arc; z.u = c cos(theta' - phi). */
   real3 bp = r3_cross(n, a);
   real phi = atan2(bp.z, a.z);
-  const real half_pi = R(0.5) * GLINT_PI;
+  const real half_pi = GLINT_R(0.5) * GLINT_PI;
   real t0 = clamp(-phi, -half_pi, half_pi);
   real t1 = clamp(theta - phi, -half_pi, half_pi);
   real st0 = sin(t0), ct0 = cos(t0), st1 = sin(t1), ct1 = cos(t1);
   acc[0] -= s * lecocq_peak_integral(s2, N, pearson_w, st0, ct0, st1, ct1);
-  acc[1] -= s * lecocq_peak_integral(s2, N + R(1.0), pearson_w, st0, ct0, st1, ct1);
+  acc[1] -= s * lecocq_peak_integral(s2, N + GLINT_R(1.0), pearson_w, st0, ct0, st1, ct1);
   /* int cos^N t dt ~ int exp(-a t^2 / 2) dt, a = N + 1/2 (README Eq. M3). */
-  real ga = sqrt(R(0.5) * (N + R(0.5)));
-  real cn = exp(R(0.5) * N * log1p(-s2)) * R(0.88622692545275801) / ga; /* sqrt(pi) / 2 */
+  real ga = sqrt(GLINT_R(0.5) * (N + GLINT_R(0.5)));
+  real cn =
+      exp(GLINT_R(0.5) * N * log1p(-s2)) * GLINT_R(0.88622692545275801) / ga; /* sqrt(pi) / 2 */
   real j = cn * (erf(ga * t1) - erf(ga * t0));
   acc[2] -= n.x * j;
   acc[3] -= n.y * j;
@@ -169,7 +170,7 @@ GLINT_FN real3 lecocq_to_h(real3 wi, real3 wo, real sx, real sy) {
  * z >= 0), each edge split into pieces of at most GLINT_LECOCQ_SPLIT (step 1). */
 GLINT_FN void lecocq_region(const GLINT_PRIVATE real3 *w, int n, real3 wo, real sx, real sy, real N,
                             real pearson_w, GLINT_PRIVATE real *acc) {
-  for (int k = 0; k < 4; ++k) acc[k] = R(0.0);
+  for (int k = 0; k < 4; ++k) acc[k] = GLINT_R(0.0);
   for (int i = 0; i < n; ++i) {
     real3 a = w[i];
     real3 b = w[(i + 1) % n];
@@ -178,13 +179,13 @@ GLINT_FN void lecocq_region(const GLINT_PRIVATE real3 *w, int n, real3 wo, real 
      * 4 splits long, and floor + 1 there gave 4 or 5 pieces depending on the last ulp of
      * cos/sin/atan2 (host vs device libm, float vs double), which changes tau(H) and W(h_H) by
      * up to a few % at grazing views. (int) truncates towards zero: theta ~ 0 gives 1 piece. */
-    int pieces = (int)(theta / GLINT_LECOCQ_SPLIT - R(1e-3)) + 1;
+    int pieces = (int)(theta / GLINT_LECOCQ_SPLIT - GLINT_R(1e-3)) + 1;
     pieces = pieces > GLINT_LECOCQ_MAX_SPLIT ? GLINT_LECOCQ_MAX_SPLIT : pieces;
     real3 prev = lecocq_to_h(a, wo, sx, sy);
     for (int k = 1; k <= pieces; ++k) {
       /* A point of the chord a-b, normalised, lies on the great arc a-b. */
       real u = (real)k / (real)pieces;
-      real3 wk = r3_normalize(r3_add(r3_scale(a, R(1.0) - u), r3_scale(b, u)));
+      real3 wk = r3_normalize(r3_add(r3_scale(a, GLINT_R(1.0) - u), r3_scale(b, u)));
       real3 next = lecocq_to_h(wk, wo, sx, sy);
       lecocq_edge(prev, next, N, pearson_w, acc);
       prev = next;
@@ -197,17 +198,17 @@ GLINT_FN void lecocq_region(const GLINT_PRIVATE real3 *w, int n, real3 wo, real 
 GLINT_FN real3 lecocq_weight(SmoothMaterial m, real ax, real ay, real3 wo,
                              const GLINT_PRIVATE real *acc) {
   real alpha = sqrt(ax * ay), sx = alpha / ax, sy = alpha / ay;
-  real sg = acc[0] < R(0.0) ? R(-1.0) : R(1.0);
-  real3 hp = make_real3(sg * acc[2], sg * acc[3], fmax(sg * acc[1], R(0.0)));
+  real sg = acc[0] < GLINT_R(0.0) ? GLINT_R(-1.0) : GLINT_R(1.0);
+  real3 hp = make_real3(sg * acc[2], sg * acc[3], fmax(sg * acc[1], GLINT_R(0.0)));
   real3 h = make_real3(hp.x / sx, hp.y / sy, hp.z);
   real l = r3_length(h);
-  h = l > R(0.0) ? r3_div(h, l) : make_real3(R(0.0), R(0.0), R(1.0));
-  h.z = fmax(h.z, R(1e-6));
-  real oh = fmax(r3_dot(wo, h), R(0.0));
-  real3 wi = r3_sub(r3_scale(h, R(2.0) * oh), wo);
-  wi.z = fmax(wi.z, R(1e-6));
+  h = l > GLINT_R(0.0) ? r3_div(h, l) : make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0));
+  h.z = fmax(h.z, GLINT_R(1e-6));
+  real oh = fmax(r3_dot(wo, h), GLINT_R(0.0));
+  real3 wi = r3_sub(r3_scale(h, GLINT_R(2.0) * oh), wo);
+  wi.z = fmax(wi.z, GLINT_R(1e-6));
   real v = smith_visibility_cos_i(m.ndf, wo, wi, ax, ay);
-  return r3_scale(fresnel_eval(m.fresnel, oh), R(4.0) * v * oh / h.z);
+  return r3_scale(fresnel_eval(m.fresnel, oh), GLINT_R(4.0) * v * oh / h.z);
 }
 
 /* int_P f(wi, wo) cos(theta_i) dwi per unit radiance, RGB, by LSM15 (steps 1-6 above).
@@ -216,8 +217,8 @@ GLINT_FN real3 lecocq_weight(SmoothMaterial m, real ax, real ay, real3 wo,
  * shading point in the local frame, n in [3, 16], convex. */
 GLINT_FN real3 area_lecocq_polygon(SmoothMaterial m, const GLINT_GLOBAL float *table, real3 wo,
                                    const GLINT_PRIVATE real3 *v, int n, int pearson) {
-  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
-  if (!(wo.z > R(0.0))) return zero; /* as smooth_reflect_cos: no transmission */
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  if (!(wo.z > GLINT_R(0.0))) return zero; /* as smooth_reflect_cos: no transmission */
   real3 w[GLINT_POLYGON_MAX_CLIPPED];
   int nc = polygon_clip_to_horizon(v, n, w);
   if (nc < 3) return zero;
@@ -228,19 +229,20 @@ GLINT_FN real3 area_lecocq_polygon(SmoothMaterial m, const GLINT_GLOBAL float *t
   int kept = 0;
   for (int i = 0; i < nc; ++i) {
     real l = r3_length(w[i]);
-    if (l > R(0.0)) w[kept++] = r3_div(w[i], l);
+    if (l > GLINT_R(0.0)) w[kept++] = r3_div(w[i], l);
   }
   nc = kept;
   if (nc < 3) return zero;
   /* Step 2: isotropic alpha and the stretch that maps the anisotropic lobe onto it (Eq. H2). */
-  real ax = clamp(m.alpha_x, R(1e-4), R(1.0)), ay = clamp(m.alpha_y, R(1e-4), R(1.0));
+  real ax = clamp(m.alpha_x, GLINT_R(1e-4), GLINT_R(1.0)),
+       ay = clamp(m.alpha_y, GLINT_R(1e-4), GLINT_R(1.0));
   real alpha = sqrt(ax * ay);
   real sx = alpha / ax, sy = alpha / ay;
   real N = lecocq_phong_exponent(m.ndf, alpha);
   real pw = pearson ? clamp((N - GLINT_LECOCQ_PEARSON_N0) /
                                 (GLINT_LECOCQ_PEARSON_N1 - GLINT_LECOCQ_PEARSON_N0),
-                            R(0.0), R(1.0))
-                    : R(0.0);
+                            GLINT_R(0.0), GLINT_R(1.0))
+                    : GLINT_R(0.0);
 
   /* Steps 4-5 on the polygon and on the upper hemisphere (8 vertices on the horizon, whose
    * edges are the horizon itself; Eq. N2). */
@@ -248,12 +250,13 @@ GLINT_FN real3 area_lecocq_polygon(SmoothMaterial m, const GLINT_GLOBAL float *t
   lecocq_region(w, nc, wo, sx, sy, N, pw, accp);
   real3 hemi[8];
   for (int k = 0; k < 8; ++k) {
-    real ang = (real)k * R(0.78539816339744831); /* pi / 4 */
-    hemi[k] = make_real3(cos(ang), sin(ang), R(0.0));
+    real ang = (real)k * GLINT_R(0.78539816339744831); /* pi / 4 */
+    hemi[k] = make_real3(cos(ang), sin(ang), GLINT_R(0.0));
   }
   lecocq_region(hemi, 8, wo, sx, sy, N, pw, acch);
   real tau_p = fabs(accp[0]), tau_h = fabs(acch[0]);
-  real ratio = tau_h > R(0.0) ? clamp(tau_p / tau_h, R(0.0), R(1.0)) : R(0.0);
+  real ratio =
+      tau_h > GLINT_R(0.0) ? clamp(tau_p / tau_h, GLINT_R(0.0), GLINT_R(1.0)) : GLINT_R(0.0);
 
   /* Step 6 (README Eq. N2): albedo(wo) * [W(h_P) tau(P)] / [W(h_H) tau(H)], W (Eq. H1) at the
    * lobe-weighted mean half vectors h_P, h_H of the polygon and of the hemisphere (Eq. M1-M3).
@@ -263,9 +266,9 @@ GLINT_FN real3 area_lecocq_polygon(SmoothMaterial m, const GLINT_GLOBAL float *t
   real e[GLINT_LTC_ENTRY];
   area_ltc_lookup(table, alpha, wo.z, e);
   real3 alb = area_ltc_albedo(m, e);
-  return make_real3(wh.x > R(0.0) ? fmin(alb.x * ratio * wp.x / wh.x, alb.x) : R(0.0),
-                    wh.y > R(0.0) ? fmin(alb.y * ratio * wp.y / wh.y, alb.y) : R(0.0),
-                    wh.z > R(0.0) ? fmin(alb.z * ratio * wp.z / wh.z, alb.z) : R(0.0));
+  return make_real3(wh.x > GLINT_R(0.0) ? fmin(alb.x * ratio * wp.x / wh.x, alb.x) : GLINT_R(0.0),
+                    wh.y > GLINT_R(0.0) ? fmin(alb.y * ratio * wp.y / wh.y, alb.y) : GLINT_R(0.0),
+                    wh.z > GLINT_R(0.0) ? fmin(alb.z * ratio * wp.z / wh.z, alb.z) : GLINT_R(0.0));
 }
 
 #endif /* GLINT_AREA_LECOCQ_H */

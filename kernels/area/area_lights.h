@@ -16,12 +16,12 @@
 
 #include "kernels/area/area_lecocq.h"
 #include "kernels/area/area_monte_carlo.h"
-#include "kernels/compat.h"
-#include "kernels/layout.h"
-#include "kernels/frame.h"
 #include "kernels/area/ltc_lookup.h"
 #include "kernels/area/polygon.h"
 #include "kernels/area/spherical_triangle.h"
+#include "kernels/compat.h"
+#include "kernels/frame.h"
+#include "kernels/layout.h"
 #include "kernels/rng.h"
 #include "kernels/smooth_brdf.h"
 
@@ -50,11 +50,11 @@ GLINT_FN int area_polygon_load(const GLINT_GLOBAL float *rec, int has_frame, Sha
  * Two-sided polygons always emit; a receiver in the polygon's plane sees zero
  * solid angle either way. */
 GLINT_FN real area_polygon_weight(const GLINT_PRIVATE real3 *v, int n, int two_sided) {
-  real3 nn = make_real3(R(0.0), R(0.0), R(0.0));
+  real3 nn = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   for (int i = 0; i < n; ++i) nn = r3_add(nn, r3_cross(v[i], v[(i + 1) % n]));
   /* nn . v0 = 2 * area * (signed distance of the plane along nn): negative
    * when nn points from the plane towards the origin. */
-  return (two_sided || r3_dot(nn, v[0]) < R(0.0)) ? R(1.0) : R(0.0);
+  return (two_sided || r3_dot(nn, v[0]) < GLINT_R(0.0)) ? GLINT_R(1.0) : GLINT_R(0.0);
 }
 
 /* int_P f cos_i dwi per unit radiance by LTC (HDHN16 Sec. 3-4), RGB, in two
@@ -79,17 +79,17 @@ GLINT_FN real area_polygon_weight(const GLINT_PRIVATE real3 *v, int n, int two_s
  * alpha = sqrt(alpha_x alpha_y) (the lobe of equal solid-angle footprint). */
 GLINT_FN real area_ltc_form_factor(const GLINT_GLOBAL float *table, real alpha, real3 wo,
                                    const GLINT_PRIVATE real3 *v, int n, GLINT_PRIVATE real *e) {
-  for (int k = 0; k < GLINT_LTC_ENTRY; ++k) e[k] = R(0.0);
-  if (!(wo.z > R(0.0))) return R(0.0); /* as smooth_reflect_cos: no transmission */
+  for (int k = 0; k < GLINT_LTC_ENTRY; ++k) e[k] = GLINT_R(0.0);
+  if (!(wo.z > GLINT_R(0.0))) return GLINT_R(0.0); /* as smooth_reflect_cos: no transmission */
   real3 clipped[GLINT_AREA_MAX_VERTICES];
   int nc = polygon_clip_to_horizon(v, n, clipped);
-  if (nc < 3) return R(0.0);
+  if (nc < 3) return GLINT_R(0.0);
 
   real sxy = sqrt(wo.x * wo.x + wo.y * wo.y);
   /* At normal view the lobe is isotropic about n (t = 0 entries are), so any
    * tangent will do. */
-  real tx = sxy > R(1e-7) ? wo.x / sxy : R(1.0);
-  real ty = sxy > R(1e-7) ? wo.y / sxy : R(0.0);
+  real tx = sxy > GLINT_R(1e-7) ? wo.x / sxy : GLINT_R(1.0);
+  real ty = sxy > GLINT_R(1e-7) ? wo.y / sxy : GLINT_R(0.0);
   area_ltc_lookup(table, alpha, wo.z, e);
 
   real3 o[GLINT_AREA_MAX_VERTICES];
@@ -116,18 +116,18 @@ GLINT_FN real3 area_ltc_polygon(SmoothMaterial m, const GLINT_GLOBAL float *tabl
 /* One Gauss-Legendre panel rule: 4 nodes on [0, 1] (Abramowitz & Stegun
  * 25.4.30 mapped from [-1, 1]); composite rules use it on equal panels. */
 GLINT_FN real area_gl4_node(int k) {
-  const real a = R(0.3399810435848562648), b = R(0.8611363115940525752);
+  const real a = GLINT_R(0.3399810435848562648), b = GLINT_R(0.8611363115940525752);
   real x = k == 0 ? -b : k == 1 ? -a : k == 2 ? a : b;
-  return R(0.5) * (x + R(1.0));
+  return GLINT_R(0.5) * (x + GLINT_R(1.0));
 }
 GLINT_FN real area_gl4_weight(int k) {
-  const real wa = R(0.6521451548625461426), wb = R(0.3478548451374438574);
-  return R(0.5) * ((k == 0 || k == 3) ? wb : wa);
+  const real wa = GLINT_R(0.6521451548625461426), wb = GLINT_R(0.3478548451374438574);
+  return GLINT_R(0.5) * ((k == 0 || k == 3) ? wb : wa);
 }
 
 GLINT_FN real3 area_safe_normalize(real3 v, real3 fallback) {
   real l = r3_length(v);
-  return l > R(1e-30) ? r3_div(v, l) : fallback;
+  return l > GLINT_R(1e-30) ? r3_div(v, l) : fallback;
 }
 
 /* int over the spherical triangle (a, b, c) (unit vectors) of f cos_i dwi,
@@ -139,12 +139,12 @@ GLINT_FN real3 area_safe_normalize(real3 v, real3 fallback) {
  * cosine of the arc), so u2 = s^2 makes the integrand smooth for the rule. */
 GLINT_FN real3 area_reference_triangle(SmoothMaterial m, real3 wo, real3 a, real3 b, real3 c,
                                        int panels) {
-  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   real area = spherical_triangle_solid_angle(a, b, c);
-  if (!(area > R(1e-20))) return zero;
+  if (!(area > GLINT_R(1e-20))) return zero;
   real alpha = spherical_vertex_angle(a, b, c);
   real3 sum = zero;
-  real h = R(1.0) / (real)panels;
+  real h = GLINT_R(1.0) / (real)panels;
   for (int i = 0; i < panels; ++i) {
     for (int ki = 0; ki < 4; ++ki) {
       real u1 = ((real)i + area_gl4_node(ki)) * h;
@@ -153,7 +153,7 @@ GLINT_FN real3 area_reference_triangle(SmoothMaterial m, real3 wo, real3 a, real
       for (int j = 0; j < panels; ++j) {
         for (int kj = 0; kj < 4; ++kj) {
           real sj = ((real)j + area_gl4_node(kj)) * h;
-          real w = w1 * area_gl4_weight(kj) * h * R(2.0) * sj;
+          real w = w1 * area_gl4_weight(kj) * h * GLINT_R(2.0) * sj;
           real3 wi = arvo_point(arc, sj * sj);
           sum = r3_add(sum, r3_scale(smooth_reflect_cos(m, wi, wo), w));
         }
@@ -170,8 +170,8 @@ GLINT_FN real3 area_reference_triangle(SmoothMaterial m, real3 wo, real3 a, real
  * (rounded up to a multiple of 4). */
 GLINT_FN real3 area_reference_polygon(SmoothMaterial m, real3 wo, const GLINT_PRIVATE real3 *v,
                                       int n, int samples) {
-  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
-  if (!(wo.z > R(0.0))) return zero;
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  if (!(wo.z > GLINT_R(0.0))) return zero;
   real3 clipped[GLINT_AREA_MAX_VERTICES];
   int nc = polygon_clip_to_horizon(v, n, clipped);
   if (nc < 3) return zero;
@@ -218,13 +218,13 @@ GLINT_FN uint area_query_key(uint seed_lo, uint seed_hi, const GLINT_GLOBAL floa
 GLINT_FN real3 area_shade_keyed(SmoothMaterial m, const GLINT_GLOBAL float *table, int method,
                                 int samples, real3 wo, int has_frame, ShadingFrame frame, real3 p,
                                 const GLINT_GLOBAL float *polygons, uint n_polygon, uint key) {
-  real3 radiance = make_real3(R(0.0), R(0.0), R(0.0));
+  real3 radiance = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   for (uint l = 0; l < n_polygon; ++l) {
     const GLINT_GLOBAL float *rec = polygons + GLINT_POLYGON_FLOATS * l;
     real3 v[GLINT_POLYGON_MAX_VERTICES];
     int n = area_polygon_load(rec, has_frame, frame, p, v);
     real weight = area_polygon_weight(v, n, rec[1] != 0.0f);
-    if (weight == R(0.0)) continue;
+    if (weight == GLINT_R(0.0)) continue;
     real3 L = make_real3((real)rec[2], (real)rec[3], (real)rec[4]);
     real3 g = area_polygon_integral(m, table, method, samples, wo, v, n, rng_absorb(key, l));
     radiance = r3_add(radiance, r3_mul(g, L));

@@ -49,10 +49,10 @@
 #ifndef GLINT_AREA_MONTE_CARLO_H
 #define GLINT_AREA_MONTE_CARLO_H
 
-#include "kernels/compat.h"
-#include "kernels/ndf.h"
 #include "kernels/area/polygon.h"
 #include "kernels/area/spherical_triangle.h"
+#include "kernels/compat.h"
+#include "kernels/ndf.h"
 #include "kernels/rng.h"
 #include "kernels/smooth_brdf.h"
 
@@ -74,8 +74,8 @@ typedef struct {
 /* Clips to the horizon, fan triangulates. Returns 0 (omega = 0) when nothing
  * above the horizon subtends a solid angle. */
 GLINT_FN int mc_polygon_setup(const GLINT_PRIVATE real3 *v, int n, GLINT_PRIVATE McPolygon *P) {
-  P->omega = R(0.0);
-  P->orient = R(1.0);
+  P->omega = GLINT_R(0.0);
+  P->orient = GLINT_R(1.0);
   P->n = polygon_clip_to_horizon(v, n, P->v);
   if (P->n < 3) return 0;
   real lmin = r3_length(P->v[0]), lmax = lmin;
@@ -85,13 +85,13 @@ GLINT_FN int mc_polygon_setup(const GLINT_PRIVATE real3 *v, int n, GLINT_PRIVATE
     lmax = fmax(lmax, l);
   }
   /* A vertex at the shading point (the receiver lies on the light): degenerate. */
-  if (!(lmin > R(0.0)) || !isfinite(lmax)) return 0;
+  if (!(lmin > GLINT_R(0.0)) || !isfinite(lmax)) return 0;
   /* Keep the products of three lengths below fp32 overflow / underflow. */
-  if ((lmax > R(1e8)) | (lmax < R(1e-8))) {
+  if ((lmax > GLINT_R(1e8)) | (lmax < GLINT_R(1e-8))) {
     for (int i = 0; i < P->n; ++i) P->v[i] = r3_div(P->v[i], lmax);
   }
-  real sum = R(0.0), signed_sum = R(0.0);
-  P->cdf[0] = R(0.0);
+  real sum = GLINT_R(0.0), signed_sum = GLINT_R(0.0);
+  P->cdf[0] = GLINT_R(0.0);
   for (int i = 1; i + 1 < P->n; ++i) {
     real3 a = P->v[0], b = P->v[i], c = P->v[i + 1];
     signed_sum += spherical_triple(a, b, c);
@@ -99,10 +99,10 @@ GLINT_FN int mc_polygon_setup(const GLINT_PRIVATE real3 *v, int n, GLINT_PRIVATE
     P->cdf[i] = sum;
   }
   P->omega = sum;
-  P->orient = signed_sum >= R(0.0) ? R(1.0) : R(-1.0);
+  P->orient = signed_sum >= GLINT_R(0.0) ? GLINT_R(1.0) : GLINT_R(-1.0);
   /* Below ~1e-20 sr the float geometry is noise (area_reference_triangle uses
    * the same cut-off); the contribution is below any float result anyway. */
-  return isfinite(sum) && sum > R(1e-20);
+  return isfinite(sum) && sum > GLINT_R(1e-20);
 }
 
 /* Is the unit direction d inside the convex cone spanned by the polygon?
@@ -113,7 +113,7 @@ GLINT_FN int mc_inside(const GLINT_PRIVATE McPolygon *P, real3 d) {
   for (int i = 0; i < P->n; ++i) {
     real3 a = P->v[i];
     real3 b = P->v[i + 1 < P->n ? i + 1 : 0];
-    if (P->orient * r3_dot(r3_cross(a, r3_sub(b, a)), d) < R(0.0)) return 0;
+    if (P->orient * r3_dot(r3_cross(a, r3_sub(b, a)), d) < GLINT_R(0.0)) return 0;
   }
   return 1;
 }
@@ -142,22 +142,22 @@ GLINT_FN real3 mc_sample_ggx_vndf(real3 wo, real ax, real ay, real u1, real u2) 
   real3 vh = r3_normalize(make_real3(ax * wo.x, ay * wo.y, wo.z));
   /* Sec. 4.1: orthonormal basis, T1 = (1, 0, 0) at normal view. */
   real lensq = vh.x * vh.x + vh.y * vh.y;
-  real inv = lensq > R(0.0) ? R(1.0) / sqrt(lensq) : R(0.0);
-  real3 t1v = lensq > R(0.0) ? make_real3(-vh.y * inv, vh.x * inv, R(0.0))
-                             : make_real3(R(1.0), R(0.0), R(0.0));
+  real inv = lensq > GLINT_R(0.0) ? GLINT_R(1.0) / sqrt(lensq) : GLINT_R(0.0);
+  real3 t1v = lensq > GLINT_R(0.0) ? make_real3(-vh.y * inv, vh.x * inv, GLINT_R(0.0))
+                                   : make_real3(GLINT_R(1.0), GLINT_R(0.0), GLINT_R(0.0));
   real3 t2v = r3_cross(vh, t1v);
   /* Sec. 4.2: uniform on the projected disk, warped to the visible half. */
   real r = sqrt(u1);
-  real phi = R(2.0) * GLINT_PI * u2;
+  real phi = GLINT_R(2.0) * GLINT_PI * u2;
   real t1 = r * cos(phi);
   real t2 = r * sin(phi);
-  real s = R(0.5) * (R(1.0) + vh.z);
-  t2 = (R(1.0) - s) * sqrt(fmax(R(1.0) - t1 * t1, R(0.0))) + s * t2;
+  real s = GLINT_R(0.5) * (GLINT_R(1.0) + vh.z);
+  t2 = (GLINT_R(1.0) - s) * sqrt(fmax(GLINT_R(1.0) - t1 * t1, GLINT_R(0.0))) + s * t2;
   /* Sec. 4.3: reprojection onto the hemisphere. */
   real3 nh = r3_add(r3_add(r3_scale(t1v, t1), r3_scale(t2v, t2)),
-                    r3_scale(vh, sqrt(fmax(R(1.0) - t1 * t1 - t2 * t2, R(0.0)))));
+                    r3_scale(vh, sqrt(fmax(GLINT_R(1.0) - t1 * t1 - t2 * t2, GLINT_R(0.0)))));
   /* Sec. 3.4: back to the ellipsoid configuration. */
-  return r3_normalize(make_real3(ax * nh.x, ay * nh.y, fmax(nh.z, R(0.0))));
+  return r3_normalize(make_real3(ax * nh.x, ay * nh.y, fmax(nh.z, GLINT_R(0.0))));
 }
 
 /* Beckmann normal with density D(h) cos(theta_h): the slope (-hx/hz, -hy/hz)
@@ -165,10 +165,10 @@ GLINT_FN real3 mc_sample_ggx_vndf(real3 wo, real ax, real ay, real u1, real u2) 
  * (Heitz 2014 Eq. 84 is that Gaussian divided by cos^4), inverted in polar
  * form (Box-Muller; Walter et al. 2007 Eq. 28-29 for ax = ay). */
 GLINT_FN real3 mc_sample_beckmann(real ax, real ay, real u1, real u2) {
-  real r = sqrt(-log(R(1.0) - u1)); /* u1 < 1: finite */
-  real phi = R(2.0) * GLINT_PI * u2;
+  real r = sqrt(-log(GLINT_R(1.0) - u1)); /* u1 < 1: finite */
+  real phi = GLINT_R(2.0) * GLINT_PI * u2;
   real sx = ax * r * cos(phi), sy = ay * r * sin(phi);
-  return r3_normalize(make_real3(sx, sy, R(1.0)));
+  return r3_normalize(make_real3(sx, sy, GLINT_R(1.0)));
 }
 
 /* Technique B. Returns the reflected direction; *ok = 0 when the sampled
@@ -180,8 +180,8 @@ GLINT_FN real3 mc_sample_lobe(SmoothMaterial m, real3 wo, uint key, uint i, GLIN
   real3 h = m.ndf == GLINT_NDF_BECKMANN ? mc_sample_beckmann(m.alpha_x, m.alpha_y, u1, u2)
                                         : mc_sample_ggx_vndf(wo, m.alpha_x, m.alpha_y, u1, u2);
   real oh = r3_dot(wo, h);
-  real3 wi = r3_sub(r3_scale(h, R(2.0) * oh), wo);
-  *ok = (oh > R(0.0)) & (wi.z > R(0.0));
+  real3 wi = r3_sub(r3_scale(h, GLINT_R(2.0) * oh), wo);
+  *ok = (oh > GLINT_R(0.0)) & (wi.z > GLINT_R(0.0));
   return wi;
 }
 
@@ -191,31 +191,31 @@ GLINT_FN real3 mc_sample_lobe(SmoothMaterial m, real3 wo, uint key, uint i, GLIN
 GLINT_FN real mc_lobe_pdf(SmoothMaterial m, real3 wo, real3 wi) {
   real3 hv = r3_add(wi, wo);
   real len = r3_length(hv);
-  if (!(len > R(0.0)) | !(wi.z > R(0.0))) return R(0.0);
+  if (!(len > GLINT_R(0.0)) | !(wi.z > GLINT_R(0.0))) return GLINT_R(0.0);
   real3 h = r3_div(hv, len);
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
   if (m.ndf == GLINT_NDF_BECKMANN) {
     /* p_h = D cos(theta_h), / (4 wo.h) with wo.h = len / 2. */
-    return D * h.z / (R(2.0) * len);
+    return D * h.z / (GLINT_R(2.0) * len);
   }
   /* Heitz 2018 Eq. 17 over 4 wo.h: D G1(wo) / (4 wo.z), G1 = wo.z / (wo.z + wo.z Lambda). */
   real zl = ndf_z_lambda(m.ndf, wo, m.alpha_x, m.alpha_y);
-  return D / (R(4.0) * (wo.z + zl));
+  return D / (GLINT_R(4.0) * (wo.z + zl));
 }
 
 /* Power heuristic (beta = 2) weight of a technique with density-times-count a
  * against the other's b: a^2 / (a^2 + b^2), written so that huge ratios give
  * 0 or 1 rather than inf / inf. */
 GLINT_FN real mc_power_weight(real a, real b) {
-  if (!(a > R(0.0))) return R(0.0);
+  if (!(a > GLINT_R(0.0))) return GLINT_R(0.0);
   real r = b / a;
-  return R(1.0) / (R(1.0) + r * r);
+  return GLINT_R(1.0) / (GLINT_R(1.0) + r * r);
 }
 
 /* Adds f * s to acc when s is a finite non-negative factor (guards the rare
  * 0 * inf of densities that under- or overflowed in fp32). */
 GLINT_FN real3 mc_accumulate(real3 acc, real3 f, real s) {
-  return isfinite(s) && s >= R(0.0) ? r3_add(acc, r3_scale(f, s)) : acc;
+  return isfinite(s) && s >= GLINT_R(0.0) ? r3_add(acc, r3_scale(f, s)) : acc;
 }
 
 /* The MIS estimate with an explicit split: n_light samples of technique L and
@@ -224,8 +224,8 @@ GLINT_FN real3 mc_accumulate(real3 acc, real3 f, real s) {
  * entry point; the split form exists for tests and benchmarks. */
 GLINT_FN real3 area_mc_polygon_split(SmoothMaterial m, real3 wo, const GLINT_PRIVATE real3 *v,
                                      int n, int n_light, int n_lobe, uint key) {
-  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
-  if (!(wo.z > R(0.0)) || n_light + n_lobe < 1) return zero;
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  if (!(wo.z > GLINT_R(0.0)) || n_light + n_lobe < 1) return zero;
   McPolygon P;
   if (!mc_polygon_setup(v, n, &P)) return zero;
   real nl = (real)n_light, nb = (real)n_lobe;
@@ -246,7 +246,7 @@ GLINT_FN real3 area_mc_polygon_split(SmoothMaterial m, real3 wo, const GLINT_PRI
     if (!mc_inside(&P, wi)) continue;
     real3 f = smooth_reflect_cos(m, wi, wo);
     real b = nb * mc_lobe_pdf(m, wo, wi);
-    if (!(b > R(0.0))) continue;
+    if (!(b > GLINT_R(0.0))) continue;
     /* w_B f / (n_B p_B) */
     acc = mc_accumulate(acc, f, mc_power_weight(b, a) / b);
   }
@@ -259,15 +259,15 @@ GLINT_FN real3 area_mc_polygon_split(SmoothMaterial m, real3 wo, const GLINT_PRI
  * local frame. 0 when wo.z <= 0 or the polygon is below the horizon. */
 GLINT_FN real3 area_mc_polygon(SmoothMaterial m, real3 wo, const GLINT_PRIVATE real3 *v, int n,
                                int samples, uint key) {
-  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   if (samples >= 2) return area_mc_polygon_split(m, wo, v, n, (samples + 1) / 2, samples / 2, key);
-  if (!(wo.z > R(0.0)) || samples < 1) return zero;
+  if (!(wo.z > GLINT_R(0.0)) || samples < 1) return zero;
   /* One-sample MIS (Veach 1997 Sec. 9.2.4), c_L = c_B = 1/2, balance
    * heuristic: f / (p_L / 2 + p_B / 2) = 2 f omega / (1 + p_B omega). */
   McPolygon P;
   if (!mc_polygon_setup(v, n, &P)) return zero;
   real3 wi;
-  if (rng_u01(rng_hash3(key, 0u, 3u)) < R(0.5)) {
+  if (rng_u01(rng_hash3(key, 0u, 3u)) < GLINT_R(0.5)) {
     wi = mc_sample_light(&P, key, 0u);
   } else {
     int ok;
@@ -278,7 +278,7 @@ GLINT_FN real3 area_mc_polygon(SmoothMaterial m, real3 wo, const GLINT_PRIVATE r
   }
   real3 f = smooth_reflect_cos(m, wi, wo);
   real pb_omega = mc_lobe_pdf(m, wo, wi) * P.omega;
-  return mc_accumulate(zero, f, R(2.0) * P.omega / (R(1.0) + pb_omega));
+  return mc_accumulate(zero, f, GLINT_R(2.0) * P.omega / (GLINT_R(1.0) + pb_omega));
 }
 
 #endif /* GLINT_AREA_MONTE_CARLO_H */

@@ -11,14 +11,13 @@
 #include "kernels/layout.h"
 #include "kernels/smooth_brdf.h"
 
-
 /* Bilinear lookup of one LTC table entry (data/ltc/ltc_table.h lookup):
  * x = sqrt(alpha) * 63, y = sqrt(1 - cos(theta_o)) * 63, clamped to the grid. */
 GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real cos_o,
                               GLINT_PRIVATE real *e) {
   const real last = (real)(GLINT_LTC_GRID - 1);
-  real x = clamp(sqrt(fmax(alpha, R(0.0))), R(0.0), R(1.0)) * last;
-  real y = clamp(sqrt(fmax(R(1.0) - cos_o, R(0.0))), R(0.0), R(1.0)) * last;
+  real x = clamp(sqrt(fmax(alpha, GLINT_R(0.0))), GLINT_R(0.0), GLINT_R(1.0)) * last;
+  real y = clamp(sqrt(fmax(GLINT_R(1.0) - cos_o, GLINT_R(0.0))), GLINT_R(0.0), GLINT_R(1.0)) * last;
   int a0 = (int)x, t0 = (int)y;
   a0 = a0 > GLINT_LTC_GRID - 2 ? GLINT_LTC_GRID - 2 : a0;
   t0 = t0 > GLINT_LTC_GRID - 2 ? GLINT_LTC_GRID - 2 : t0;
@@ -28,8 +27,8 @@ GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real 
   const GLINT_GLOBAL float *e01 = e00 + GLINT_LTC_GRID * GLINT_LTC_ENTRY;
   const GLINT_GLOBAL float *e11 = e01 + GLINT_LTC_ENTRY;
   for (int k = 0; k < GLINT_LTC_ENTRY; ++k) {
-    e[k] = (R(1.0) - fy) * ((R(1.0) - fx) * (real)e00[k] + fx * (real)e10[k]) +
-           fy * ((R(1.0) - fx) * (real)e01[k] + fx * (real)e11[k]);
+    e[k] = (GLINT_R(1.0) - fy) * ((GLINT_R(1.0) - fx) * (real)e00[k] + fx * (real)e10[k]) +
+           fy * ((GLINT_R(1.0) - fx) * (real)e01[k] + fx * (real)e11[k]);
   }
 }
 
@@ -40,9 +39,10 @@ GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real 
  * hold no moment for exact Fresnel. */
 GLINT_FN real3 area_ltc_albedo(SmoothMaterial m, const GLINT_PRIVATE real *e) {
   real3 f0 = m.fresnel.a;
-  if (m.fresnel.kind != GLINT_FRESNEL_SCHLICK) f0 = fresnel_eval(m.fresnel, R(1.0));
-  return make_real3(f0.x * e[4] + (R(1.0) - f0.x) * e[5], f0.y * e[4] + (R(1.0) - f0.y) * e[5],
-                    f0.z * e[4] + (R(1.0) - f0.z) * e[5]);
+  if (m.fresnel.kind != GLINT_FRESNEL_SCHLICK) f0 = fresnel_eval(m.fresnel, GLINT_R(1.0));
+  return make_real3(f0.x * e[4] + (GLINT_R(1.0) - f0.x) * e[5],
+                    f0.y * e[4] + (GLINT_R(1.0) - f0.y) * e[5],
+                    f0.z * e[4] + (GLINT_R(1.0) - f0.z) * e[5]);
 }
 
 #endif /* GLINT_LTC_LOOKUP_H */

@@ -32,13 +32,13 @@ GLINT_FN int polygon_clip_to_horizon(const GLINT_PRIVATE real3 *in, int n,
   for (int i = 0; i < n; ++i) {
     real3 a = in[i];
     real3 b = in[(i + 1) % n];
-    int a_in = a.z >= R(0.0);
-    int b_in = b.z >= R(0.0);
+    int a_in = a.z >= GLINT_R(0.0);
+    int b_in = b.z >= GLINT_R(0.0);
     if (a_in) out[m++] = a;
     if (a_in != b_in) {
       real t = a.z / (a.z - b.z);
       real3 p = r3_add(a, r3_scale(r3_sub(b, a), t));
-      p.z = R(0.0); /* exactly on the horizon despite rounding */
+      p.z = GLINT_R(0.0); /* exactly on the horizon despite rounding */
       out[m++] = p;
     }
   }
@@ -53,7 +53,7 @@ GLINT_FN real polygon_edge_integral(real3 a, real3 b) {
   real3 c = r3_cross(a, b);
   real s = r3_length(c);
   real theta = atan2(s, r3_dot(a, b));
-  real ratio = s > R(1e-30) ? theta / s : R(1.0);
+  real ratio = s > GLINT_R(1e-30) ? theta / s : GLINT_R(1.0);
   return c.z * ratio;
 }
 
@@ -68,12 +68,12 @@ GLINT_FN real polygon_edge_integral(real3 a, real3 b) {
  * shading point, so the exact integral is 0 (it is seen edge-on), and the
  * remaining vertices all lie on one great circle, where the arcs cancel. */
 GLINT_FN real polygon_form_factor(const GLINT_PRIVATE real3 *v, int n) {
-  real sum = R(0.0);
-  real3 first = make_real3(R(0.0), R(0.0), R(1.0)), a = first;
+  real sum = GLINT_R(0.0);
+  real3 first = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0)), a = first;
   int m = 0; /* vertices with a direction */
   for (int i = 0; i < n; ++i) {
     real l = r3_length(v[i]);
-    if (!(l > R(0.0))) continue;
+    if (!(l > GLINT_R(0.0))) continue;
     real3 b = r3_div(v[i], l);
     /* b x a rather than a x b: counter-clockwise seen from the receiver
      * (inside the sphere) is clockwise seen from outside. */
@@ -84,9 +84,9 @@ GLINT_FN real polygon_form_factor(const GLINT_PRIVATE real3 *v, int n) {
     a = b;
     ++m;
   }
-  if (m < 3) return R(0.0);
+  if (m < 3) return GLINT_R(0.0);
   sum += polygon_edge_integral(first, a);
-  return sum * R(0.5) * GLINT_INV_PI;
+  return sum * GLINT_R(0.5) * GLINT_INV_PI;
 }
 
 #endif /* GLINT_POLYGON_H */

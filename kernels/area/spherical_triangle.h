@@ -27,9 +27,9 @@ GLINT_FN real spherical_triangle_solid_angle(real3 a, real3 b, real3 c) {
   /* The origin in (or within rounding of) the triangle's plane: seen edge-on,
    * 0 (as REFERENCE and LTC give). Without this, atan2(+0, den < 0) = pi
    * when the origin lies inside the triangle, i.e. 2 pi sr. */
-  real edge_on = R(1e-6) * la * r3_length(r3_sub(b, a)) * r3_length(r3_sub(c, a));
-  int edge_on_inside = (triple <= edge_on) & (den <= R(0.0));
-  return edge_on_inside ? R(0.0) : R(2.0) * atan2(triple, den);
+  real edge_on = GLINT_R(1e-6) * la * r3_length(r3_sub(b, a)) * r3_length(r3_sub(c, a));
+  int edge_on_inside = (triple <= edge_on) & (den <= GLINT_R(0.0));
+  return edge_on_inside ? GLINT_R(0.0) : GLINT_R(2.0) * atan2(triple, den);
 }
 
 /* Unit vector along the part of u orthogonal to the unit vector a, where
@@ -38,7 +38,7 @@ GLINT_FN real spherical_triangle_solid_angle(real3 a, real3 b, real3 c) {
 GLINT_FN real3 spherical_orthogonal_dir(real3 a, real3 d, real3 fallback) {
   real3 t = r3_sub(d, r3_scale(a, r3_dot(d, a)));
   real l = r3_length(t);
-  return l > R(1e-30) ? r3_div(t, l) : fallback;
+  return l > GLINT_R(1e-30) ? r3_div(t, l) : fallback;
 }
 
 /* Angle at unit vertex a of the spherical triangle (a, b, c): between the
@@ -54,9 +54,9 @@ GLINT_FN real spherical_vertex_angle(real3 a, real3 b, real3 c) {
  * cuts off the sub-triangle (a, b, c') of solid angle u1 * Omega. A quadrature
  * computes it once per u1 node and reuses it for every u2 node. */
 typedef struct {
-  real3 b;            /* start of the arc */
-  real3 axis;         /* unit tangent at b towards c' */
-  real one_minus_cb;  /* 1 - c'.b, from |c' - b|^2 / 2 (accurate when c' is near b) */
+  real3 b;           /* start of the arc */
+  real3 axis;        /* unit tangent at b towards c' */
+  real one_minus_cb; /* 1 - c'.b, from |c' - b|^2 / 2 (accurate when c' is near b) */
 } ArvoArc;
 
 /* a, b, c unit vectors; omega the triangle's solid angle, alpha its angle at
@@ -69,14 +69,15 @@ GLINT_FN ArvoArc arvo_arc(real3 a, real3 b, real3 c, real omega, real alpha, rea
   real u = t - cos_alpha;
   real vv = s + sin_alpha * cos_c;
   real den = (vv * s + u * t) * sin_alpha;
-  real q = den != R(0.0) ? ((vv * t - u * s) * cos_alpha - vv) / den : R(1.0);
-  q = clamp(q, R(-1.0), R(1.0));
+  real q = den != GLINT_R(0.0) ? ((vv * t - u * s) * cos_alpha - vv) / den : GLINT_R(1.0);
+  q = clamp(q, GLINT_R(-1.0), GLINT_R(1.0));
   real3 c_perp = spherical_orthogonal_dir(a, r3_sub(c, a), b);
-  real3 cp = r3_add(r3_scale(a, q), r3_scale(c_perp, sqrt(fmax(R(1.0) - q * q, R(0.0)))));
+  real3 cp =
+      r3_add(r3_scale(a, q), r3_scale(c_perp, sqrt(fmax(GLINT_R(1.0) - q * q, GLINT_R(0.0)))));
   real3 d = r3_sub(cp, b);
   ArvoArc arc;
   arc.b = b;
-  arc.one_minus_cb = fmin(R(0.5) * r3_dot(d, d), R(2.0));
+  arc.one_minus_cb = fmin(GLINT_R(0.5) * r3_dot(d, d), GLINT_R(2.0));
   arc.axis = spherical_orthogonal_dir(b, d, cp);
   return arc;
 }
@@ -85,8 +86,8 @@ GLINT_FN ArvoArc arvo_arc(real3 a, real3 b, real3 c, real omega, real alpha, rea
  * from b: uniform in solid angle for u2 uniform (Arvo 1995 Sec. 3). */
 GLINT_FN real3 arvo_point(ArvoArc arc, real u2) {
   real omz = u2 * arc.one_minus_cb; /* 1 - z */
-  real sin_arc = sqrt(fmax(omz * (R(2.0) - omz), R(0.0)));
-  return r3_add(r3_scale(arc.b, R(1.0) - omz), r3_scale(arc.axis, sin_arc));
+  real sin_arc = sqrt(fmax(omz * (GLINT_R(2.0) - omz), GLINT_R(0.0)));
+  return r3_add(r3_scale(arc.b, GLINT_R(1.0) - omz), r3_scale(arc.axis, sin_arc));
 }
 
 #endif /* GLINT_SPHERICAL_TRIANGLE_H */

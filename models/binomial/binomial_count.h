@@ -96,25 +96,25 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
   real x1 = footprint[0], y1 = footprint[1], x2 = footprint[2], y2 = footprint[3];
   real area = fabs(x1 * y2 - x2 * y1);
   g.n_facets = density * area;
-  if (!(g.n_facets > R(0.0)) || !isfinite(g.n_facets)) g.n_facets = R(0.0);
+  if (!(g.n_facets > GLINT_R(0.0)) || !isfinite(g.n_facets)) g.n_facets = GLINT_R(0.0);
 
   /* Ellipse of the covariance J J^T = [[A, B], [B, C]]: eigenvalues
    * m +- d; the small one as det / large (no cancellation), the major-axis
    * angle from atan2, which needs no eigenvector (DB23's (L - d, c) form
    * degenerates for axis-aligned footprints, see the notes' pitfalls). */
   real A = x1 * x1 + x2 * x2, B = x1 * y1 + x2 * y2, C = y1 * y1 + y2 * y2;
-  real half_diff = R(0.5) * (A - C);
-  real lambda1 = R(0.5) * (A + C) + sqrt(half_diff * half_diff + B * B);
-  real major = sqrt(fmax(lambda1, R(0.0)));
-  real minor = lambda1 > R(0.0) ? area / major : R(0.0); /* sqrt(det) / sqrt(lambda1) */
-  real theta = R(0.5) * atan2(R(2.0) * B, A - C);        /* (-pi/2, pi/2] */
-  if (theta < R(0.0)) theta += GLINT_PI;
-  if (!(major > R(0.0)) || !isfinite(major)) {
+  real half_diff = GLINT_R(0.5) * (A - C);
+  real lambda1 = GLINT_R(0.5) * (A + C) + sqrt(half_diff * half_diff + B * B);
+  real major = sqrt(fmax(lambda1, GLINT_R(0.0)));
+  real minor = lambda1 > GLINT_R(0.0) ? area / major : GLINT_R(0.0); /* sqrt(det) / sqrt(lambda1) */
+  real theta = GLINT_R(0.5) * atan2(GLINT_R(2.0) * B, A - C);        /* (-pi/2, pi/2] */
+  if (theta < GLINT_R(0.0)) theta += GLINT_PI;
+  if (!(major > GLINT_R(0.0)) || !isfinite(major)) {
     /* No usable footprint: one unit cell per uv unit (the count is 0 anyway
      * unless the Jacobian is degenerate but the density infinite). */
-    major = R(1.0);
-    minor = R(1.0);
-    theta = R(0.0);
+    major = GLINT_R(1.0);
+    minor = GLINT_R(1.0);
+    theta = GLINT_R(0.0);
   }
   const real max_aniso = (real)(1 << GLINT_BINOMIAL_MAX_ANISO_LOG2);
   minor = fmax(minor, major / max_aniso);
@@ -123,7 +123,7 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
   real lod0 = floor(lod);
   real t_lod = lod - lod0;
   real aniso = fmin(log2(major / minor), (real)GLINT_BINOMIAL_MAX_ANISO_LOG2);
-  aniso = fmax(aniso, R(0.0));
+  aniso = fmax(aniso, GLINT_R(0.0));
   real aniso0 = floor(aniso);
   real t_aniso = aniso - aniso0;
 
@@ -131,21 +131,21 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
   int k = 0;
   for (int il = 0; il < 2; ++il) {
     real level = lod0 + (real)il;
-    real w_l = il ? t_lod : R(1.0) - t_lod;
+    real w_l = il ? t_lod : GLINT_R(1.0) - t_lod;
     real side = exp2(level);
     for (int ia = 0; ia < 2; ++ia) {
       real aniso_level = aniso0 + (real)ia;
-      real w_a = ia ? t_aniso : R(1.0) - t_aniso;
+      real w_a = ia ? t_aniso : GLINT_R(1.0) - t_aniso;
       real ratio = exp2(aniso_level);
       /* pi / (4 r) bins: a cell r sides long, misaligned by half a bin,
        * moves its far end by ~pi/8 of its short side. */
-      real bins = R(4.0) * ratio;
+      real bins = GLINT_R(4.0) * ratio;
       real pos = theta * bins / GLINT_PI;
       real bin0 = floor(pos);
       real t_rot = pos - bin0;
       for (int ir = 0; ir < 2; ++ir) {
         real bin = bin0 + (real)ir;
-        real w_r = ir ? t_rot : R(1.0) - t_rot;
+        real w_r = ir ? t_rot : GLINT_R(1.0) - t_rot;
         real angle = bin * GLINT_PI / bins;
         real c = cos(angle), s = sin(angle);
         real along = (c * u + s * v) / (side * ratio);
@@ -171,9 +171,9 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
  * every quantile at levels u < 1 - exp(-L) is at most ceil(n q + t - 1) < the returned
  * floor(n q + t) + 1 (clamped to n). */
 GLINT_FN real binomial_quantile_bound(real n, real q, real L) {
-  real var = n * q * (R(1.0) - q);
-  real t = L / R(3.0) + sqrt(L * L / R(9.0) + R(2.0) * L * var);
-  return fmin(n, floor(n * q + t) + R(1.0));
+  real var = n * q * (GLINT_R(1.0) - q);
+  real t = L / GLINT_R(3.0) + sqrt(L * L / GLINT_R(9.0) + GLINT_R(2.0) * L * var);
+  return fmin(n, floor(n * q + t) + GLINT_R(1.0));
 }
 
 /* The largest count binomial_exact can return for the rarer outcome's probability q: the bound
@@ -181,7 +181,7 @@ GLINT_FN real binomial_quantile_bound(real n, real q, real L) {
  * search there changes no result in exact arithmetic. It stops a search that rounding would
  * prolong (u = 0 on the failures side, below) and sizes the tail sums. */
 GLINT_FN real binomial_exact_cap(real n, real q) {
-  return binomial_quantile_bound(n, q, R(17.0));
+  return binomial_quantile_bound(n, q, GLINT_R(17.0));
 }
 
 /* The running pmf and CDF of binomial_exact are kept scaled by 2^90: pmf(0) = (1 - q)^n
@@ -189,12 +189,12 @@ GLINT_FN real binomial_exact_cap(real n, real q) {
  * >= 2^-70, and no scaled term exceeds 2^90. It is formed as (exp(A / 2) 2^45)^2, A =
  * n log1p(-q), so that the scale adds one rounding (inside exp it would add the rounding of
  * A + 62.4, 2^-19 in fp32). A power of two scales u exactly. */
-#define GLINT_BINOMIAL_PMF_SCALE R(1237940039285380274899124224.0)
-#define GLINT_BINOMIAL_PMF_SCALE_SQRT R(35184372088832.0)
+#define GLINT_BINOMIAL_PMF_SCALE GLINT_R(1237940039285380274899124224.0)
+#define GLINT_BINOMIAL_PMF_SCALE_SQRT GLINT_R(35184372088832.0)
 /* Unit roundoff of `real` (a function, not a macro: the tests include this header for both
  * precisions in one translation unit). */
 GLINT_FN real binomial_eps(void) {
-  return GLINT_USE_DOUBLE ? R(1.1102230246251565e-16) : R(5.9604644775390625e-8);
+  return GLINT_USE_DOUBLE ? GLINT_R(1.1102230246251565e-16) : GLINT_R(5.9604644775390625e-8);
 }
 
 /* Whether the quantile of binomial_exact lies beyond k, decided with the tail
@@ -207,14 +207,14 @@ GLINT_FN real binomial_eps(void) {
  * only when the running CDF is within its error bound of v. */
 GLINT_FN int binomial_exact_beyond(real n, real k, real cap, real pmf, real cdf, real ratio, real v,
                                    int flip) {
-  real tail = R(0.0);
-  for (real j = k; j < cap; j += R(1.0)) {
-    pmf *= (n - j) / (j + R(1.0)) * ratio;
+  real tail = GLINT_R(0.0);
+  for (real j = k; j < cap; j += GLINT_R(1.0)) {
+    pmf *= (n - j) / (j + GLINT_R(1.0)) * ratio;
     tail += pmf;
   }
   real total = cdf + tail;
   if (cdf <= tail) return flip ? v * total > cdf : v * total >= cdf;
-  real wt = (R(1.0) - v) * total;
+  real wt = (GLINT_R(1.0) - v) * total;
   return flip ? wt < tail : wt <= tail;
 }
 
@@ -237,26 +237,26 @@ GLINT_FN int binomial_exact_beyond(real n, real k, real cap, real pmf, real cdf,
  * 2^-24 spacing would otherwise decide. That happens for 1e-5 .. 2e-3 of fp32 searches (most
  * at n = 64, p = 1/2) and in fp64 only on exact ties. */
 GLINT_FN real binomial_exact(real n, real p, real u) {
-  int flip = p > R(0.5);
-  real q = flip ? R(1.0) - p : p;
-  real v = flip ? R(1.0) - u : u;
+  int flip = p > GLINT_R(0.5);
+  real q = flip ? GLINT_R(1.0) - p : p;
+  real v = flip ? GLINT_R(1.0) - u : u;
   real vs = v * GLINT_BINOMIAL_PMF_SCALE;
   real cap = binomial_exact_cap(n, q);
   real log_pmf0 = n * log1p(-q);
-  real pmf_sqrt = exp(R(0.5) * log_pmf0) * GLINT_BINOMIAL_PMF_SCALE_SQRT;
+  real pmf_sqrt = exp(GLINT_R(0.5) * log_pmf0) * GLINT_BINOMIAL_PMF_SCALE_SQRT;
   real pmf = pmf_sqrt * pmf_sqrt;
   real cdf = pmf;
-  real ratio = q / (R(1.0) - q);
+  real ratio = q / (GLINT_R(1.0) - q);
   real eps = binomial_eps();
-  real rel_error = R(2.0) * eps * (R(8.0) - R(5.0) * log_pmf0);
-  real k = R(0.0);
+  real rel_error = GLINT_R(2.0) * eps * (GLINT_R(8.0) - GLINT_R(5.0) * log_pmf0);
+  real k = GLINT_R(0.0);
   while (k < cap) {
-    real tol = (rel_error + R(14.0) * eps * k) * cdf;
+    real tol = (rel_error + GLINT_R(14.0) * eps * k) * cdf;
     int beyond = fabs(vs - cdf) > tol ? vs > cdf
                                       : binomial_exact_beyond(n, k, cap, pmf, cdf, ratio, v, flip);
     if (!beyond) break;
-    pmf *= (n - k) / (k + R(1.0)) * ratio;
-    k += R(1.0);
+    pmf *= (n - k) / (k + GLINT_R(1.0)) * ratio;
+    k += GLINT_R(1.0);
     cdf += pmf;
   }
   return flip ? n - k : k;
@@ -266,50 +266,50 @@ GLINT_FN real binomial_exact(real n, real p, real u) {
  * (P. J. Acklam 2003, "An algorithm for computing the inverse normal cumulative distribution
  * function"; relative error < 1.15e-9, far below what the draws can resolve). */
 GLINT_FN real binomial_normal_quantile_lower(real t) {
-  if (t < R(0.02425)) {
-    real r = sqrt(R(-2.0) * log(t));
-    return (((((R(-7.784894002430293e-03) * r + R(-3.223964580411365e-01)) * r +
-               R(-2.400758277161838e+00)) *
+  if (t < GLINT_R(0.02425)) {
+    real r = sqrt(GLINT_R(-2.0) * log(t));
+    return (((((GLINT_R(-7.784894002430293e-03) * r + GLINT_R(-3.223964580411365e-01)) * r +
+               GLINT_R(-2.400758277161838e+00)) *
                   r +
-              R(-2.549732539343734e+00)) *
+              GLINT_R(-2.549732539343734e+00)) *
                  r +
-             R(4.374664141464968e+00)) *
+             GLINT_R(4.374664141464968e+00)) *
                 r +
-            R(2.938163982698783e+00)) /
-           ((((R(7.784695709041462e-03) * r + R(3.224671290700398e-01)) * r +
-              R(2.445134137142996e+00)) *
+            GLINT_R(2.938163982698783e+00)) /
+           ((((GLINT_R(7.784695709041462e-03) * r + GLINT_R(3.224671290700398e-01)) * r +
+              GLINT_R(2.445134137142996e+00)) *
                  r +
-             R(3.754408661907416e+00)) *
+             GLINT_R(3.754408661907416e+00)) *
                 r +
-            R(1.0));
+            GLINT_R(1.0));
   }
-  real x = t - R(0.5);
+  real x = t - GLINT_R(0.5);
   real r = x * x;
-  return (((((R(-3.969683028665376e+01) * r + R(2.209460984245205e+02)) * r +
-             R(-2.759285104469687e+02)) *
+  return (((((GLINT_R(-3.969683028665376e+01) * r + GLINT_R(2.209460984245205e+02)) * r +
+             GLINT_R(-2.759285104469687e+02)) *
                 r +
-            R(1.383577518672690e+02)) *
+            GLINT_R(1.383577518672690e+02)) *
                r +
-           R(-3.066479806614716e+01)) *
+           GLINT_R(-3.066479806614716e+01)) *
               r +
-          R(2.506628277459239e+00)) *
+          GLINT_R(2.506628277459239e+00)) *
          x /
-         (((((R(-5.447609879822406e+01) * r + R(1.615858368580409e+02)) * r +
-             R(-1.556989798598866e+02)) *
+         (((((GLINT_R(-5.447609879822406e+01) * r + GLINT_R(1.615858368580409e+02)) * r +
+             GLINT_R(-1.556989798598866e+02)) *
                 r +
-            R(6.680131188771972e+01)) *
+            GLINT_R(6.680131188771972e+01)) *
                r +
-           R(-1.328068155288572e+01)) *
+           GLINT_R(-1.328068155288572e+01)) *
               r +
-          R(1.0));
+          GLINT_R(1.0));
 }
 
 /* The standard normal z of the uniform u = m 2^-24: the quantile of the middle of u's bin,
  * (m + 1/2) 2^-24, formed from the nearer end so that it is exact in fp32 too (|z| <= 5.4), and
  * odd: the bins of m and 2^24 - 1 - m give -z and z. */
 GLINT_FN real binomial_normal_of_uniform(real u) {
-  const real half_bin = R(2.98023223876953125e-8); /* 2^-25 */
-  if (u >= R(0.5)) return -binomial_normal_quantile_lower((R(1.0) - u) - half_bin);
+  const real half_bin = GLINT_R(2.98023223876953125e-8); /* 2^-25 */
+  if (u >= GLINT_R(0.5)) return -binomial_normal_quantile_lower((GLINT_R(1.0) - u) - half_bin);
   return binomial_normal_quantile_lower(u + half_bin);
 }
 
@@ -336,14 +336,14 @@ GLINT_FN real binomial_normal_of_uniform(real u) {
  * 1e-4 at 210; variance n p (1 - p) + O(1): +1.3% at variance 9. */
 GLINT_FN real binomial_arcsine(real n, real p, real z) {
   real theta = asin(sqrt(p));
-  real phi = clamp(theta + R(0.5) * z / sqrt(n), R(0.0), R(0.5) * GLINT_PI);
+  real phi = clamp(theta + GLINT_R(0.5) * z / sqrt(n), GLINT_R(0.0), GLINT_R(0.5) * GLINT_PI);
   real s = sin(phi);
   /* 1 - exp(-x) for x = 1/(2n) < 1/128 (n > 64 here): the series to x^3, relative error x^3/24 */
-  real x = R(0.5) / n;
-  real mean_excess =
-      R(0.5) * (R(1.0) - R(2.0) * p) * x * (R(1.0) - R(0.5) * x * (R(1.0) - x / R(3.0)));
-  real skew = (R(1.0) - R(2.0) * p) * (z * z - R(1.0)) / R(12.0);
-  return clamp(floor(n * (s * s - mean_excess) - skew + R(0.5)), R(0.0), n);
+  real x = GLINT_R(0.5) / n;
+  real mean_excess = GLINT_R(0.5) * (GLINT_R(1.0) - GLINT_R(2.0) * p) * x *
+                     (GLINT_R(1.0) - GLINT_R(0.5) * x * (GLINT_R(1.0) - x / GLINT_R(3.0)));
+  real skew = (GLINT_R(1.0) - GLINT_R(2.0) * p) * (z * z - GLINT_R(1.0)) / GLINT_R(12.0);
+  return clamp(floor(n * (s * s - mean_excess) - skew + GLINT_R(0.5)), GLINT_R(0.0), n);
 }
 
 /* Binomial(n, p) for integer n >= 1 and p in (0, 1] from one uniform u, monotone
@@ -366,20 +366,21 @@ GLINT_FN real binomial_arcsine(real n, real p, real z) {
 GLINT_FN real binomial_whole(real n, real p, real threshold, real u) {
   /* Clearly exact (variance below half the threshold, so p < p1 or p > p2 whatever the
    * rounding of p1): skip computing p1. */
-  if (n <= (real)GLINT_BINOMIAL_EXACT_MAX || R(4.0) * threshold > n ||
-      n * p * (R(1.0) - p) < R(0.5) * threshold)
+  if (n <= (real)GLINT_BINOMIAL_EXACT_MAX || GLINT_R(4.0) * threshold > n ||
+      n * p * (GLINT_R(1.0) - p) < GLINT_R(0.5) * threshold)
     return binomial_exact(n, p, u);
   /* p1 = (1 - sqrt(1 - 4 threshold / n)) / 2 without cancellation. */
-  real p1 = R(2.0) * threshold / (n * (R(1.0) + sqrt(R(1.0) - R(4.0) * threshold / n)));
-  real p2 = R(1.0) - p1;
+  real p1 = GLINT_R(2.0) * threshold /
+            (n * (GLINT_R(1.0) + sqrt(GLINT_R(1.0) - GLINT_R(4.0) * threshold / n)));
+  real p2 = GLINT_R(1.0) - p1;
   if (p < p1) return binomial_exact(n, p, u);
   real x = binomial_arcsine(n, fmin(p, p2), binomial_normal_of_uniform(u));
   /* max(x, E(p1)) needs E(p1) only if it can exceed x: E(p1) <= the cap for every u, and <=
    * the Bernstein bound at L = -log(1 - u) for this u (L enlarged by 1e-3 against its
    * rounding; plus one count for a comparison that rounding decides, binomial_exact). Whether
    * it is skipped depends on u and on x, which grows with p: once skipped, it stays skipped. */
-  real level = R(1.001) * -log1p(-u) + R(0.001);
-  if (x < binomial_exact_cap(n, p1) && x < binomial_quantile_bound(n, p1, level) + R(1.0))
+  real level = GLINT_R(1.001) * -log1p(-u) + GLINT_R(0.001);
+  if (x < binomial_exact_cap(n, p1) && x < binomial_quantile_bound(n, p1, level) + GLINT_R(1.0))
     x = fmax(x, binomial_exact(n, p1, u));
   if (p > p2) x = fmax(x, binomial_exact(n, p, u));
   return x;
@@ -393,13 +394,13 @@ GLINT_FN real binomial_whole(real n, real p, real threshold, real u) {
  * Each part is non-decreasing in p for its fixed uniform, so their sum is: for a given cell,
  * light and view the count never falls as p grows. */
 GLINT_FN real binomial_draw(real n, real p, real threshold, uint key) {
-  if (!(n > R(0.0)) || !(p > R(0.0))) return R(0.0);
-  p = fmin(p, R(1.0));
+  if (!(n > GLINT_R(0.0)) || !(p > GLINT_R(0.0))) return GLINT_R(0.0);
+  p = fmin(p, GLINT_R(1.0));
   real whole = floor(n);
   real part = n - whole;
-  real k = R(0.0);
-  if (whole > R(0.0)) k = binomial_whole(whole, p, threshold, rng_u01(rng_absorb(key, 1u)));
-  if (part > R(0.0) && rng_u01(rng_absorb(key, 4u)) < part * p) k += R(1.0);
+  real k = GLINT_R(0.0);
+  if (whole > GLINT_R(0.0)) k = binomial_whole(whole, p, threshold, rng_u01(rng_absorb(key, 1u)));
+  if (part > GLINT_R(0.0) && rng_u01(rng_absorb(key, 4u)) < part * p) k += GLINT_R(1.0);
   return k;
 }
 
@@ -408,10 +409,10 @@ GLINT_FN real binomial_draw(real n, real p, real threshold, uint key) {
  * identifies the light and the angular cell. 0 when the footprint holds no
  * facets. */
 GLINT_FN real binomial_fraction(FootprintGrids g, real p, real threshold, uint light_key) {
-  if (!(g.n_facets > R(0.0)) || !(p > R(0.0))) return R(0.0);
-  real count = R(0.0);
+  if (!(g.n_facets > GLINT_R(0.0)) || !(p > GLINT_R(0.0))) return GLINT_R(0.0);
+  real count = GLINT_R(0.0);
   for (int k = 0; k < GLINT_BINOMIAL_GRIDS; ++k) {
-    if (!(g.share[k] > R(0.0))) continue;
+    if (!(g.share[k] > GLINT_R(0.0))) continue;
     count +=
         binomial_draw(g.share[k] * g.n_facets, p, threshold, rng_absorb(g.cell_key[k], light_key));
   }

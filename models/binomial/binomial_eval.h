@@ -44,7 +44,7 @@
 
 /* Random stream of light `index` of `kind` seen through half-vector h. */
 GLINT_FN uint binomial_light_key(uint kind, uint index, real3 h, real slope_cell) {
-  real z = fmax(h.z, R(1e-6));
+  real z = fmax(h.z, GLINT_R(1e-6));
   uint key = rng_hash2(kind, index);
   key = rng_absorb(key, binomial_cell_key(floor(h.x / (z * slope_cell))));
   return rng_absorb(key, binomial_cell_key(floor(h.y / (z * slope_cell))));
@@ -57,53 +57,54 @@ GLINT_FN real binomial_p_cone(SmoothMaterial m, BinomialParams b, real3 wi, real
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
   real p = b.p_mode == GLINT_P_MODE_HEURISTIC_R
                ? b.r * D / d_n
-               : solid_angle * D / (d_h * R(4.0) * fmax(r3_dot(h, wi), R(1e-7)));
-  return clamp(p, R(0.0), R(1.0));
+               : solid_angle * D / (d_h * GLINT_R(4.0) * fmax(r3_dot(h, wi), GLINT_R(1e-7)));
+  return clamp(p, GLINT_R(0.0), GLINT_R(1.0));
 }
 
 /* One light's glint radiance from its smooth radiance: L_smooth x fraction / p. */
 GLINT_FN real3 binomial_light(FootprintGrids g, BinomialParams b, real3 l_smooth, real p,
                               uint light_key) {
-  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
-  if (!(p > R(0.0))) return zero;
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  if (!(p > GLINT_R(0.0))) return zero;
   real fraction = binomial_fraction(g, p, b.normal_threshold, light_key);
   /* No reflecting facet: exactly 0, also when l_smooth overflowed to +Inf (0 x Inf = NaN). */
-  if (!(fraction > R(0.0))) return zero;
+  if (!(fraction > GLINT_R(0.0))) return zero;
   return r3_scale(l_smooth, fraction / p);
 }
 
 /* Reflected radiance towards wo (RGB) of the binomial model for query i. */
 GLINT_FN real3 binomial_query(EvalSpec spec, KernelInputs in, uint i) {
-  real3 radiance = make_real3(R(0.0), R(0.0), R(0.0));
+  real3 radiance = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   SmoothMaterial m = smooth_material_unpack(in.material, spec.ndf, spec.fresnel);
   BinomialParams b = binomial_params_unpack(in.params);
   ShadingPoint sp = shading_point(spec, query_load(spec, in, i));
   real3 wo = sp.wo;
-  if (!(wo.z > R(0.0))) return radiance;
+  if (!(wo.z > GLINT_R(0.0))) return radiance;
   real footprint[4];
   for (int k = 0; k < 4; ++k) footprint[k] = (real)in.footprint[4 * i + k];
-  FootprintGrids g = binomial_footprint_grids(b.density, (real)in.uv[2 * i],
-                                              (real)in.uv[2 * i + 1], footprint, in.seed_lo,
-                                              in.seed_hi);
-  if (!(g.n_facets > R(0.0))) return radiance;
+  FootprintGrids g = binomial_footprint_grids(b.density, (real)in.uv[2 * i], (real)in.uv[2 * i + 1],
+                                              footprint, in.seed_lo, in.seed_hi);
+  if (!(g.n_facets > GLINT_R(0.0))) return radiance;
 
   real alpha = sqrt(m.alpha_x * m.alpha_y);
   real e[GLINT_LTC_ENTRY];
   area_ltc_lookup(in.ltc_table, alpha, wo.z, e);
   real d_h = e[7];
-  real d_n = ndf_D(m.ndf, make_real3(R(0.0), R(0.0), R(1.0)), m.alpha_x, m.alpha_y);
+  real d_n =
+      ndf_D(m.ndf, make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0)), m.alpha_x, m.alpha_y);
 
   uint n_lights = punctual_light_count(spec, in);
   for (uint l = 0; l < n_lights; ++l) {
     PunctualLight light = punctual_light(spec, in, sp, l);
     real3 ls = r3_mul(smooth_reflect_cos(m, light.wi, wo), light.irradiance);
-    if (!(ls.x + ls.y + ls.z > R(0.0))) continue;
+    if (!(ls.x + ls.y + ls.z > GLINT_R(0.0))) continue;
     real prob = binomial_p_cone(m, b, light.wi, wo, light.solid_angle, d_h, d_n);
     real3 h = r3_normalize(r3_add(light.wi, wo));
-    uint kind = light.kind == GLINT_LIGHT_KIND_DIRECTIONAL ? GLINT_KEY_DIRECTIONAL : GLINT_KEY_POINT;
-    radiance = r3_add(radiance, binomial_light(g, b, ls, prob,
-                                               binomial_light_key(kind, light.index, h,
-                                                                  b.slope_cell)));
+    uint kind =
+        light.kind == GLINT_LIGHT_KIND_DIRECTIONAL ? GLINT_KEY_DIRECTIONAL : GLINT_KEY_POINT;
+    radiance = r3_add(
+        radiance,
+        binomial_light(g, b, ls, prob, binomial_light_key(kind, light.index, h, b.slope_cell)));
   }
 
   uint area_key = area_query_key(in.seed_lo, in.seed_hi, in.wo + 3 * i,
@@ -112,25 +113,26 @@ GLINT_FN real3 binomial_query(EvalSpec spec, KernelInputs in, uint i) {
     const GLINT_GLOBAL float *rec = in.polygons + GLINT_POLYGON_FLOATS * l;
     real3 v[GLINT_POLYGON_MAX_VERTICES];
     int n = area_polygon_load(rec, spec.has_frame, sp.frame, sp.p, v);
-    if (area_polygon_weight(v, n, rec[1] != 0.0f) == R(0.0)) continue;
+    if (area_polygon_weight(v, n, rec[1] != 0.0f) == GLINT_R(0.0)) continue;
     real3 L = make_real3((real)rec[2], (real)rec[3], (real)rec[4]);
     real el[GLINT_LTC_ENTRY];
     real ff = area_ltc_form_factor(in.ltc_table, alpha, wo, v, n, el);
     real3 unit = in.area_method == GLINT_AREA_LTC
                      ? r3_scale(area_ltc_albedo(m, el), ff)
-                     : area_polygon_integral(m, in.ltc_table, in.area_method, in.area_samples,
-                                             wo, v, n, rng_absorb(area_key, l));
+                     : area_polygon_integral(m, in.ltc_table, in.area_method, in.area_samples, wo,
+                                             v, n, rng_absorb(area_key, l));
     real3 ls = r3_mul(unit, L);
-    if (!(ls.x + ls.y + ls.z > R(0.0))) continue;
+    if (!(ls.x + ls.y + ls.z > GLINT_R(0.0))) continue;
     /* Centre direction: for the angular key and the heuristic's h. */
-    real3 c = make_real3(R(0.0), R(0.0), R(0.0));
+    real3 c = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
     for (int k = 0; k < n; ++k) c = r3_add(c, v[k]);
-    real3 wc = area_safe_normalize(c, make_real3(R(0.0), R(0.0), R(1.0)));
-    real3 h = area_safe_normalize(r3_add(wc, wo), make_real3(R(0.0), R(0.0), R(1.0)));
+    real3 wc = area_safe_normalize(c, make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0)));
+    real3 h =
+        area_safe_normalize(r3_add(wc, wo), make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0)));
     real prob = b.p_mode == GLINT_P_MODE_HEURISTIC_R
                     ? b.r * ndf_D(m.ndf, h, m.alpha_x, m.alpha_y) / d_n
                     : ff * el[6] / el[7];
-    prob = clamp(prob, R(0.0), R(1.0));
+    prob = clamp(prob, GLINT_R(0.0), GLINT_R(1.0));
     radiance = r3_add(
         radiance,
         binomial_light(g, b, ls, prob, binomial_light_key(GLINT_KEY_POLYGON, l, h, b.slope_cell)));

@@ -14,7 +14,7 @@ __kernel void glint_smooth(GLINT_KERNEL_ARGS) {
   EvalSpec spec = kernel_spec();
   KernelInputs in = GLINT_KERNEL_INPUTS();
 
-  real3 zero = make_real3(R(0.0), R(0.0), R(0.0));
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   QueryInputs q;
   q.wo = block_load3(wo, base, n);
   q.wi = zero;

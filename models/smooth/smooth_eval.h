@@ -26,7 +26,7 @@ GLINT_FN real3 smooth_shade(EvalSpec spec, KernelInputs in, QueryInputs q) {
     real3 wi = shading_to_local(spec, sp, r3_normalize(q.wi));
     return smooth_reflect_cos(m, wi, sp.wo);
   }
-  real3 radiance = make_real3(R(0.0), R(0.0), R(0.0));
+  real3 radiance = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   uint n_lights = punctual_light_count(spec, in);
   for (uint l = 0; l < n_lights; ++l) {
     PunctualLight light = punctual_light(spec, in, sp, l);

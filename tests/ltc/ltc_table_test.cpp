@@ -26,7 +26,7 @@
 
 #include "tools/ltc/ltc_fit.h"
 
-// Last: compat.h defines the macro R(x), which must not meet any header parsed after it.
+// Last: compat.h defines the macro GLINT_R(x), which must not meet any header parsed after it.
 namespace ltc_test_k {
 #define GLINT_USE_DOUBLE 1
 #include "kernels/area/ltc_lookup.h"

@@ -35,7 +35,7 @@
 #include "server/host_path.h"
 #include "server/validation.h"
 
-// Last: the kernels' LTC lookup in double (compat.h defines the macro R(x)).
+// Last: the kernels' LTC lookup in double (compat.h defines the macro GLINT_R(x)).
 namespace sweep_k {
 #define GLINT_USE_DOUBLE 1
 #include "kernels/area/ltc_lookup.h"

@@ -4,9 +4,9 @@
 // precisions or run the math in double against an independent reference.
 //
 // Include it once per test file, after the standard headers (the kernel
-// headers define the macro R(x)). A test that adds its own adaptors inside
-// both namespaces defines GLINT_TEST_KERNEL_EXTRA to a header path first
-// (e.g. models/binomial/tests/binomial_api.inc).
+// headers define the macro GLINT_R(x), the literal in the working precision). A test that adds its
+// own adaptors inside both namespaces defines GLINT_TEST_KERNEL_EXTRA to a header path first (e.g.
+// models/binomial/tests/binomial_api.inc).
 //
 // The list of include guards below is the one place that knows them: a kernel
 // header missing here is skipped in k32 and the test fails to compile.
@@ -49,7 +49,7 @@ namespace k64 {
 #undef GLINT_BINOMIAL_EVAL_H
 #undef GLINT_CHERMAIN_EVAL_H
 #undef GLINT_USE_DOUBLE
-#undef R
+#undef GLINT_R
 
 namespace k32 {
 #define GLINT_USE_DOUBLE 0

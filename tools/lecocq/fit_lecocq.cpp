@@ -2,7 +2,8 @@
 // "Accurate Analytic Approximations for Real-Time Specular Area Lighting", SIGGRAPH Talks) and
 // rewrites the generated block of that header. Derivation and fit: tools/lecocq/README.md.
 //
-//   glint_fit_lecocq [--header kernels/area/area_lecocq.h]   (without --header: print the block only)
+//   glint_fit_lecocq [--header kernels/area/area_lecocq.h]   (without --header: print the block
+//   only)
 //
 // Three fits, all deterministic (fixed grids, golden-section searches, linear least squares):
 //  1. g_L(N, p): width factor of the Lorentzian that replaces the edge integrand I(t) of the
@@ -232,7 +233,7 @@ PhongFit FitPhong(bool beckmann) {
 
 std::string Num(double x) {
   char b[64];
-  std::snprintf(b, sizeof b, "R(%.9g)", x);
+  std::snprintf(b, sizeof b, "GLINT_R(%.9g)", x);
   return b;
 }
 
@@ -240,10 +241,11 @@ std::string Block(const WidthFit &gl, const WidthFit &gp, const PhongFit &ggx,
                   const PhongFit &bkm) {
   std::ostringstream o;
   auto width = [&](const char *name, const WidthFit &f) {
-    o << "GLINT_FN real " << name << "(real N, real p) {\n  real v = R(1.0) / sqrt(N + R(1.0));\n"
-      << "  return R(1.0) + p * (" << Num(f.coef[0]) << " + p * (" << Num(f.coef[1]) << " + p * "
-      << Num(f.coef[2]) << ") + v * (" << Num(f.coef[3]) << " + " << Num(f.coef[4]) << " * p + "
-      << Num(f.coef[5]) << " * v));\n}\n";
+    o << "GLINT_FN real " << name
+      << "(real N, real p) {\n  real v = GLINT_R(1.0) / sqrt(N + GLINT_R(1.0));\n"
+      << "  return GLINT_R(1.0) + p * (" << Num(f.coef[0]) << " + p * (" << Num(f.coef[1])
+      << " + p * " << Num(f.coef[2]) << ") + v * (" << Num(f.coef[3]) << " + " << Num(f.coef[4])
+      << " * p + " << Num(f.coef[5]) << " * v));\n}\n";
   };
   auto kappa = [&](const char *name, const PhongFit &f) {
     o << "GLINT_FN real " << name << "(real a) {\n  return " << Num(f.coef[0]) << " + a * ("

@@ -11,7 +11,7 @@
 
 // As server/host_path.cpp: the kernel headers go into a namespace of our own, once per
 // translation unit, after <cassert>/<cmath> so that their inclusion inside is a no-op, and after
-// every other header, since compat.h defines the macro R(x).
+// every other header, since compat.h defines the macro GLINT_R(x).
 namespace glint_ltc_k {
 #define GLINT_USE_DOUBLE 1
 #include "kernels/smooth_brdf.h"

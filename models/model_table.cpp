@@ -6,7 +6,8 @@
 
 #define GLINT_MODEL_TABLE(X) \
   X(kSmoothModel)            \
-  X(kBinomialModel)
+  X(kBinomialModel)          \
+  X(kKemppinenModel)
 
 namespace glint {
 

@@ -1,0 +1,111 @@
+// The Kemppinen model's entry in the model table (server/model.h): its
+// parameter block (glint.v1.KemppinenParams), what it needs of queries, and
+// one pass (one query per work-item: loops over grid cells).
+#include <cmath>
+#include <sstream>
+
+#include "models/kemppinen/kemppinen_params.h"
+#include "server/eval_plan.h"
+#include "server/host_pass.h"
+#include "server/model.h"
+
+GLINT_DECLARE_HOST_PASS(Kemppinen)
+
+namespace glint {
+namespace {
+
+using glint::v1::Material;
+
+// proto/glint/v1/glint.proto KemppinenParams documents the ranges.
+Status ValidateKemppinenParams(const Material &m) {
+  if (!m.has_kemppinen()) {
+    return Status::InvalidArgument(
+        "material.kemppinen: unset; the KEMPPINEN model needs at least {\"density\": ...}");
+  }
+  const auto &k = m.kemppinen();
+  std::ostringstream o;
+  const uint32_t n = k.neighbors();
+  if (!(k.density() >= 1e-6 && k.density() <= 1e30)) {
+    o << "material.kemppinen.density: " << k.density()
+      << "; expected facets per unit uv area in [1e-6, 1e30]";
+  } else if (!(k.microroughness() == 0.0f ||
+               (k.microroughness() >= 1e-5f && k.microroughness() <= 1.0f))) {
+    o << "material.kemppinen.microroughness: " << k.microroughness()
+      << "; expected a facet lobe width in [1e-5, 1] radians (0 = 0.02)";
+  } else if (!(k.filter_size() == 0.0f || (k.filter_size() >= 0.1f && k.filter_size() <= 4.0f))) {
+    o << "material.kemppinen.filter_size: " << k.filter_size()
+      << "; expected a pixel-filter width in [0.1, 4] footprints (0 = 0.7)";
+  } else if (!(n == 0 || n == 1 || n == 4 || n == 9 || n == 16)) {
+    o << "material.kemppinen.neighbors: " << n << "; expected 1, 4, 9 or 16 (0 = 4)";
+  } else if (!(k.anisotropy() == 0.0f || (k.anisotropy() >= 0.05f && k.anisotropy() <= 20.0f))) {
+    o << "material.kemppinen.anisotropy: " << k.anisotropy()
+      << "; expected a stretch in [0.05, 20] (0 = 1)";
+  } else if (k.colors_size() > 0) {
+    o << "material.kemppinen.colors: " << k.colors_size()
+      << " values; per-glint colours are not implemented yet, expected none";
+  } else {
+    return Status::Ok();
+  }
+  return Status::InvalidArgument(o.str());
+}
+
+Status ValidateKemppinenQueries(const glint::v1::EvaluateRequest &, const glint::v1::QueryBatch &q,
+                                uint64_t) {
+  if (q.uv().empty()) {
+    return Status::InvalidArgument(
+        "queries.uv: empty; the KEMPPINEN model needs uv (2 per query) to place the facets (the "
+        "paper's uv-free triplanar variant is not implemented)");
+  }
+  if (q.footprint().empty()) {
+    return Status::InvalidArgument(
+        "queries.footprint: empty; the KEMPPINEN model needs the pixel footprint (du/dx, dv/dx, "
+        "du/dy, dv/dy per query) for its pixel filter (Eq. 5)");
+  }
+  return Status::Ok();
+}
+
+void PackKemppinenParams(const Material &m, float *params) {
+  static_assert(GLINT_KEMPPINEN_FLOATS == GLINT_MODEL_PARAM_FLOATS);
+  const auto &k = m.kemppinen();
+  params[0] = static_cast<float>(k.density());
+  params[1] =
+      k.microroughness() > 0.0f ? k.microroughness() : GLINT_KEMPPINEN_DEFAULT_MICROROUGHNESS;
+  params[2] = k.filter_size() > 0.0f ? k.filter_size() : GLINT_KEMPPINEN_DEFAULT_FILTER_SIZE;
+  params[3] = static_cast<float>(k.neighbors() > 0 ? k.neighbors()
+                                                   : uint32_t(GLINT_KEMPPINEN_DEFAULT_NEIGHBORS));
+  params[4] = k.anisotropy() > 0.0f ? k.anisotropy() : GLINT_KEMPPINEN_DEFAULT_ANISOTROPY;
+}
+
+void KemppinenExample(Material *m, glint::v1::QueryBatch *one_query) {
+  m->mutable_kemppinen()->set_density(1e6);
+  for (float v : {0.5f, 0.5f}) one_query->add_uv(v);
+  for (float v : {1e-3f, 0.0f, 0.0f, 1e-3f}) one_query->add_footprint(v);
+}
+
+std::vector<KernelSpec> KemppinenWarmSpecs() {
+  KernelSpec glints;  // the glint preview: a world frame, a sun and a rect light
+  glints.model = glint::v1::KEMPPINEN;
+  glints.has_frame = true;
+  glints.has_directional = true;
+  glints.has_polygon = true;
+  return {glints};
+}
+
+}  // namespace
+
+extern const Model kKemppinenModel;
+const Model kKemppinenModel = {
+    .id = glint::v1::KEMPPINEN,
+    .name = "KEMPPINEN",
+    .params_field = "kemppinen",
+    .passes = {{"models/kemppinen/kemppinen.cl", "glint_kemppinen", 1, nullptr, KemppinenF32,
+                KemppinenF64}},
+    .validate_params = ValidateKemppinenParams,
+    .validate_light = nullptr,
+    .validate_queries = ValidateKemppinenQueries,
+    .pack_params = PackKemppinenParams,
+    .example = KemppinenExample,
+    .warm_specs = KemppinenWarmSpecs,
+};
+
+}  // namespace glint

@@ -136,20 +136,22 @@ GLINT_FN DiskPoint kemppinen_to_disk(int ndf, real3 h, real ax, real ay, real D)
 
 /* ------------------------------------------------------- Gaussian rectangles */
 
-/* Phi(b) - Phi(a) for a <= b (standard normal), from erfc on the side away
- * from 0 so neither tail cancels (the compensation subtracts masses ~1). */
-GLINT_FN real kemppinen_mass(real a, real b) {
-  real s = R(0.70710678118654752440);
-  real right = R(0.5) * (erfc(a * s) - erfc(b * s));
-  real left = R(0.5) * (erfc(-b * s) - erfc(-a * s));
-  real mid = R(1.0) - R(0.5) * (erfc(-a * s) + erfc(b * s));
-  return glint_select(glint_select(mid, left, b <= R(0.0)), right, a >= R(0.0));
+/* erfc(|x| / sqrt 2): the one special function of the rectangle masses. */
+GLINT_FN real kemppinen_erfc_abs(real x) {
+  return erfc(fabs(x) * R(0.70710678118654752440));
 }
 
-/* 1 - (Phi(b) - Phi(a)) for a < 0 < b: the two tails outside [a, b]. */
-GLINT_FN real kemppinen_tails(real a, real b) {
-  real s = R(0.70710678118654752440);
-  return R(0.5) * (erfc(-a * s) + erfc(b * s));
+/* Phi(b) - Phi(a) for a <= b (standard normal) from ea = erfc(|a| / sqrt 2)
+ * and eb = erfc(|b| / sqrt 2), i.e. from erfc on the side away from 0, so
+ * neither tail cancels (the compensation subtracts masses ~1): right of 0
+ * (ea - eb) / 2, left of 0 (eb - ea) / 2, across 0 1 - (ea + eb) / 2. */
+GLINT_FN real kemppinen_mass_e(real a, real b, real ea, real eb) {
+  real m = glint_select(R(1.0) - R(0.5) * (ea + eb), R(0.5) * (eb - ea), b <= R(0.0));
+  return glint_select(m, R(0.5) * (ea - eb), a >= R(0.0));
+}
+
+GLINT_FN real kemppinen_mass(real a, real b) {
+  return kemppinen_mass_e(a, b, kemppinen_erfc_abs(a), kemppinen_erfc_abs(b));
 }
 
 /* ------------------------------------------------------------- the footprint */
@@ -228,14 +230,24 @@ GLINT_FN uint kemppinen_spatial_key(uint seed_key, int l, real cx, real cy) {
                     kemppinen_cell_key(cy));
 }
 
+/* 16-bit uniforms, two per hash: k * 2^-16 is exact in float and double. A
+ * facet's offsets are quantised to 1/65536 of its cell. */
+GLINT_FN real kemppinen_u16_hi(uint h) {
+  return (real)(h >> 16) * R(1.52587890625e-5);
+}
+GLINT_FN real kemppinen_u16_lo(uint h) {
+  return (real)(h & 0xffffu) * R(1.52587890625e-5);
+}
+
 GLINT_FN KemppinenFacet kemppinen_facet(uint spatial_key, real ix, real iy) {
   uint key = rng_absorb(rng_absorb(spatial_key, (uint)ix), (uint)iy);
+  uint h1 = rng_mix(key ^ 0x1u), h2 = rng_mix(key ^ 0x2u);
   KemppinenFacet g;
-  g.sx = rng_u01(rng_mix(key ^ 0x1u));
-  g.sy = rng_u01(rng_mix(key ^ 0x2u));
-  g.ax = rng_u01(rng_mix(key ^ 0x3u));
-  g.ay = rng_u01(rng_mix(key ^ 0x4u));
-  g.r = rng_u01(rng_mix(key ^ 0x5u));
+  g.sx = kemppinen_u16_hi(h1);
+  g.sy = kemppinen_u16_lo(h1);
+  g.ax = kemppinen_u16_hi(h2);
+  g.ay = kemppinen_u16_lo(h2);
+  g.r = kemppinen_u16_hi(key);
   return g;
 }
 
@@ -306,12 +318,13 @@ GLINT_FN real kemppinen_facet_lobe(KemppinenFootprint fp, KemppinenAngular a, Ke
   real r2 = b.res_s * b.res_s;
   real det_c = fp.det * r2 * r2;
   real q = (fp.syy * dx * dx - R(2.0) * fp.sxy * dx * dy + fp.sxx * dy * dy) * r2 / det_c;
-  real ns = exp(R(-0.5) * q) / (R(2.0) * GLINT_PI * sqrt(det_c));
   /* Angular: offsets in cells over the standard deviations in cells. */
   real sax = a.sx * b.res_a, say = a.sy * b.res_a;
   real ux = (b.ta_x - ix - g.ax) / sax, uy = (b.ta_y - iy - g.ay) / say;
-  real na = exp(R(-0.5) * (ux * ux + uy * uy)) / (R(2.0) * GLINT_PI * sax * say);
-  return glint_select(ns * na, R(0.0), outside);
+  /* One exp for both Gaussians. */
+  real norm = R(1.0) / (R(4.0) * GLINT_PI * GLINT_PI * sqrt(det_c) * sax * say);
+  real lobe = exp(R(-0.5) * (q + ux * ux + uy * uy)) * norm;
+  return glint_select(lobe, R(0.0), outside);
 }
 
 /* K25 Eq. 9-10 for level l: the expected lobe mass of the facets not
@@ -326,16 +339,23 @@ GLINT_FN real kemppinen_compensation(KemppinenFootprint fp, KemppinenAngular a, 
   real x2 = (b.ea_x - b.ta_x) / sax, x3 = (b.res_a - b.ta_x) / sax;
   real y0 = -b.ta_y / say, y1 = (b.ba_y - b.ta_y) / say;
   real y2 = (b.ea_y - b.ta_y) / say, y3 = (b.res_a - b.ta_y) / say;
-  real xb = kemppinen_mass(x1, x2), yb = kemppinen_mass(y1, y2);
-  real xsq = kemppinen_mass(x0, x3);
-  real xout = kemppinen_mass(x0, x1) + kemppinen_mass(x2, x3); /* xsq - xb */
-  real yout = kemppinen_mass(y0, y1) + kemppinen_mass(y2, y3);
-  real square_minus_block = xsq * yout + yb * xout;
-  /* Spatial block mass per axis from the diagonal of Sigma_s (cells). */
+  /* erfc at the 4 edges per axis, each used by two masses. */
+  real ex0 = kemppinen_erfc_abs(x0), ex1 = kemppinen_erfc_abs(x1);
+  real ex2 = kemppinen_erfc_abs(x2), ex3 = kemppinen_erfc_abs(x3);
+  real ey0 = kemppinen_erfc_abs(y0), ey1 = kemppinen_erfc_abs(y1);
+  real ey2 = kemppinen_erfc_abs(y2), ey3 = kemppinen_erfc_abs(y3);
+  real xb = kemppinen_mass_e(x1, x2, ex1, ex2), yb = kemppinen_mass_e(y1, y2, ey1, ey2);
+  real xsq = kemppinen_mass_e(x0, x3, ex0, ex3);
+  real xout = kemppinen_mass_e(x0, x1, ex0, ex1) + kemppinen_mass_e(x2, x3, ex2, ex3);
+  real yout = kemppinen_mass_e(y0, y1, ey0, ey1) + kemppinen_mass_e(y2, y3, ey2, ey3);
+  real square_minus_block = xsq * yout + yb * xout; /* = P_a(square) - P_a(B) */
+  /* Spatial block mass per axis from the diagonal of Sigma_s (cells); the
+   * query lies inside the block, so 1 - mass is the two tails. */
   real ssx = sqrt(fp.sxx) * b.res_s, ssy = sqrt(fp.syy) * b.res_s;
   real sx0 = (b.bs_x - b.ts_x) / ssx, sx1 = (b.bs_x + R(2.0) - b.ts_x) / ssx;
   real sy0 = (b.bs_y - b.ts_y) / ssy, sy1 = (b.bs_y + R(2.0) - b.ts_y) / ssy;
-  real tx = kemppinen_tails(sx0, sx1), ty = kemppinen_tails(sy0, sy1);
+  real tx = R(0.5) * (kemppinen_erfc_abs(sx0) + kemppinen_erfc_abs(sx1));
+  real ty = R(0.5) * (kemppinen_erfc_abs(sy0) + kemppinen_erfc_abs(sy1));
   real one_minus_ps = tx + (R(1.0) - tx) * ty;
   return fmax(square_minus_block + one_minus_ps * xb * yb, R(0.0));
 }
@@ -353,7 +373,8 @@ GLINT_FN real kemppinen_level(KemppinenParams p, KemppinenFootprint fp, Kemppine
     for (real iy = b.ba_y; iy < b.ea_y; iy += R(1.0))
       for (real ix = b.ba_x; ix < b.ea_x; ix += R(1.0)) {
         KemppinenFacet g = kemppinen_facet(key, ix, iy);
-        sum += kemppinen_roulette(g.r, w) * kemppinen_facet_lobe(fp, a, b, cx, cy, ix, iy, g);
+        real keep = kemppinen_roulette(g.r, w);
+        if (keep > R(0.0)) sum += keep * kemppinen_facet_lobe(fp, a, b, cx, cy, ix, iy, g);
       }
   }
   return sum + w * kemppinen_compensation(fp, a, b);

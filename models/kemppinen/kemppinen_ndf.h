@@ -161,7 +161,9 @@ GLINT_FN real kemppinen_mass(real a, real b) {
 typedef struct {
   real xs, ys;        /* x_s */
   real sxx, sxy, syy; /* Sigma_s, regularised (uv^2 units) */
-  real det;           /* det Sigma_s */
+  real dj;            /* det J_s (f included): det Sigma_s = dj^2 before regularising */
+  real tr;            /* trace of Sigma_s before regularising */
+  real eps;           /* the regularisation added to Sigma_s's diagonal */
   real lambda;        /* continuous level in [0, GLINT_KEMPPINEN_MAX_LEVEL] */
   uint seed_key;
 } KemppinenFootprint;
@@ -195,7 +197,9 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
   fp.sxx = sxx + eps;
   fp.syy = syy + eps;
   fp.sxy = sxy;
-  fp.det = dj * dj + eps * (sxx + syy) + eps * eps;
+  fp.dj = dj;
+  fp.tr = sxx + syy;
+  fp.eps = eps;
   /* Level: finer level's cells (2^floor(lambda) / sqrt(K_P)) >= 4 sigma_max. */
   real sigma_max = sqrt(lmax + eps);
   real lambda = log2(fmax(R(8.0) * sigma_max * sqrt(p.density), R(1e-30)));
@@ -316,7 +320,10 @@ GLINT_FN real kemppinen_facet_lobe(KemppinenFootprint fp, KemppinenAngular a, Ke
   /* Spatial: offset in cells, the inverse covariance in cells^-2. */
   real dx = b.ts_x - cx - g.sx, dy = b.ts_y - cy - g.sy;
   real r2 = b.res_s * b.res_s;
-  real det_c = fp.det * r2 * r2;
+  /* det of Sigma_s in cells^2, each factor scaled before multiplying: at
+   * density 1e30 det Sigma_s itself underflows float (eps^2 ~ 1e-72). */
+  real djc = fp.dj * r2, ec = fp.eps * r2;
+  real det_c = djc * djc + ec * (fp.tr * r2) + ec * ec;
   real q = (fp.syy * dx * dx - R(2.0) * fp.sxy * dx * dy + fp.sxx * dy * dy) * r2 / det_c;
   /* Angular: offsets in cells over the standard deviations in cells. */
   real sax = a.sx * b.res_a, say = a.sy * b.res_a;

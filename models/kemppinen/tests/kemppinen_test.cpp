@@ -346,7 +346,7 @@ TEST(KemppinenModel, StableAndDeterministicAtTheExtremesInFp32) {
   add("h grazing (1 + v_z -> 0 in the Lambert map)", base, fp0, 0.3, 0.7, Normalize({1, 0, 1e-3}),
       Normalize({1, 0.01, 1e-3}));
   add("wi = -wo mirrored below", base, fp0, 0.3, 0.7, wo0, {-wo0.x, -wo0.y, -wo0.z});
-  for (double density : {1e-3, 1e15}) {
+  for (double density : {1e-3, 1e15, 1e30}) {
     Glinty g = base;
     g.density = density;
     add("density extreme", g, fp0, 0.3, 0.7, wo0, wi0);

@@ -281,6 +281,11 @@ typedef struct {
   real ta_x, ta_y; /* x_a res_a */
   real ba_x, ba_y; /* first angular cell */
   real ea_x, ea_y; /* one past the last angular cell (clipped to res_a) */
+  /* Per-level constants of the facet lobes (kemppinen_facet_lobe), in cells:
+   * Sigma_s^-1 / 2, 1 / sigma_a per axis, and the two Gaussians' norm. */
+  real qxx, qxy, qyy;
+  real inv_sax, inv_say;
+  real norm;
 } KemppinenBlocks;
 
 GLINT_FN KemppinenBlocks kemppinen_blocks(KemppinenParams p, KemppinenFootprint fp,
@@ -306,32 +311,36 @@ GLINT_FN KemppinenBlocks kemppinen_blocks(KemppinenParams p, KemppinenFootprint 
   b.ba_y = clamp(floor(b.ta_y - R(0.5) * (n - R(1.0))), R(0.0), hi);
   b.ea_x = fmin(b.ba_x + n, b.res_a);
   b.ea_y = fmin(b.ba_y + n, b.res_a);
+  /* det of Sigma_s in cells^2, each factor scaled before multiplying: at
+   * density 1e30 det Sigma_s itself underflows float (eps^2 ~ 1e-72). */
+  real r2 = b.res_s * b.res_s;
+  real djc = fp.dj * r2, ec = fp.eps * r2;
+  real det_c = djc * djc + ec * (fp.tr * r2) + ec * ec;
+  real k = R(0.5) * r2 / det_c;
+  b.qxx = fp.syy * k;
+  b.qxy = -R(2.0) * fp.sxy * k;
+  b.qyy = fp.sxx * k;
+  real sax = a.sx * b.res_a, say = a.sy * b.res_a;
+  b.inv_sax = R(1.0) / sax;
+  b.inv_say = R(1.0) / say;
+  b.norm = R(1.0) / (R(4.0) * GLINT_PI * GLINT_PI * sqrt(det_c) * sax * say);
   return b;
 }
 
 /* One facet's filtered lobe N(x_s - g_s; Sigma_s) N(x_a - g_a; Sigma_a) / K_P,
  * 0 if the facet lies outside the disk U (rejected, 3.3.1). Written in cell
  * units (K_P = res_s^2 res_a^2), so no factor of K_P over- or underflows. */
-GLINT_FN real kemppinen_facet_lobe(KemppinenFootprint fp, KemppinenAngular a, KemppinenBlocks b,
-                                   real cx, real cy, real ix, real iy, KemppinenFacet g) {
+GLINT_FN real kemppinen_facet_lobe(KemppinenBlocks b, real cx, real cy, real ix, real iy,
+                                   KemppinenFacet g) {
   real gx = (ix + g.ax) / b.res_a - R(0.5);
   real gy = (iy + g.ay) / b.res_a - R(0.5);
   glint_mask outside = gx * gx + gy * gy >= R(0.25);
-  /* Spatial: offset in cells, the inverse covariance in cells^-2. */
+  /* Angular offsets in cells over the standard deviations in cells, spatial
+   * offsets in cells through Sigma_s^-1 / 2; one exp for both Gaussians. */
+  real ux = (b.ta_x - ix - g.ax) * b.inv_sax, uy = (b.ta_y - iy - g.ay) * b.inv_say;
   real dx = b.ts_x - cx - g.sx, dy = b.ts_y - cy - g.sy;
-  real r2 = b.res_s * b.res_s;
-  /* det of Sigma_s in cells^2, each factor scaled before multiplying: at
-   * density 1e30 det Sigma_s itself underflows float (eps^2 ~ 1e-72). */
-  real djc = fp.dj * r2, ec = fp.eps * r2;
-  real det_c = djc * djc + ec * (fp.tr * r2) + ec * ec;
-  real q = (fp.syy * dx * dx - R(2.0) * fp.sxy * dx * dy + fp.sxx * dy * dy) * r2 / det_c;
-  /* Angular: offsets in cells over the standard deviations in cells. */
-  real sax = a.sx * b.res_a, say = a.sy * b.res_a;
-  real ux = (b.ta_x - ix - g.ax) / sax, uy = (b.ta_y - iy - g.ay) / say;
-  /* One exp for both Gaussians. */
-  real norm = R(1.0) / (R(4.0) * GLINT_PI * GLINT_PI * sqrt(det_c) * sax * say);
-  real lobe = exp(R(-0.5) * (q + ux * ux + uy * uy)) * norm;
-  return glint_select(lobe, R(0.0), outside);
+  real e = R(0.5) * (ux * ux + uy * uy) + (b.qxx * dx * dx + b.qxy * dx * dy + b.qyy * dy * dy);
+  return glint_select(exp(-e) * b.norm, R(0.0), outside);
 }
 
 /* K25 Eq. 9-10 for level l: the expected lobe mass of the facets not
@@ -381,7 +390,7 @@ GLINT_FN real kemppinen_level(KemppinenParams p, KemppinenFootprint fp, Kemppine
       for (real ix = b.ba_x; ix < b.ea_x; ix += R(1.0)) {
         KemppinenFacet g = kemppinen_facet(key, ix, iy);
         real keep = kemppinen_roulette(g.r, w);
-        if (keep > R(0.0)) sum += keep * kemppinen_facet_lobe(fp, a, b, cx, cy, ix, iy, g);
+        if (keep > R(0.0)) sum += keep * kemppinen_facet_lobe(b, cx, cy, ix, iy, g);
       }
   }
   return sum + w * kemppinen_compensation(fp, a, b);

@@ -5,7 +5,8 @@
 #include "server/host_pass.h"
 
 namespace glint::GLINT_HOST_NAMESPACE {
-#include "models/kemppinen/kemppinen_eval.h"
+#include "models/kemppinen/kemppinen_polygons.h"
 }  // namespace glint::GLINT_HOST_NAMESPACE
 
-GLINT_DEFINE_HOST_PASS(Kemppinen, kemppinen_query)
+GLINT_DEFINE_HOST_PASS(KemppinenLights, kemppinen_query)
+GLINT_DEFINE_HOST_PASS(KemppinenPolygons, kemppinen_polygons_query)

@@ -1,6 +1,7 @@
 // The Kemppinen model's entry in the model table (server/model.h): its
 // parameter block (glint.v1.KemppinenParams), what it needs of queries, and
-// one pass (one query per work-item: loops over grid cells).
+// two passes as the smooth model has: 8-lane SIMD for probes and
+// directional/point lights, one query per work-item for polygon lights.
 #include <cmath>
 #include <sstream>
 
@@ -9,12 +10,22 @@
 #include "server/host_pass.h"
 #include "server/model.h"
 
-GLINT_DECLARE_HOST_PASS(Kemppinen)
+GLINT_DECLARE_HOST_PASS(KemppinenLights)
+GLINT_DECLARE_HOST_PASS(KemppinenPolygons)
 
 namespace glint {
 namespace {
 
 using glint::v1::Material;
+
+bool HasProbesOrPunctualLights(const EvalPlan &plan) {
+  // Also when nothing else runs, so a batch always gets its output written.
+  return plan.spec.probe || plan.n_directional > 0 || plan.n_point > 0 || plan.n_polygon == 0;
+}
+
+bool HasPolygons(const EvalPlan &plan) {
+  return plan.n_polygon > 0;
+}
 
 // proto/glint/v1/glint.proto KemppinenParams documents the ranges.
 Status ValidateKemppinenParams(const Material &m) {
@@ -98,8 +109,10 @@ const Model kKemppinenModel = {
     .id = glint::v1::KEMPPINEN,
     .name = "KEMPPINEN",
     .params_field = "kemppinen",
-    .passes = {{"models/kemppinen/kemppinen.cl", "glint_kemppinen", 1, nullptr, KemppinenF32,
-                KemppinenF64}},
+    .passes = {{"models/kemppinen/kemppinen.cl", "glint_kemppinen", 8, HasProbesOrPunctualLights,
+                KemppinenLightsF32, KemppinenLightsF64},
+               {"models/kemppinen/kemppinen_area.cl", "glint_kemppinen_area", 1, HasPolygons,
+                KemppinenPolygonsF32, KemppinenPolygonsF64}},
     .validate_params = ValidateKemppinenParams,
     .validate_light = nullptr,
     .validate_queries = ValidateKemppinenQueries,

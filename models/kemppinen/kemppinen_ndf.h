@@ -47,7 +47,10 @@
  *  - erf: the libm / OpenCL builtin erfc, no polynomial approximation; the
  *    rectangle masses use erfc on the far side of 0 so tails do not cancel.
  *
- * Written for GLINT_LANES == 1 (per-query loops over cells). */
+ * Lane-agnostic (kernels/compat.h): the loops have uniform trip counts (2
+ * levels x 4 spatial x k angular cells), per-query cell indices are reals and
+ * hash keys `kemp_uint` (uint, or uint8 on the 8-lane device), per-query
+ * conditions are selects; a glint_any branch skips roulette-dropped facets. */
 #ifndef GLINT_KEMPPINEN_NDF_H
 #define GLINT_KEMPPINEN_NDF_H
 
@@ -55,6 +58,45 @@
 #include "kernels/ndf.h"
 #include "kernels/rng.h"
 #include "models/kemppinen/kemppinen_params.h"
+
+/* Unsigned hash keys of one query (uint) or of a block of GLINT_LANES queries
+ * (uintN on the device), and conversions from the working precision. */
+#if defined(__OPENCL_VERSION__) && GLINT_LANES == 8
+typedef uint8 kemp_uint;
+#define KEMP_TO_UINT(x) convert_uint8(x)
+#if GLINT_USE_DOUBLE
+#define KEMP_TO_REAL(x) convert_double8(x)
+#else
+#define KEMP_TO_REAL(x) convert_float8(x)
+#endif
+#elif defined(__OPENCL_VERSION__) && GLINT_LANES == 16
+typedef uint16 kemp_uint;
+#define KEMP_TO_UINT(x) convert_uint16(x)
+#if GLINT_USE_DOUBLE
+#define KEMP_TO_REAL(x) convert_double16(x)
+#else
+#define KEMP_TO_REAL(x) convert_float16(x)
+#endif
+#else
+typedef uint kemp_uint;
+#define KEMP_TO_UINT(x) ((uint)(x))
+#define KEMP_TO_REAL(x) ((real)(x))
+#endif
+
+/* kernels/rng.h's lowbias32 mixer and sponge absorb, on kemp_uint (the same
+ * numbers as rng_mix / rng_absorb lane by lane). */
+GLINT_FN kemp_uint kemppinen_mix(kemp_uint x) {
+  x ^= x >> 16;
+  x *= 0x7feb352du;
+  x ^= x >> 15;
+  x *= 0x846ca68bu;
+  x ^= x >> 16;
+  return x;
+}
+
+GLINT_FN kemp_uint kemppinen_absorb(kemp_uint h, kemp_uint key) {
+  return kemppinen_mix(h ^ (key + 0x9e3779b9u)) + 0x632be5abu;
+}
 
 /* K25 Eq. 8: epsilon of the mollified roulette ("0.1 for all our results"). */
 #define GLINT_KEMPPINEN_ROULETTE_EPS 0.1f
@@ -210,9 +252,9 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
 
 /* A cell index (an integer-valued real, possibly huge at uv = 1e7) as a hash
  * key, wrapped to [0, 2^24): the pattern repeats every 2^24 cells. */
-GLINT_FN uint kemppinen_cell_key(real c) {
+GLINT_FN kemp_uint kemppinen_cell_key(real c) {
   real w = c - R(16777216.0) * floor(c * R(5.9604644775390625e-8));
-  return (uint)clamp(w, R(0.0), R(16777215.0));
+  return KEMP_TO_UINT(clamp(w, R(0.0), R(16777215.0)));
 }
 
 /* K25 Eq. 8: R(r, w) = smoothstep(max(0, r - eps), min(1, r + eps), w). */
@@ -229,23 +271,25 @@ typedef struct {
   real sx, sy, ax, ay, r;
 } KemppinenFacet;
 
-GLINT_FN uint kemppinen_spatial_key(uint seed_key, int l, real cx, real cy) {
-  return rng_absorb(rng_absorb(rng_absorb(seed_key, (uint)l), kemppinen_cell_key(cx)),
-                    kemppinen_cell_key(cy));
+/* The hash of (seed, level, spatial cell); facets absorb their angular cell. */
+GLINT_FN kemp_uint kemppinen_spatial_key(uint seed_key, real level, real cx, real cy) {
+  kemp_uint k = kemppinen_absorb((kemp_uint)(seed_key), KEMP_TO_UINT(level));
+  return kemppinen_absorb(kemppinen_absorb(k, kemppinen_cell_key(cx)), kemppinen_cell_key(cy));
 }
 
 /* 16-bit uniforms, two per hash: k * 2^-16 is exact in float and double. A
  * facet's offsets are quantised to 1/65536 of its cell. */
-GLINT_FN real kemppinen_u16_hi(uint h) {
-  return (real)(h >> 16) * R(1.52587890625e-5);
+GLINT_FN real kemppinen_u16_hi(kemp_uint h) {
+  return KEMP_TO_REAL(h >> 16) * R(1.52587890625e-5);
 }
-GLINT_FN real kemppinen_u16_lo(uint h) {
-  return (real)(h & 0xffffu) * R(1.52587890625e-5);
+GLINT_FN real kemppinen_u16_lo(kemp_uint h) {
+  return KEMP_TO_REAL(h & 0xffffu) * R(1.52587890625e-5);
 }
 
-GLINT_FN KemppinenFacet kemppinen_facet(uint spatial_key, real ix, real iy) {
-  uint key = rng_absorb(rng_absorb(spatial_key, (uint)ix), (uint)iy);
-  uint h1 = rng_mix(key ^ 0x1u), h2 = rng_mix(key ^ 0x2u);
+GLINT_FN KemppinenFacet kemppinen_facet(kemp_uint spatial_key, real ix, real iy) {
+  kemp_uint key =
+      kemppinen_absorb(kemppinen_absorb(spatial_key, KEMP_TO_UINT(ix)), KEMP_TO_UINT(iy));
+  kemp_uint h1 = kemppinen_mix(key ^ 0x1u), h2 = kemppinen_mix(key ^ 0x2u);
   KemppinenFacet g;
   g.sx = kemppinen_u16_hi(h1);
   g.sy = kemppinen_u16_lo(h1);
@@ -289,10 +333,10 @@ typedef struct {
 } KemppinenBlocks;
 
 GLINT_FN KemppinenBlocks kemppinen_blocks(KemppinenParams p, KemppinenFootprint fp,
-                                          KemppinenAngular a, int l) {
+                                          KemppinenAngular a, real level) {
   KemppinenBlocks b;
   /* Algorithm 1 lines 9-10 (with res = sqrt(K_P)). */
-  b.res_a = (real)(1u << l);
+  b.res_a = floor(exp2(level) + R(0.5)); /* 2^l exactly (l integer, <= 24) */
   b.res_s = sqrt(p.density) / b.res_a;
   b.ts_x = fp.xs * b.res_s;
   b.ts_y = fp.ys * b.res_s;
@@ -378,20 +422,25 @@ GLINT_FN real kemppinen_compensation(KemppinenFootprint fp, KemppinenAngular a, 
 
 /* Level l's part of S with MIP weight w: roulette-weighted explicit facets
  * (Algorithm 1 lines 13-18) plus w C (line 20). */
-GLINT_FN real kemppinen_level(KemppinenParams p, KemppinenFootprint fp, KemppinenAngular a, int l,
-                              real w) {
-  KemppinenBlocks b = kemppinen_blocks(p, fp, a, l);
+GLINT_FN real kemppinen_level(KemppinenParams p, KemppinenFootprint fp, KemppinenAngular a,
+                              real level, real w) {
+  KemppinenBlocks b = kemppinen_blocks(p, fp, a, level);
   real sum = R(0.0);
+  int n = p.n_side;
   for (int j = 0; j < 4; ++j) {
     real cx = b.bs_x + (real)(j & 1);
     real cy = b.bs_y + (real)(j >> 1);
-    uint key = kemppinen_spatial_key(fp.seed_key, l, cx, cy);
-    for (real iy = b.ba_y; iy < b.ea_y; iy += R(1.0))
-      for (real ix = b.ba_x; ix < b.ea_x; ix += R(1.0)) {
-        KemppinenFacet g = kemppinen_facet(key, ix, iy);
-        real keep = kemppinen_roulette(g.r, w);
-        if (keep > R(0.0)) sum += keep * kemppinen_facet_lobe(b, cx, cy, ix, iy, g);
-      }
+    kemp_uint key = kemppinen_spatial_key(fp.seed_key, level, cx, cy);
+    for (int m = 0; m < n * n; ++m) {
+      real ix = b.ba_x + (real)(m % n);
+      real iy = b.ba_y + (real)(m / n);
+      /* Cells past the grid's end (res_a < n at the coarsest levels) drop. */
+      glint_mask valid = (ix < b.ea_x) & (iy < b.ea_y);
+      KemppinenFacet g = kemppinen_facet(key, ix, iy);
+      real keep = kemppinen_roulette(g.r, w);
+      if (glint_any(valid & (keep > R(0.0))))
+        sum += glint_select(R(0.0), keep * kemppinen_facet_lobe(b, cx, cy, ix, iy, g), valid);
+    }
   }
   return sum + w * kemppinen_compensation(fp, a, b);
 }
@@ -400,12 +449,13 @@ GLINT_FN real kemppinen_level(KemppinenParams p, KemppinenFootprint fp, Kemppine
 GLINT_FN real kemppinen_glint_factor(KemppinenParams p, KemppinenFootprint fp, int ndf, real3 h,
                                      real ax, real ay, real D) {
   KemppinenAngular a = kemppinen_angular(p, kemppinen_to_disk(ndf, h, ax, ay, D));
-  /* Algorithm 1 lines 7-8: l in {floor, ceil} of lambda, w = 1 - |lambda - l|. */
+  /* Algorithm 1 lines 7-8: l in {floor, ceil} of lambda, w = 1 - |lambda - l|
+   * (lambda <= GLINT_KEMPPINEN_MAX_LEVEL, so w1 = 0 at the last level). */
   real lf = floor(fp.lambda);
   real w1 = fp.lambda - lf;
-  int l0 = (int)lf;
-  real s = kemppinen_level(p, fp, a, l0, R(1.0) - w1);
-  if (w1 > R(0.0) && l0 < GLINT_KEMPPINEN_MAX_LEVEL) s += kemppinen_level(p, fp, a, l0 + 1, w1);
+  real s = kemppinen_level(p, fp, a, lf, R(1.0) - w1);
+  if (glint_any(w1 > R(0.0)))
+    s += kemppinen_level(p, fp, a, fmin(lf + R(1.0), R(GLINT_KEMPPINEN_MAX_LEVEL)), w1);
   return s;
 }
 

@@ -221,7 +221,7 @@ TEST(GlintyNdf, AveragedOverUvEqualsTheSmoothNdfForShearedFootprints) {
     double lf = std::floor(f.lambda), w1 = f.lambda - lf;
     for (int l : {int(lf), int(lf) + 1}) {
       double w = l == int(lf) ? 1 - w1 : w1;
-      auto b = k64::kemppinen_blocks(k64::MakeParams(g), f, k64::Angular(g, h), l);
+      auto b = k64::kemppinen_blocks(k64::MakeParams(g), f, k64::Angular(g, h), double(l));
       double ssx = std::sqrt(f.sxx) * b.res_s, ssy = std::sqrt(f.syy) * b.res_s;
       auto tails = [](double lo, double hi) {
         return 0.5 * std::erfc(-lo / std::sqrt(2.0)) + 0.5 * std::erfc(hi / std::sqrt(2.0));

@@ -1,6 +1,7 @@
-// Kemppinen-model throughput on the OpenCL device (DeviceEngine, fp32, one lane, one query per
-// work-item) per `neighbors` k and density, against the smooth model on the same queries and
-// lights (a directional light, a point light and a polygon quad, LTC), and the mean glint
+// Kemppinen-model throughput on the OpenCL device (DeviceEngine, fp32, one worker; 8 queries per
+// work-item for probes and directional/point lights, one for polygons) per `neighbors` k and
+// density, against the smooth model on the same queries and lights (a directional light, a point
+// light, with and without a polygon quad via LTC), and the mean glint
 // radiance relative to the smooth one (Eq. 2 says 1 away from the disk rim) with its standard
 // error (delta method on per-query RGB sums). Median of --repeat timed runs after one warm run.
 //
@@ -23,7 +24,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-glint::v1::EvaluateRequest MakeRequest(const glint::v1::QueryBatch &q) {
+glint::v1::EvaluateRequest MakeRequest(const glint::v1::QueryBatch &q, bool quad) {
   glint::v1::EvaluateRequest r;
   auto *m = r.mutable_material();
   m->set_model(glint::v1::SMOOTH);
@@ -39,11 +40,13 @@ glint::v1::EvaluateRequest MakeRequest(const glint::v1::QueryBatch &q) {
   auto *pt = r.add_lights()->mutable_point();
   for (float v : {-1.0f, 2.0f, 3.0f}) pt->add_position(v);
   for (float v : {5.0f, 5.0f, 4.0f}) pt->add_intensity(v);
-  auto *p = r.add_lights()->mutable_polygon();
-  for (float v : {-3.0f, -3.0f, 3.0f, 3.0f, -3.0f, 3.0f, 3.0f, 3.0f, 3.0f, -3.0f, 3.0f, 3.0f})
-    p->add_vertices(v);
-  for (float v : {1.0f, 0.5f, 0.25f}) p->add_radiance(v);
-  p->set_two_sided(true);
+  if (quad) {
+    auto *p = r.add_lights()->mutable_polygon();
+    for (float v : {-3.0f, -3.0f, 3.0f, 3.0f, -3.0f, 3.0f, 3.0f, 3.0f, 3.0f, -3.0f, 3.0f, 3.0f})
+      p->add_vertices(v);
+    for (float v : {1.0f, 0.5f, 0.25f}) p->add_radiance(v);
+    p->set_two_sided(true);
+  }
   *r.mutable_queries() = q;
   return r;
 }
@@ -101,62 +104,69 @@ int main(int argc, char **argv) {
     return true;
   };
 
-  glint::v1::EvaluateRequest request = MakeRequest(q);
-  std::vector<float> smooth, glint;
-  double smooth_s = 0;
-  if (!run(request, &smooth, &smooth_s)) return 1;
-  std::vector<double> sv(n);
-  double mean_s = 0;
-  for (uint32_t i = 0; i < n; ++i) {
-    sv[i] = double(smooth[3 * i]) + smooth[3 * i + 1] + smooth[3 * i + 2];
-    mean_s += sv[i];
-  }
-  mean_s /= n;
-
-  if (json) {
-    std::printf("{\"model\": \"SMOOTH\", \"queries\": %u, \"evals_per_s\": %.4g}\n", n,
-                n / smooth_s);
-  } else {
+  if (!json) {
     std::printf(
-        "kemppinen vs smooth, %u queries (local frame, GGX alpha 0.3, directional + point + "
-        "polygon quad via LTC), device %s fp32, one query per work-item, median of %d\n",
+        "kemppinen vs smooth, %u queries (local frame, GGX alpha 0.3, directional + point "
+        "lights, with and without a polygon quad via LTC), device %s fp32, median of %d\n\n",
         n, engine->info().name.c_str(), repeat);
-    std::printf("smooth: %.2f M evals/s\n\n", n / smooth_s / 1e6);
-    std::printf("| density | k | evals/s | ratio to smooth | mean / smooth - 1 | se |\n");
-    std::printf("|---|---|---|---|---|---|\n");
+    std::printf("| lights | density | k | evals/s | ratio to smooth | mean / smooth - 1 | se |\n");
+    std::printf("|---|---|---|---|---|---|---|\n");
   }
-  auto *m = request.mutable_material();
-  m->set_model(glint::v1::KEMPPINEN);
-  for (double density : {1e5, 1e9})
-    for (uint32_t k : {1u, 4u, 9u, 16u}) {
-      m->mutable_kemppinen()->set_density(density);
-      m->mutable_kemppinen()->set_neighbors(k);
-      double sec = 0;
-      if (!run(request, &glint, &sec)) return 1;
-      double mean_g = 0;
-      std::vector<double> gv(n);
-      for (uint32_t i = 0; i < n; ++i) {
-        gv[i] = double(glint[3 * i]) + glint[3 * i + 1] + glint[3 * i + 2];
-        mean_g += gv[i];
-      }
-      mean_g /= n;
-      const double ratio = mean_g / mean_s;
-      double var = 0;
-      for (uint32_t i = 0; i < n; ++i) {
-        const double e = gv[i] - ratio * sv[i];
-        var += e * e;
-      }
-      var /= (n - 1);
-      const double se = std::sqrt(var / n) / mean_s;
-      if (json) {
-        std::printf(
-            "{\"model\": \"KEMPPINEN\", \"density\": %g, \"neighbors\": %u, \"evals_per_s\": "
-            "%.4g, \"ratio_to_smooth\": %.4f, \"mean_rel_error\": %.4g, \"se\": %.3g}\n",
-            density, k, n / sec, smooth_s / sec, ratio - 1.0, se);
-      } else {
-        std::printf("| %.0e | %u | %.3f M | %.3f | %+.3f | %.3f |\n", density, k, n / sec / 1e6,
-                    smooth_s / sec, ratio - 1.0, se);
-      }
+  for (bool quad : {true, false}) {
+    const char *lights = quad ? "dir + point + quad" : "dir + point";
+    glint::v1::EvaluateRequest request = MakeRequest(q, quad);
+    std::vector<float> smooth, glint;
+    double smooth_s = 0;
+    if (!run(request, &smooth, &smooth_s)) return 1;
+    std::vector<double> sv(n);
+    double mean_s = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+      sv[i] = double(smooth[3 * i]) + smooth[3 * i + 1] + smooth[3 * i + 2];
+      mean_s += sv[i];
     }
+    mean_s /= n;
+    if (json) {
+      std::printf(
+          "{\"model\": \"SMOOTH\", \"lights\": \"%s\", \"queries\": %u, "
+          "\"evals_per_s\": %.4g}\n",
+          lights, n, n / smooth_s);
+    } else {
+      std::printf("| %s | smooth | - | %.3f M | 1 | - | - |\n", lights, n / smooth_s / 1e6);
+    }
+    auto *m = request.mutable_material();
+    m->set_model(glint::v1::KEMPPINEN);
+    for (double density : {1e5, 1e9})
+      for (uint32_t k : {1u, 4u, 9u, 16u}) {
+        m->mutable_kemppinen()->set_density(density);
+        m->mutable_kemppinen()->set_neighbors(k);
+        double sec = 0;
+        if (!run(request, &glint, &sec)) return 1;
+        double mean_g = 0;
+        std::vector<double> gv(n);
+        for (uint32_t i = 0; i < n; ++i) {
+          gv[i] = double(glint[3 * i]) + glint[3 * i + 1] + glint[3 * i + 2];
+          mean_g += gv[i];
+        }
+        mean_g /= n;
+        const double ratio = mean_g / mean_s;
+        double var = 0;
+        for (uint32_t i = 0; i < n; ++i) {
+          const double e = gv[i] - ratio * sv[i];
+          var += e * e;
+        }
+        var /= (n - 1);
+        const double se = std::sqrt(var / n) / mean_s;
+        if (json) {
+          std::printf(
+              "{\"model\": \"KEMPPINEN\", \"lights\": \"%s\", \"density\": %g, "
+              "\"neighbors\": %u, \"evals_per_s\": %.4g, \"ratio_to_smooth\": %.4f, "
+              "\"mean_rel_error\": %.4g, \"se\": %.3g}\n",
+              lights, density, k, n / sec, smooth_s / sec, ratio - 1.0, se);
+        } else {
+          std::printf("| %s | %.0e | %u | %.3f M | %.3f | %+.3f | %.3f |\n", lights, density, k,
+                      n / sec / 1e6, smooth_s / sec, ratio - 1.0, se);
+        }
+      }
+  }
   return 0;
 }

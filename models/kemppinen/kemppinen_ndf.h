@@ -232,9 +232,14 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
   fp.xs = a * u;
   fp.ys = v / a;
   /* Columns of J_s = A_star J: (a du/dx, dv/dx / a) and (a du/dy, dv/dy / a). */
+  /* Footprint entries clamped to +-1e6 uv per pixel: far beyond any useful
+   * footprint (the level saturates at GLINT_KEMPPINEN_MAX_LEVEL long before),
+   * and Sigma_s stays finite in fp32 (<= ~1e16) for any finite input. */
   real f = p.filter;
-  real j00 = f * a * footprint[0], j10 = f * footprint[1] / a;
-  real j01 = f * a * footprint[2], j11 = f * footprint[3] / a;
+  real j00 = f * a * clamp(footprint[0], R(-1e6), R(1e6));
+  real j10 = f * clamp(footprint[1], R(-1e6), R(1e6)) / a;
+  real j01 = f * a * clamp(footprint[2], R(-1e6), R(1e6));
+  real j11 = f * clamp(footprint[3], R(-1e6), R(1e6)) / a;
   /* Eq. 5 / Algorithm 1 line 11: Sigma_s = f^2 J J^T. */
   real sxx = j00 * j00 + j01 * j01;
   real syy = j10 * j10 + j11 * j11;

@@ -456,6 +456,7 @@ TEST(KemppinenModel, StableAndDeterministicAtTheExtremesInFp32) {
   add("zero footprint (det = 0, lambda <= 0)", base, {0, 0, 0, 0}, 0.3, 0.7, wo0, wi0);
   add("rank-1 footprint (det -> 0)", base, {1e-3, 1e-3, 1e-3, 1e-3}, 0.3, 0.7, wo0, wi0);
   add("enormous footprint", base, {1e3, 0, 0, 1e3}, 0.3, 0.7, wo0, wi0);
+  add("footprint near FLT_MAX", base, {3e38, -3e38, 3e38, 3e38}, 0.3, 0.7, wo0, wi0);
   add("uv = 1e7", base, fp0, 1e7, -1e7, wo0, wi0);
   add("grazing wo", base, fp0, 0.3, 0.7, Normalize({1, 0, 1e-6}), wi0);
   add("grazing wi", base, fp0, 0.3, 0.7, wo0, Normalize({-1, 0.2, 1e-6}));
@@ -468,6 +469,7 @@ TEST(KemppinenModel, StableAndDeterministicAtTheExtremesInFp32) {
     add("density extreme", g, fp0, 0.3, 0.7, wo0, wi0);
     add("density extreme, tiny footprint", g, {1e-9, 0, 0, 1e-9}, 0.3, 0.7, wo0, wi0);
     add("density extreme, huge footprint", g, {10, 0, 0, 10}, 0.3, 0.7, wo0, wi0);
+    add("density extreme, footprint 1e30", g, {1e30, 1e30, 0, 1e30}, 0.3, 0.7, wo0, wi0);
   }
   for (double alpha : {1e-4, 1.0}) {
     Glinty g = base;

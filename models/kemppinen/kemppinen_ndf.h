@@ -376,10 +376,12 @@ GLINT_FN KemppinenBlocks kemppinen_blocks(KemppinenParams p, KemppinenFootprint 
   real r2 = b.res_s * b.res_s;
   real djc = fp.dj * r2, ec = fp.eps * r2;
   real det_c = djc * djc + ec * (fp.tr * r2) + ec * ec;
-  real k = R(0.5) * r2 / det_c;
-  b.qxx = fp.syy * k;
-  b.qxy = -R(2.0) * fp.sxy * k;
-  b.qyy = fp.sxx * k;
+  /* Sigma_c^-1 / 2 = adj(Sigma_s r2) / (2 det_c): scale the entries to cells
+   * first (r2 / det_c alone overflows float at density 1e30, and 0 * inf is
+   * NaN); each quotient is then ~1 / variance in cells, >= the regulariser. */
+  b.qxx = R(0.5) * (fp.syy * r2) / det_c;
+  b.qxy = -(fp.sxy * r2) / det_c;
+  b.qyy = R(0.5) * (fp.sxx * r2) / det_c;
   real sax = a.sx * b.res_a, say = a.sy * b.res_a;
   b.inv_sax = R(1.0) / sax;
   b.inv_say = R(1.0) / say;

@@ -188,5 +188,43 @@ TEST_F(KemppinenEngineTest, BitIdenticalUnderChunkingAndFollowsTheSeed) {
   EXPECT_GT(differ, lit / 2) << lit << " values lit under either seed";
 }
 
+// The extremes on the device (8-lane fp32 and fp64 kernels, and the polygon pass): uv = +-1e7,
+// zero / rank-1 / near-FLT_MAX footprints, grazing and below-horizon wo, at densities 1e-3 and
+// 1e30 and microroughness 1e-5: finite and non-negative, as on the host (kemppinen_test.cpp).
+TEST_F(KemppinenEngineTest, ExtremesAreFiniteAndNonNegativeOnTheDevice) {
+  v1::QueryBatch q;
+  const float uvs[][2] = {{0.3f, 0.7f}, {1e7f, -1e7f}, {-3.5f, 2.25f}};
+  const float fps[][4] = {{0, 0, 0, 0},
+                          {1e-3f, 1e-3f, 1e-3f, 1e-3f},
+                          {3e38f, -3e38f, 3e38f, 3e38f},
+                          {1e-3f, 0, 0, 1e-3f}};
+  const float wos[][3] = {
+      {0, 0, 1}, {1, 0, 0}, {0.6f, 0, 0.8f}, {0.8f, 0, -0.6f}, {0.99999f, 0, 0.0044721f}};
+  uint32_t count = 0;
+  for (auto &uv : uvs)
+    for (auto &fp : fps)
+      for (auto &wo : wos) {
+        q.add_uv(uv[0]);
+        q.add_uv(uv[1]);
+        for (float f : fp) q.add_footprint(f);
+        for (float w : wo) q.add_wo(w);
+        ++count;
+      }
+  q.set_count(count);
+  for (double density : {1e-3, 1e30})
+    for (bool fp64 : {false, true}) {
+      EvaluateRequest settings = MakeSettings(v1::GGX, true, true, fp64, 16);
+      settings.mutable_material()->mutable_kemppinen()->set_density(density);
+      settings.mutable_material()->mutable_kemppinen()->set_microroughness(1e-5f);
+      ASSERT_TRUE(ValidateSettings(settings, {}).ok());
+      ASSERT_TRUE(ValidateQueriesForModel(q, settings).ok());
+      EvalPlan plan = MakeEvalPlan(settings, q);
+      auto dev = Device(plan, q);
+      for (size_t i = 0; i < dev.size(); ++i)
+        EXPECT_TRUE(std::isfinite(dev[i]) && dev[i] >= 0.0f)
+            << "query " << i / 3 << " density " << density << " fp64 " << fp64 << " = " << dev[i];
+    }
+}
+
 }  // namespace
 }  // namespace glint

@@ -468,6 +468,7 @@ TEST(KemppinenModel, StableAndDeterministicAtTheExtremesInFp32) {
     g.density = density;
     add("density extreme", g, fp0, 0.3, 0.7, wo0, wi0);
     add("density extreme, tiny footprint", g, {1e-9, 0, 0, 1e-9}, 0.3, 0.7, wo0, wi0);
+    add("density extreme, zero footprint", g, {0, 0, 0, 0}, 0.3, 0.7, wo0, wi0);
     add("density extreme, huge footprint", g, {10, 0, 0, 10}, 0.3, 0.7, wo0, wi0);
     add("density extreme, footprint 1e30", g, {1e30, 1e30, 0, 1e30}, 0.3, 0.7, wo0, wi0);
   }

@@ -511,6 +511,55 @@ TEST(KemppinenModel, StableAndDeterministicAtTheExtremesInFp32) {
     }
 }
 
+// The parameter ranges the validation accepts, crossed (a stability sweep for this model):
+// every combination of extreme and typical density, roughness, microroughness, anisotropy,
+// filter size and footprint, with both NDFs, every k, probes and a light, at uv 0.3 and 1e7 and
+// a grazing and a tilted view: finite and non-negative in fp32.
+TEST(KemppinenModel, StableOverTheCrossedParameterRangesInFp32) {
+  const double densities[] = {1e-6, 1e-3, 1.0, 1e6, 1e15, 1e30};
+  const double alphas[] = {1e-4, 0.3, 1.0};
+  const double micros[] = {1e-5, 0.02, 1.0};
+  const double anisos[] = {0.05, 1.0, 20.0};
+  const double filters[] = {0.1, 0.7, 4.0};
+  const std::array<double, 4> fps[] = {
+      {0, 0, 0, 0},     {1e-9, 0, 0, 1e-9}, {1e-3, 2e-4, -1e-4, 1e-3},
+      {1e3, 0, 0, 1e3}, {3e38, 0, 0, 3e38}, {1e-3, 1e-3, 1e-3, 1e-3}};
+  const V3 wos[] = {Normalize({0.3, 0.1, 1}), Normalize({1, 0.2, 1e-5})};
+  const V3 wi = Normalize({-0.2, -0.1, 1});
+  long checked = 0, bad = 0;
+  for (int ndf : {GLINT_NDF_GGX, GLINT_NDF_BECKMANN})
+    for (double density : densities)
+      for (double alpha : alphas)
+        for (double micro : micros)
+          for (double aniso : anisos)
+            for (double filter : filters)
+              for (const auto &fp : fps) {
+                Glinty g;
+                g.ndf = ndf;
+                g.density = density;
+                g.ax = alpha;
+                g.ay = std::min(1.0, 2 * alpha);
+                g.micro = micro;
+                g.aniso = aniso;
+                g.filter = filter;
+                g.neighbors = 1 + int(checked % 4) * (int(checked % 4) + 2);  // 1, 4, 9, 16
+                for (double u : {0.3, 1e7})
+                  for (const V3 &wo : wos)
+                    for (bool probe : {false, true}) {
+                      auto a = k32::Query(g, u, 0.7, fp.data(), wo, wi, probe);
+                      ++checked;
+                      for (double c : a)
+                        if (!(std::isfinite(c) && c >= 0.0) && ++bad <= 5)
+                          ADD_FAILURE()
+                              << NdfName(ndf) << " density " << density << " alpha " << alpha
+                              << " micro " << micro << " aniso " << aniso << " filter " << filter
+                              << " fp " << fp[0] << " u " << u << " probe " << probe << " = " << c;
+                    }
+              }
+  std::printf("crossed parameter sweep: %ld queries, %ld bad\n", checked, bad);
+  EXPECT_EQ(bad, 0);
+}
+
 // fp32 against fp64 where the problem is well conditioned (uv in [0, 10], moderate footprint and
 // parameters): a float rounding of x_s res_s (~1e3 cells: ~6e-5 cells absolute) moves a facet
 // lobe's exponent by at most |d q / d x| ~ 2 * 3 sigma / sigma^2 * 6e-5 cells ~ 1e-3 relative

@@ -6,8 +6,9 @@
 // error (delta method on per-query RGB sums). Median of --repeat timed runs after one warm run.
 //
 //   cmake --build build --target bench_kemppinen
-//   build/bench/bench_kemppinen [--queries N] [--repeat R] [--json]   (defaults 100000, 3)
-// --json prints one JSON object per row instead of the markdown table.
+//   build/bench/bench_kemppinen [--queries N] [--repeat R] [--json] [--host]  (defaults 100000, 3)
+// --json prints one JSON object per row instead of the markdown table; --host times the scalar
+// C++ host path (HostEvaluate, one thread) instead of the device.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -18,6 +19,7 @@
 
 #include "server/device_engine.h"
 #include "server/eval_plan.h"
+#include "server/host_path.h"
 #include "test_queries.h"
 
 namespace {
@@ -56,7 +58,7 @@ glint::v1::EvaluateRequest MakeRequest(const glint::v1::QueryBatch &q, bool quad
 int main(int argc, char **argv) {
   uint32_t n = 100000;
   int repeat = 3;
-  bool json = false;
+  bool json = false, host = false;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     if (a == "--queries" && i + 1 < argc)
@@ -65,8 +67,10 @@ int main(int argc, char **argv) {
       repeat = std::stoi(argv[++i]);
     else if (a == "--json")
       json = true;
+    else if (a == "--host")
+      host = true;
     else {
-      std::fprintf(stderr, "usage: bench_kemppinen [--queries N] [--repeat R] [--json]\n");
+      std::fprintf(stderr, "usage: bench_kemppinen [--queries N] [--repeat R] [--json] [--host]\n");
       return 2;
     }
   }
@@ -84,6 +88,17 @@ int main(int argc, char **argv) {
                  double *seconds) -> bool {
     const glint::EvalPlan plan = glint::MakeEvalPlan(request, request.queries());
     out->assign(size_t(3) * n, 0.0f);
+    if (host) {  // the scalar C++ path on this thread: the baseline
+      std::vector<double> t;
+      for (int r = 0; r < repeat; ++r) {
+        auto t0 = Clock::now();
+        glint::HostEvaluate(plan, request.queries(), out->data());
+        t.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+      }
+      std::sort(t.begin(), t.end());
+      *seconds = t[t.size() / 2];
+      return true;
+    }
     glint::Status st = engine->Evaluate(0, plan, request.queries(), out->data());
     if (!st.ok()) {
       std::fprintf(stderr, "%s\n", st.message().c_str());
@@ -107,8 +122,8 @@ int main(int argc, char **argv) {
   if (!json) {
     std::printf(
         "kemppinen vs smooth, %u queries (local frame, GGX alpha 0.3, directional + point "
-        "lights, with and without a polygon quad via LTC), device %s fp32, median of %d\n\n",
-        n, engine->info().name.c_str(), repeat);
+        "lights, with and without a polygon quad via LTC), %s fp32, median of %d\n\n",
+        n, host ? "host path (one thread)" : engine->info().name.c_str(), repeat);
     std::printf("| lights | density | k | evals/s | ratio to smooth | mean / smooth - 1 | se |\n");
     std::printf("|---|---|---|---|---|---|---|\n");
   }

@@ -24,8 +24,9 @@
  *    solid angle then differs from D, which the weight D makes up for.
  *  - Facets: one per cell of an implicit 4D grid, res_s^2 res_a^2 = K_P
  *    (3.3.1-3.3.2), res_a = 2^l, res_s = sqrt(K_P) 2^-l; a facet's position
- *    and normal come from kernels/rng.h hashes of (seed, level, cell), so
- *    they do not depend on batching. Facets outside the disk are rejected.
+ *    and normal come from hashes of (seed, level, cell) with kernels/rng.h's
+ *    mixer (kemppinen_mix, lane-wise), so they do not depend on batching.
+ *    Facets outside the disk are rejected.
  *  - Gaussian pixel filter Sigma_s = f^2 J J^T (Eq. 5) from the uv Jacobian.
  *  - Facet lobe: Gaussian in U of covariance |J_T| (alpha_star A^-1)^2
  *    (Eq. 4 and Algorithm 1 line 12), A = diag(a, 1/a) the anisotropy.
@@ -44,6 +45,8 @@
  *    P_s * P_a(B) instead of P_a(B), P_s = the filter's mass in the spatial
  *    block (per axis, from the diagonal of Sigma_s: exact for axis-aligned
  *    footprints, an approximation of a small term otherwise).
+ *  - GGX |J_T| uses the solid-angle Jacobian |M| / |M^T h|^3 of the stretch
+ *    (K25 Eq. 6 prints exponent 4); see kemppinen_to_disk.
  *  - erf: Abramowitz & Stegun 7.1.26 (absolute error <= 1.5e-7); the
  *    rectangle masses use erfc on the far side of 0 so tails do not cancel.
  *

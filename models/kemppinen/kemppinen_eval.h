@@ -33,8 +33,8 @@ GLINT_FN real3 kemppinen_reflect(SmoothMaterial m, KemppinenParams p, KemppinenF
   real hl = r3_length(hv);
   real3 h = r3_div(hv, glint_select(R(1.0), hl, hl > R(0.0)));
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
-  real s = kemppinen_glint_factor(p, fp, m.ndf, h, m.alpha_x, m.alpha_y, D);
-  return r3_select(zero, r3_scale(ls, s), live);
+  real3 s = kemppinen_glint_factor(p, fp, m.ndf, h, m.alpha_x, m.alpha_y, D);
+  return r3_select(zero, r3_mul(ls, s), live);
 }
 
 /* Reflected radiance towards wo (RGB) from the probe direction or the

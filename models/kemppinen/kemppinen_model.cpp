@@ -2,6 +2,7 @@
 // parameter block (glint.v1.KemppinenParams), what it needs of queries, and
 // two passes as the smooth model has: 8-lane SIMD for probes and
 // directional/point lights, one query per work-item for polygon lights.
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -51,9 +52,12 @@ Status ValidateKemppinenParams(const Material &m) {
   } else if (!(k.anisotropy() == 0.0f || (k.anisotropy() >= 0.05f && k.anisotropy() <= 20.0f))) {
     o << "material.kemppinen.anisotropy: " << k.anisotropy()
       << "; expected a stretch in [0.05, 20] (0 = 1)";
-  } else if (k.colors_size() > 0) {
+  } else if (!(k.colors_size() == 0 || k.colors_size() == 3 || k.colors_size() == 6)) {
     o << "material.kemppinen.colors: " << k.colors_size()
-      << " values; per-glint colours are not implemented yet, expected none";
+      << " values; expected 0, 3 or 6 (no colour, or one or two RGB triples)";
+  } else if (!std::all_of(k.colors().begin(), k.colors().end(),
+                          [](float c) { return c >= 0.0f && c <= 1.0f; })) {
+    o << "material.kemppinen.colors: a channel outside [0, 1]; expected RGB in [0, 1]";
   } else {
     return Status::Ok();
   }
@@ -85,6 +89,16 @@ void PackKemppinenParams(const Material &m, float *params) {
   params[3] = static_cast<float>(k.neighbors() > 0 ? k.neighbors()
                                                    : uint32_t(GLINT_KEMPPINEN_DEFAULT_NEIGHBORS));
   params[4] = k.anisotropy() > 0.0f ? k.anisotropy() : GLINT_KEMPPINEN_DEFAULT_ANISOTROPY;
+  // Colours: 8 bits per channel, r + 256 g + 65536 b (< 2^24, exact in a float); the count last
+  // (kemppinen_ndf.h kemppinen_params_unpack).
+  const int n_colors = k.colors_size() / 3;
+  for (int c = 0; c < n_colors; ++c) {
+    uint32_t v = 0;
+    for (int ch = 0; ch < 3; ++ch)
+      v |= uint32_t(std::lround(double(k.colors(3 * c + ch)) * 255.0)) << (8 * ch);
+    params[5 + c] = static_cast<float>(v);
+  }
+  params[7] = static_cast<float>(n_colors);
 }
 
 void KemppinenExample(Material *m, glint::v1::QueryBatch *one_query) {

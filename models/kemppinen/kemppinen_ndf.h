@@ -110,7 +110,16 @@ typedef struct {
   real filter;  /* f */
   int n_side;   /* sqrt(k): angular cells per axis explicitly evaluated */
   real aniso;   /* a, A_star = diag(a, 1/a) */
+  real3 c0, c1; /* the facets' two colours (K25 3.3.6); both white without colours */
 } KemppinenParams;
+
+/* A colour packed as r + 256 g + 65536 b, 8 bits per channel (an integer
+ * < 2^24, exact in a float): kemppinen_model.cpp packs it. */
+GLINT_FN real3 kemppinen_unpack_color(float packed) {
+  uint v = (uint)packed;
+  return make_real3((real)(v & 255u) * R(1.0 / 255.0), (real)((v >> 8) & 255u) * R(1.0 / 255.0),
+                    (real)((v >> 16) & 255u) * R(1.0 / 255.0));
+}
 
 GLINT_FN KemppinenParams kemppinen_params_unpack(const GLINT_GLOBAL float *packed) {
   KemppinenParams p;
@@ -120,6 +129,11 @@ GLINT_FN KemppinenParams kemppinen_params_unpack(const GLINT_GLOBAL float *packe
   int k = (int)packed[3];
   p.n_side = k >= 16 ? 4 : k >= 9 ? 3 : k >= 4 ? 2 : 1;
   p.aniso = (real)packed[4];
+  int n_colors = (int)packed[7];
+  p.c0 = make_real3(R(1.0), R(1.0), R(1.0));
+  p.c1 = p.c0;
+  if (n_colors >= 1) p.c0 = kemppinen_unpack_color(packed[5]);
+  p.c1 = n_colors >= 2 ? kemppinen_unpack_color(packed[6]) : p.c0;
   return p;
 }
 
@@ -288,6 +302,7 @@ GLINT_FN real kemppinen_roulette(real r, real w) {
  * in [0,1)^4 within its cell and its roulette number (K25 3.3.1). */
 typedef struct {
   real sx, sy, ax, ay, r;
+  real pick; /* 0 or 1: which of the two colours (K25 3.3.6) */
 } KemppinenFacet;
 
 /* The hash of (seed, level, spatial cell); facets absorb their angular cell. */
@@ -315,6 +330,7 @@ GLINT_FN KemppinenFacet kemppinen_facet(kemp_uint spatial_key, real ix, real iy)
   g.ax = kemppinen_u16_hi(h2);
   g.ay = kemppinen_u16_lo(h2);
   g.r = kemppinen_u16_hi(key);
+  g.pick = KEMP_TO_REAL(key & 1u);
   return g;
 }
 
@@ -443,10 +459,11 @@ GLINT_FN real kemppinen_compensation(KemppinenFootprint fp, KemppinenAngular a, 
 
 /* Level l's part of S with MIP weight w: roulette-weighted explicit facets
  * (Algorithm 1 lines 13-18) plus w C (line 20). */
-GLINT_FN real kemppinen_level(KemppinenParams p, KemppinenFootprint fp, KemppinenAngular a,
-                              real level, real w) {
+GLINT_FN real3 kemppinen_level(KemppinenParams p, KemppinenFootprint fp, KemppinenAngular a,
+                               real level, real w) {
   KemppinenBlocks b = kemppinen_blocks(p, fp, a, level);
-  real sum = R(0.0);
+  real3 sum = make_real3(R(0.0), R(0.0), R(0.0));
+  real3 dc = r3_sub(p.c1, p.c0);
   int n = p.n_side;
   for (int j = 0; j < 4; ++j) {
     real cx = b.bs_x + (real)(j & 1);
@@ -459,24 +476,30 @@ GLINT_FN real kemppinen_level(KemppinenParams p, KemppinenFootprint fp, Kemppine
       glint_mask valid = (ix < b.ea_x) & (iy < b.ea_y);
       KemppinenFacet g = kemppinen_facet(key, ix, iy);
       real keep = kemppinen_roulette(g.r, w);
-      if (glint_any(valid & (keep > R(0.0))))
-        sum += glint_select(R(0.0), keep * kemppinen_facet_lobe(b, cx, cy, ix, iy, g), valid);
+      if (glint_any(valid & (keep > R(0.0)))) {
+        real wt = glint_select(R(0.0), keep * kemppinen_facet_lobe(b, cx, cy, ix, iy, g), valid);
+        /* K25 3.3.6: the facet's colour from its cell's hash. */
+        sum = r3_add(sum, r3_scale(r3_add(p.c0, r3_scale(dc, g.pick)), wt));
+      }
     }
   }
-  return sum + w * kemppinen_compensation(fp, a, b);
+  /* The compensation in the mean colour (each colour has probability 1/2). */
+  real3 mean = r3_scale(r3_add(p.c0, p.c1), R(0.5));
+  return r3_add(sum, r3_scale(mean, w * kemppinen_compensation(fp, a, b)));
 }
 
-/* S(x, h) = D_star / D for the query's footprint and half-vector h (unit). */
-GLINT_FN real kemppinen_glint_factor(KemppinenParams p, KemppinenFootprint fp, int ndf, real3 h,
-                                     real ax, real ay, real D) {
+/* S(x, h) = D_star / D (RGB: the facets' colours) for the query's footprint
+ * and half-vector h (unit). */
+GLINT_FN real3 kemppinen_glint_factor(KemppinenParams p, KemppinenFootprint fp, int ndf, real3 h,
+                                      real ax, real ay, real D) {
   KemppinenAngular a = kemppinen_angular(p, kemppinen_to_disk(ndf, h, ax, ay, D));
   /* Algorithm 1 lines 7-8: l in {floor, ceil} of lambda, w = 1 - |lambda - l|
    * (lambda <= GLINT_KEMPPINEN_MAX_LEVEL, so w1 = 0 at the last level). */
   real lf = floor(fp.lambda);
   real w1 = fp.lambda - lf;
-  real s = kemppinen_level(p, fp, a, lf, R(1.0) - w1);
+  real3 s = kemppinen_level(p, fp, a, lf, R(1.0) - w1);
   if (glint_any(w1 > R(0.0)))
-    s += kemppinen_level(p, fp, a, fmin(lf + R(1.0), R(GLINT_KEMPPINEN_MAX_LEVEL)), w1);
+    s = r3_add(s, kemppinen_level(p, fp, a, fmin(lf + R(1.0), R(GLINT_KEMPPINEN_MAX_LEVEL)), w1));
   return s;
 }
 

@@ -3,7 +3,8 @@
  * and its kernels (kemppinen_ndf.h unpacks it): plain #defines, valid OpenCL C
  * and C++.
  *   [density K_P, microroughness alpha_star, filter_size f, neighbors k,
- *    anisotropy a, 0, 0, 0] */
+ *    anisotropy a, colour 0, colour 1, number of colours (0, 1, 2)]
+ * with a colour packed as r + 256 g + 65536 b, 8 bits per channel. */
 #ifndef GLINT_KEMPPINEN_PARAMS_H
 #define GLINT_KEMPPINEN_PARAMS_H
 

@@ -50,8 +50,8 @@ GLINT_FN real3 kemppinen_polygons_query(EvalSpec spec, KernelInputs in, uint i) 
     real3 wc = area_safe_normalize(c, up);
     real3 h = area_safe_normalize(r3_add(wc, wo), up);
     real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
-    radiance = r3_add(
-        radiance, r3_scale(ls, kemppinen_glint_factor(p, fp, m.ndf, h, m.alpha_x, m.alpha_y, D)));
+    radiance = r3_add(radiance,
+                      r3_mul(ls, kemppinen_glint_factor(p, fp, m.ndf, h, m.alpha_x, m.alpha_y, D)));
   }
   return radiance;
 }

@@ -62,6 +62,7 @@ EvaluateRequest MakeSettings(v1::Ndf ndf, bool lights, bool polygon, bool fp64, 
   k->set_density(3e5);
   k->set_microroughness(0.05f);
   k->set_neighbors(uint32_t(neighbors));
+  for (float c : {1.0f, 0.2f, 0.1f, 1.0f, 0.9f, 0.2f}) k->add_colors(c);  // per-glint colours
   if (lights) {
     auto *d = r.add_lights()->mutable_directional();
     for (float v : {0.6f, 0.0f, 0.8f}) d->add_direction(v);
@@ -100,8 +101,16 @@ TEST(KemppinenValidation, RefusalsNameTheField) {
   bad.mutable_material()->mutable_kemppinen()->set_microroughness(2.0f);
   refused(bad, "material.kemppinen.microroughness");
   bad = r;
-  bad.mutable_material()->mutable_kemppinen()->add_colors(1.0f);
+  bad.mutable_material()->mutable_kemppinen()->add_colors(1.0f);  // 7 values
   refused(bad, "material.kemppinen.colors");
+  bad = r;
+  bad.mutable_material()->mutable_kemppinen()->clear_colors();
+  for (float c : {1.0f, 0.2f, 2.0f}) bad.mutable_material()->mutable_kemppinen()->add_colors(c);
+  refused(bad, "material.kemppinen.colors");  // a channel > 1
+  EvaluateRequest one = r;
+  one.mutable_material()->mutable_kemppinen()->clear_colors();
+  for (float c : {1.0f, 0.2f, 0.1f}) one.mutable_material()->mutable_kemppinen()->add_colors(c);
+  EXPECT_TRUE(ValidateSettings(one, {}).ok());
   bad = r;
   bad.mutable_material()->clear_kemppinen();
   refused(bad, "material.kemppinen");

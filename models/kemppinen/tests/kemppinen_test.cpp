@@ -33,6 +33,7 @@ struct Glinty {
   double density = 1e6, micro = 0.02, filter = 0.7, aniso = 1.0;
   int neighbors = 4;
   unsigned seed_lo = 11, seed_hi = 0;
+  std::vector<double> colors;  // flat RGB triples, 0, 1 or 2 colours
 };
 }  // namespace glint::test
 
@@ -251,6 +252,63 @@ TEST(GlintyNdf, AveragedOverUvEqualsTheSmoothNdfForShearedFootprints) {
   std::printf("Eq. 2 sheared footprint: mean D*/D %.4f +- %.4f, P_s bias bound %.2e\n", st.mean,
               st.se(), bias_bound);
   EXPECT_NEAR(st.mean, 1.0, 4.5 * st.se() + bias_bound);
+}
+
+// Per-glint colours (K25 3.3.6): each facet takes one of two colours from its cell's hash, the
+// compensation the mean colour. Averaged over uv, D_star / D per channel is the mean colour
+// (Eq. 2 per channel, within 4.5 standard errors); bright pixels of a sparse pattern are single
+// facets, so their g / r ratio is one of the two colours' (within 0.05), about half each
+// (binomial: |n0 - n1| <= 4.5 sqrt(n0 + n1)), and together most of them (>= 80%; the rest mix
+// two facets or the compensation).
+TEST(GlintyNdf, ColouredGlintsAverageToTheMeanColourAndComeInTheGivenColours) {
+  Glinty g;
+  g.colors = {1.0, 0.2, 0.1, 1.0, 0.9, 0.2};
+  std::array<double, 3> mean{};
+  for (int ch = 0; ch < 3; ++ch)
+    mean[size_t(ch)] = 0.5 *
+                       double(std::lround(g.colors[size_t(ch)] * 255) +
+                              std::lround(g.colors[size_t(3 + ch)] * 255)) /
+                       255.0;
+  const V3 h = Normalize({0.1, -0.05, 1});
+  {
+    auto fp = FootprintForLevel(g, 3.5);
+    std::mt19937_64 rng(31);
+    std::uniform_real_distribution<double> uni(0.0, 100.0);
+    std::array<std::vector<double>, 3> s;
+    for (int i = 0; i < 40000; ++i) {
+      auto c = k64::GlintFactorRgb(g, uni(rng), uni(rng), fp.data(), h);
+      for (int ch = 0; ch < 3; ++ch) s[size_t(ch)].push_back(c[size_t(ch)]);
+    }
+    for (int ch = 0; ch < 3; ++ch) {
+      Stats st = Summarise(s[size_t(ch)]);
+      std::printf("coloured glints, channel %d: mean D*/D %.4f +- %.4f, mean colour %.4f\n", ch,
+                  st.mean, st.se(), mean[size_t(ch)]);
+      EXPECT_NEAR(st.mean, mean[size_t(ch)], 4.5 * st.se()) << "channel " << ch;
+    }
+  }
+  {
+    Glinty sparse = g;
+    sparse.density = 1e5;
+    const double fp[4] = {1e-3, 0, 0, 1e-3};
+    std::mt19937_64 rng(32);
+    std::uniform_real_distribution<double> uni(0.0, 100.0);
+    int bright = 0, first = 0, second = 0;
+    const double r0 = double(std::lround(0.2 * 255)) / 255.0;  // g / r of the 8-bit colours
+    const double r1 = double(std::lround(0.9 * 255)) / 255.0;
+    for (int i = 0; i < 40000; ++i) {
+      auto c = k64::GlintFactorRgb(sparse, uni(rng), uni(rng), fp, h);
+      if (!(c[0] > 5.0)) continue;
+      ++bright;
+      double ratio = c[1] / c[0];
+      first += std::fabs(ratio - r0) < 0.05;
+      second += std::fabs(ratio - r1) < 0.05;
+    }
+    std::printf("coloured glints: %d bright pixels, %d of colour 0, %d of colour 1\n", bright,
+                first, second);
+    EXPECT_GT(bright, 100);
+    EXPECT_GE(first + second, bright * 8 / 10);
+    EXPECT_LE(std::abs(first - second), 4.5 * std::sqrt(double(first + second)));
+  }
 }
 
 // Each query approaches D as the density grows (K25 3.3.2: "the appearance quickly converges to

@@ -7,7 +7,8 @@
 #define GLINT_MODEL_TABLE(X) \
   X(kSmoothModel)            \
   X(kBinomialModel)          \
-  X(kChermainModel)
+  X(kChermainModel)          \
+  X(kKemppinenModel)
 
 namespace glint {
 

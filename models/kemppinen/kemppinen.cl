@@ -1,0 +1,55 @@
+/* Entry of the Kemppinen glint model for BRDF probes, directional and point
+ * lights (models/kemppinen/kemppinen_eval.h). Each work-item evaluates
+ * GLINT_LANES (8) queries as the lanes of OpenCL vectors, as the smooth model
+ * does (kernels/simd_io.h says why); the cell loops have uniform trip counts
+ * and per-query conditions are selects. Polygon lights run in the second pass
+ * (models/kemppinen/kemppinen_area.cl). */
+#include "kernels/kernel_args.h"
+#include "kernels/simd_io.h"
+#include "models/kemppinen/kemppinen_eval.h"
+
+/* Component k of a per-query array with `stride` floats per query, for the
+ * block's lanes; lanes past n repeat query n - 1 (finite work, never stored). */
+GLINT_FN real kemppinen_block_gather(__global const float *a, uint stride, uint k, uint base,
+                                     uint n) {
+#if GLINT_LANES == 8
+  uint last = n - 1u;
+  float8 v = (float8)(a[stride * min(base, last) + k], a[stride * min(base + 1u, last) + k],
+                      a[stride * min(base + 2u, last) + k], a[stride * min(base + 3u, last) + k],
+                      a[stride * min(base + 4u, last) + k], a[stride * min(base + 5u, last) + k],
+                      a[stride * min(base + 6u, last) + k], a[stride * min(base + 7u, last) + k]);
+  return GLINT_FLOATS_TO_REAL(v);
+#else
+  return (real)a[stride * base + k];
+#endif
+}
+
+__kernel void glint_kemppinen(GLINT_KERNEL_ARGS) {
+  uint base = (uint)get_global_id(0) * GLINT_LANES;
+  /* Padding work-items; uniform for all lanes of a work-item, not divergent. */
+  if (base >= n) return;
+  EvalSpec spec = kernel_spec();
+  KernelInputs in = GLINT_KERNEL_INPUTS();
+
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  QueryInputs q;
+  q.wo = block_load3(wo, base, n);
+  q.wi = zero;
+  q.position = zero;
+  q.normal = zero;
+  q.tangent = zero;
+  if (GLINT_PROBE) q.wi = block_load3(wi, base, n);
+  if (GLINT_HAS_FRAME) {
+    q.position = block_load3(position, base, n);
+    q.normal = block_load3(normal, base, n);
+    q.tangent = block_load3(tangent, base, n);
+  }
+  real u = kemppinen_block_gather(uv, 2u, 0u, base, n);
+  real v = kemppinen_block_gather(uv, 2u, 1u, base, n);
+  real foot[4];
+  for (uint k = 0; k < 4u; ++k) foot[k] = kemppinen_block_gather(footprint, 4u, k, base, n);
+  real3 L = kemppinen_shade(spec, in, q, u, v, foot);
+  /* Only when an earlier pass wrote `out`; this pass runs first. */
+  if (accumulate) L = r3_add(block_load3(out, base, n), L);
+  block_store3(out, base, n, L);
+}

@@ -1,0 +1,77 @@
+/* The Kemppinen et al. 2025 glint model ("K25") per query: the smooth
+ * microfacet BRDF with D replaced by the glinty D_star = D S
+ * (models/kemppinen/kemppinen_ndf.h, Eq. 11), i.e. Eq. 1 with the base
+ * material's Smith G2 and Fresnel:
+ *   f cos_i = F G2 D S / (4 cos_o) = smooth_reflect_cos(wi, wo) * S(x, h).
+ *  - BRDF probes (wi) and directional / point lights: S at h = (wi + wo) / |.|.
+ *    A light's cone (directional cone_half_angle_deg, point radius) is NOT
+ *    used: the light is a delta direction and the facets' own lobes
+ *    (microroughness) give the glints their angular size, as in the paper.
+ *  - Polygon lights: models/kemppinen/kemppinen_polygons.h (a second pass).
+ * The facets are the same for every light (hashes of seed, level and cell
+ * only). Lane-agnostic like kemppinen_ndf.h: the 8-lane entry
+ * models/kemppinen/kemppinen.cl runs kemppinen_shade on blocks of queries. */
+#ifndef GLINT_KEMPPINEN_EVAL_H
+#define GLINT_KEMPPINEN_EVAL_H
+
+#include "kernels/compat.h"
+#include "kernels/kernel_args.h"
+#include "kernels/punctual_lights.h"
+#include "kernels/query.h"
+#include "kernels/smooth_brdf.h"
+#include "models/kemppinen/kemppinen_ndf.h"
+
+/* f(wi, wo) cos_i with D_star, times `radiance` (RGB). */
+GLINT_FN real3 kemppinen_reflect(SmoothMaterial m, KemppinenParams p, KemppinenFootprint fp,
+                                 real3 wi, real3 wo, real3 radiance) {
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  real3 ls = r3_mul(smooth_reflect_cos(m, wi, wo), radiance);
+  glint_mask live = ls.x + ls.y + ls.z > GLINT_R(0.0);
+  if (!glint_any(live)) return zero; /* host: the early return; device: whole blocks */
+  /* Dead lanes (wi = -wo: h = 0) compute on a safe h and are dropped. */
+  real3 hv = r3_add(wi, wo);
+  real hl = r3_length(hv);
+  real3 h = r3_div(hv, glint_select(GLINT_R(1.0), hl, hl > GLINT_R(0.0)));
+  real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
+  real3 s = kemppinen_glint_factor(p, fp, m.ndf, h, m.alpha_x, m.alpha_y, D);
+  return r3_select(zero, r3_mul(ls, s), live);
+}
+
+/* Reflected radiance towards wo (RGB) from the probe direction or the
+ * directional and point lights, for one query or (8-lane entry) a block of
+ * queries: q, uv and footprint hold the block's lanes. */
+GLINT_FN real3 kemppinen_shade(EvalSpec spec, KernelInputs in, QueryInputs q, real u, real v,
+                               const GLINT_PRIVATE real *footprint) {
+  SmoothMaterial m = smooth_material_unpack(in.material, spec.ndf, spec.fresnel);
+  KemppinenParams p = kemppinen_params_unpack(in.params);
+  ShadingPoint sp = shading_point(spec, q);
+  KemppinenFootprint fp = kemppinen_footprint(p, u, v, footprint, in.seed_lo, in.seed_hi);
+  if (spec.probe) {
+    real3 wi = shading_to_local(spec, sp, r3_normalize(q.wi));
+    return kemppinen_reflect(m, p, fp, wi, sp.wo,
+                             make_real3(GLINT_R(1.0), GLINT_R(1.0), GLINT_R(1.0)));
+  }
+  real3 radiance = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  uint n_lights = punctual_light_count(spec, in);
+  for (uint l = 0; l < n_lights; ++l) {
+    PunctualLight light = punctual_light(spec, in, sp, l);
+    radiance = r3_add(radiance, kemppinen_reflect(m, p, fp, light.wi, sp.wo, light.irradiance));
+  }
+  return radiance;
+}
+
+/* The footprint of query i (one query per work-item). */
+GLINT_FN void kemppinen_load_footprint(KernelInputs in, uint i, GLINT_PRIVATE real *footprint) {
+  for (int k = 0; k < 4; ++k) footprint[k] = (real)in.footprint[4 * i + k];
+}
+
+/* Probes, directional and point lights for query i (the host path; the device
+ * runs kemppinen_shade on blocks of 8, models/kemppinen/kemppinen.cl). */
+GLINT_FN real3 kemppinen_query(EvalSpec spec, KernelInputs in, uint i) {
+  real footprint[4];
+  kemppinen_load_footprint(in, i, footprint);
+  return kemppinen_shade(spec, in, query_load(spec, in, i), (real)in.uv[2 * i],
+                         (real)in.uv[2 * i + 1], footprint);
+}
+
+#endif /* GLINT_KEMPPINEN_EVAL_H */

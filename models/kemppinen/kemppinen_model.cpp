@@ -1,0 +1,138 @@
+// The Kemppinen model's entry in the model table (server/model.h): its
+// parameter block (glint.v1.KemppinenParams), what it needs of queries, and
+// two passes as the smooth model has: 8-lane SIMD for probes and
+// directional/point lights, one query per work-item for polygon lights.
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "models/kemppinen/kemppinen_params.h"
+#include "server/eval_plan.h"
+#include "server/host_pass.h"
+#include "server/model.h"
+
+GLINT_DECLARE_HOST_PASS(KemppinenLights)
+GLINT_DECLARE_HOST_PASS(KemppinenPolygons)
+
+namespace glint {
+namespace {
+
+using glint::v1::Material;
+
+bool HasProbesOrPunctualLights(const EvalPlan &plan) {
+  // Also when nothing else runs, so a batch always gets its output written.
+  return plan.spec.probe || plan.n_directional > 0 || plan.n_point > 0 || plan.n_polygon == 0;
+}
+
+bool HasPolygons(const EvalPlan &plan) {
+  return plan.n_polygon > 0;
+}
+
+// proto/glint/v1/glint.proto KemppinenParams documents the ranges.
+Status ValidateKemppinenParams(const Material &m) {
+  if (!m.has_kemppinen()) {
+    return Status::InvalidArgument(
+        "material.kemppinen: unset; the KEMPPINEN model needs at least {\"density\": ...}");
+  }
+  const auto &k = m.kemppinen();
+  std::ostringstream o;
+  const uint32_t n = k.neighbors();
+  if (!(k.density() >= 1e-6 && k.density() <= 1e30)) {
+    o << "material.kemppinen.density: " << k.density()
+      << "; expected facets per unit uv area in [1e-6, 1e30]";
+  } else if (!(k.microroughness() == 0.0f ||
+               (k.microroughness() >= 1e-5f && k.microroughness() <= 1.0f))) {
+    o << "material.kemppinen.microroughness: " << k.microroughness()
+      << "; expected a facet lobe width in [1e-5, 1] radians (0 = 0.02)";
+  } else if (!(k.filter_size() == 0.0f || (k.filter_size() >= 0.1f && k.filter_size() <= 4.0f))) {
+    o << "material.kemppinen.filter_size: " << k.filter_size()
+      << "; expected a pixel-filter width in [0.1, 4] footprints (0 = 0.7)";
+  } else if (!(n == 0 || n == 1 || n == 4 || n == 9 || n == 16)) {
+    o << "material.kemppinen.neighbors: " << n << "; expected 1, 4, 9 or 16 (0 = 4)";
+  } else if (!(k.anisotropy() == 0.0f || (k.anisotropy() >= 0.05f && k.anisotropy() <= 20.0f))) {
+    o << "material.kemppinen.anisotropy: " << k.anisotropy()
+      << "; expected a stretch in [0.05, 20] (0 = 1)";
+  } else if (!(k.colors_size() == 0 || k.colors_size() == 3 || k.colors_size() == 6)) {
+    o << "material.kemppinen.colors: " << k.colors_size()
+      << " values; expected 0, 3 or 6 (no colour, or one or two RGB triples)";
+  } else if (!std::all_of(k.colors().begin(), k.colors().end(),
+                          [](float c) { return c >= 0.0f && c <= 1.0f; })) {
+    o << "material.kemppinen.colors: a channel outside [0, 1]; expected RGB in [0, 1]";
+  } else {
+    return Status::Ok();
+  }
+  return Status::InvalidArgument(o.str());
+}
+
+Status ValidateKemppinenQueries(const glint::v1::EvaluateRequest &, const glint::v1::QueryBatch &q,
+                                uint64_t) {
+  if (q.uv().empty()) {
+    return Status::InvalidArgument(
+        "queries.uv: empty; the KEMPPINEN model needs uv (2 per query) to place the facets (the "
+        "paper's uv-free triplanar variant is not implemented)");
+  }
+  if (q.footprint().empty()) {
+    return Status::InvalidArgument(
+        "queries.footprint: empty; the KEMPPINEN model needs the pixel footprint (du/dx, dv/dx, "
+        "du/dy, dv/dy per query) for its pixel filter (Eq. 5)");
+  }
+  return Status::Ok();
+}
+
+void PackKemppinenParams(const Material &m, float *params) {
+  static_assert(GLINT_KEMPPINEN_FLOATS <= GLINT_MODEL_PARAM_FLOATS);
+  const auto &k = m.kemppinen();
+  params[0] = static_cast<float>(k.density());
+  params[1] =
+      k.microroughness() > 0.0f ? k.microroughness() : GLINT_KEMPPINEN_DEFAULT_MICROROUGHNESS;
+  params[2] = k.filter_size() > 0.0f ? k.filter_size() : GLINT_KEMPPINEN_DEFAULT_FILTER_SIZE;
+  params[3] = static_cast<float>(k.neighbors() > 0 ? k.neighbors()
+                                                   : uint32_t(GLINT_KEMPPINEN_DEFAULT_NEIGHBORS));
+  params[4] = k.anisotropy() > 0.0f ? k.anisotropy() : GLINT_KEMPPINEN_DEFAULT_ANISOTROPY;
+  // Colours: 8 bits per channel, r + 256 g + 65536 b (< 2^24, exact in a float); the count last
+  // (kemppinen_ndf.h kemppinen_params_unpack).
+  const int n_colors = k.colors_size() / 3;
+  for (int c = 0; c < n_colors; ++c) {
+    uint32_t v = 0;
+    for (int ch = 0; ch < 3; ++ch)
+      v |= uint32_t(std::lround(double(k.colors(3 * c + ch)) * 255.0)) << (8 * ch);
+    params[5 + c] = static_cast<float>(v);
+  }
+  params[7] = static_cast<float>(n_colors);
+}
+
+void KemppinenExample(Material *m, glint::v1::QueryBatch *one_query) {
+  m->mutable_kemppinen()->set_density(1e6);
+  for (float v : {0.5f, 0.5f}) one_query->add_uv(v);
+  for (float v : {1e-3f, 0.0f, 0.0f, 1e-3f}) one_query->add_footprint(v);
+}
+
+std::vector<KernelSpec> KemppinenWarmSpecs() {
+  KernelSpec glints;  // the glint preview: a world frame, a sun and a rect light
+  glints.model = glint::v1::KEMPPINEN;
+  glints.has_frame = true;
+  glints.has_directional = true;
+  glints.has_polygon = true;
+  return {glints};
+}
+
+}  // namespace
+
+extern const Model kKemppinenModel;
+const Model kKemppinenModel = {
+    .id = glint::v1::KEMPPINEN,
+    .name = "KEMPPINEN",
+    .params_field = "kemppinen",
+    .passes = {{"models/kemppinen/kemppinen.cl", "glint_kemppinen", 8, HasProbesOrPunctualLights,
+                KemppinenLightsF32, KemppinenLightsF64},
+               {"models/kemppinen/kemppinen_area.cl", "glint_kemppinen_area", 1, HasPolygons,
+                KemppinenPolygonsF32, KemppinenPolygonsF64}},
+    .validate_params = ValidateKemppinenParams,
+    .validate_light = nullptr,
+    .validate_queries = ValidateKemppinenQueries,
+    .pack_params = PackKemppinenParams,
+    .example = KemppinenExample,
+    .warm_specs = KemppinenWarmSpecs,
+};
+
+}  // namespace glint

@@ -1,0 +1,239 @@
+// The Kemppinen model through the service's engine: validation messages, the OpenCL kernel
+// against the host path (the same kernels/*.h and models/kemppinen/*.h compiled as C++), and
+// determinism under chunking (tests/service/engine_test.cpp does the same for the other models).
+// The physics is checked against independent references in kemppinen_test.cpp.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "client/lib/glint_client.h"
+#include "server/device_engine.h"
+#include "server/eval_plan.h"
+#include "server/host_path.h"
+#include "server/validation.h"
+#include "test_queries.h"
+
+namespace glint {
+namespace {
+
+using glint::v1::EvaluateRequest;
+
+class KemppinenEngineTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    DeviceEngineOptions o;
+    o.cache_dir = "";  // compile from source: the test must see real build results
+    o.workers = 2;
+    Status s = DeviceEngine::Create(o, &engine_);
+    ASSERT_TRUE(s.ok()) << s.message();
+  }
+  static void TearDownTestSuite() { engine_.reset(); }
+
+  std::vector<float> Device(const EvalPlan &plan, const v1::QueryBatch &q, int lane = 0) {
+    std::vector<float> out(3 * q.count(), -1.0f);
+    Status s = engine_->Evaluate(lane, plan, q, out.data());
+    EXPECT_TRUE(s.ok()) << s.message();
+    return out;
+  }
+  static std::vector<float> Host(const EvalPlan &plan, const v1::QueryBatch &q) {
+    std::vector<float> out(3 * q.count(), -1.0f);
+    HostEvaluate(plan, q, out.data());
+    return out;
+  }
+
+  static std::unique_ptr<DeviceEngine> engine_;
+};
+std::unique_ptr<DeviceEngine> KemppinenEngineTest::engine_;
+
+EvaluateRequest MakeSettings(v1::Ndf ndf, bool lights, bool polygon, bool fp64, int neighbors) {
+  EvaluateRequest r;
+  auto *m = r.mutable_material();
+  m->set_model(v1::KEMPPINEN);
+  m->set_ndf(ndf);
+  m->set_alpha_x(0.3f);
+  m->set_alpha_y(0.15f);
+  for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
+  auto *k = m->mutable_kemppinen();
+  k->set_density(3e5);
+  k->set_microroughness(0.05f);
+  k->set_neighbors(uint32_t(neighbors));
+  for (float c : {1.0f, 0.2f, 0.1f, 1.0f, 0.9f, 0.2f}) k->add_colors(c);  // per-glint colours
+  if (lights) {
+    auto *d = r.add_lights()->mutable_directional();
+    for (float v : {0.6f, 0.0f, 0.8f}) d->add_direction(v);
+    for (float v : {1.0f, 2.0f, 3.0f}) d->add_irradiance(v);
+    auto *p = r.add_lights()->mutable_point();
+    for (float v : {-1.0f, 2.0f, 3.0f}) p->add_position(v);
+    for (float v : {5.0f, 5.0f, 4.0f}) p->add_intensity(v);
+  }
+  if (polygon) {
+    auto *p = r.add_lights()->mutable_polygon();
+    for (float v : {-3.0f, -3.0f, 3.0f, 3.0f, -3.0f, 3.0f, 3.0f, 3.0f, 3.0f, -3.0f, 3.0f, 3.0f})
+      p->add_vertices(v);
+    for (float v : {1.0f, 0.5f, 0.25f}) p->add_radiance(v);
+    p->set_two_sided(true);
+  }
+  r.set_precision(fp64 ? v1::FP64 : v1::FP32);
+  r.set_seed(0x5eedull);
+  return r;
+}
+
+TEST(KemppinenValidation, RefusalsNameTheField) {
+  EvaluateRequest r = MakeSettings(v1::GGX, true, false, false, 4);
+  ASSERT_TRUE(ValidateSettings(r, {}).ok());
+  auto refused = [](EvaluateRequest bad, const std::string &field) {
+    Status s = ValidateSettings(bad, {});
+    EXPECT_FALSE(s.ok()) << field;
+    EXPECT_NE(s.message().find(field), std::string::npos) << s.message();
+  };
+  EvaluateRequest bad = r;
+  bad.mutable_material()->mutable_kemppinen()->set_neighbors(5);
+  refused(bad, "material.kemppinen.neighbors");
+  bad = r;
+  bad.mutable_material()->mutable_kemppinen()->set_density(0.0);
+  refused(bad, "material.kemppinen.density");
+  bad = r;
+  bad.mutable_material()->mutable_kemppinen()->set_microroughness(2.0f);
+  refused(bad, "material.kemppinen.microroughness");
+  bad = r;
+  bad.mutable_material()->mutable_kemppinen()->add_colors(1.0f);  // 7 values
+  refused(bad, "material.kemppinen.colors");
+  bad = r;
+  bad.mutable_material()->mutable_kemppinen()->clear_colors();
+  for (float c : {1.0f, 0.2f, 2.0f}) bad.mutable_material()->mutable_kemppinen()->add_colors(c);
+  refused(bad, "material.kemppinen.colors");  // a channel > 1
+  EvaluateRequest one = r;
+  one.mutable_material()->mutable_kemppinen()->clear_colors();
+  for (float c : {1.0f, 0.2f, 0.1f}) one.mutable_material()->mutable_kemppinen()->add_colors(c);
+  EXPECT_TRUE(ValidateSettings(one, {}).ok());
+  bad = r;
+  bad.mutable_material()->clear_kemppinen();
+  refused(bad, "material.kemppinen");
+
+  // Queries without uv (or footprint) are refused, naming the field.
+  v1::QueryBatch q = test::RandomQueries(4, false, false, 1);
+  EXPECT_TRUE(ValidateQueriesForModel(q, r).ok());
+  v1::QueryBatch no_uv = q;
+  no_uv.clear_uv();
+  Status s = ValidateQueriesForModel(no_uv, r);
+  EXPECT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("queries.uv"), std::string::npos) << s.message();
+  v1::QueryBatch no_fp = q;
+  no_fp.clear_footprint();
+  s = ValidateQueriesForModel(no_fp, r);
+  EXPECT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("queries.footprint"), std::string::npos) << s.message();
+}
+
+// Device vs host: fp64 rounds once to float on both sides (libm noise only: 4e-6 relative);
+// fp32 differs by device vs host libm (exp, erfc, sqrt of PoCL vs glibc, a few ulps), amplified
+// where a facet's Gaussian exponent is large (q ~ 20 -> 20 ulps relative) or floor() picks
+// another cell block (rare): 1e-3 relative for 99% of values.
+TEST_F(KemppinenEngineTest, DeviceMatchesHostPath) {
+  // (framed, fp64, probe): four specialisations (each costs a kernel build), covering both
+  // precisions, both NDFs, probes, every light kind and the world frame.
+  const bool variants[][3] = {
+      {false, false, false}, {true, false, false}, {false, true, true}, {true, true, false}};
+  for (const auto &variant : variants) {
+    const bool framed = variant[0], fp64 = variant[1], probe = variant[2];
+    EvaluateRequest settings =
+        MakeSettings(fp64 ? v1::BECKMANN : v1::GGX, !probe, !probe && framed, fp64, 9);
+    v1::QueryBatch q = test::RandomQueries(3000, probe, framed, 23);
+    ASSERT_TRUE(ValidateSettings(settings, {}).ok());
+    ASSERT_TRUE(ValidateQueriesForModel(q, settings).ok());
+    EvalPlan plan = MakeEvalPlan(settings, q);
+    auto dev = Device(plan, q);
+    auto host = Host(plan, q);
+    int agree = 0, lit = 0;
+    double sum_dev = 0, sum_host = 0;
+    for (size_t i = 0; i < dev.size(); ++i) {
+      ASSERT_TRUE(std::isfinite(dev[i]) && dev[i] >= 0.0f) << plan.spec.Describe();
+      agree += std::fabs(dev[i] - host[i]) <= (fp64 ? 4e-6 : 1e-3) * std::fabs(host[i]) + 1e-7;
+      lit += dev[i] > 0.0f;
+      sum_dev += dev[i];
+      sum_host += host[i];
+    }
+    const std::string what = plan.spec.Describe();
+    EXPECT_GT(agree, int(dev.size()) * 99 / 100) << what;
+    EXPECT_NEAR(sum_dev / sum_host, 1.0, 0.02) << what;
+    EXPECT_GT(lit, int(dev.size()) / 20) << what;
+  }
+}
+
+// Bit-identical however the batch is split (facets hash (seed, level, cell), never the query's
+// index), and a new seed is a new pattern.
+TEST_F(KemppinenEngineTest, BitIdenticalUnderChunkingAndFollowsTheSeed) {
+  EvaluateRequest settings = MakeSettings(v1::GGX, true, true, false, 4);
+  v1::QueryBatch q = test::RandomQueries(1000, false, true, 31);
+  EvalPlan plan = MakeEvalPlan(settings, q);
+  auto whole = Device(plan, q);
+  auto again = Device(plan, q, 1);
+  EXPECT_EQ(0, std::memcmp(again.data(), whole.data(), whole.size() * sizeof(float)));
+  for (uint32_t chunk : {1u, 7u, 333u}) {
+    std::vector<float> pieces;
+    for (uint32_t first = 0; first < q.count(); first += chunk) {
+      v1::QueryBatch part =
+          client::SliceQueries(q, first, first + std::min(chunk, q.count() - first));
+      auto out = Device(MakeEvalPlan(settings, part), part, int(first / chunk) % 2);
+      pieces.insert(pieces.end(), out.begin(), out.end());
+    }
+    ASSERT_EQ(pieces.size(), whole.size());
+    EXPECT_EQ(0, std::memcmp(pieces.data(), whole.data(), whole.size() * sizeof(float)))
+        << "chunks of " << chunk;
+  }
+  settings.set_seed(6);
+  auto reseeded = Device(MakeEvalPlan(settings, q), q);
+  int differ = 0, lit = 0;
+  for (size_t i = 0; i < whole.size(); ++i) {
+    differ += whole[i] != reseeded[i];
+    lit += whole[i] > 0.0f || reseeded[i] > 0.0f;
+  }
+  EXPECT_GT(lit, 20);
+  EXPECT_GT(differ, lit / 2) << lit << " values lit under either seed";
+}
+
+// The extremes on the device (8-lane fp32 and fp64 kernels, and the polygon pass): uv = +-1e7,
+// zero / rank-1 / near-FLT_MAX footprints, grazing and below-horizon wo, at densities 1e-3 and
+// 1e30 and microroughness 1e-5: finite and non-negative, as on the host (kemppinen_test.cpp).
+TEST_F(KemppinenEngineTest, ExtremesAreFiniteAndNonNegativeOnTheDevice) {
+  v1::QueryBatch q;
+  const float uvs[][2] = {{0.3f, 0.7f}, {1e7f, -1e7f}, {-3.5f, 2.25f}};
+  const float fps[][4] = {{0, 0, 0, 0},
+                          {1e-3f, 1e-3f, 1e-3f, 1e-3f},
+                          {3e38f, -3e38f, 3e38f, 3e38f},
+                          {1e-3f, 0, 0, 1e-3f}};
+  const float wos[][3] = {
+      {0, 0, 1}, {1, 0, 0}, {0.6f, 0, 0.8f}, {0.8f, 0, -0.6f}, {0.99999f, 0, 0.0044721f}};
+  uint32_t count = 0;
+  for (auto &uv : uvs)
+    for (auto &fp : fps)
+      for (auto &wo : wos) {
+        q.add_uv(uv[0]);
+        q.add_uv(uv[1]);
+        for (float f : fp) q.add_footprint(f);
+        for (float w : wo) q.add_wo(w);
+        ++count;
+      }
+  q.set_count(count);
+  for (double density : {1e-3, 1e30})
+    for (bool fp64 : {false, true}) {
+      EvaluateRequest settings = MakeSettings(v1::GGX, true, true, fp64, 16);
+      settings.mutable_material()->mutable_kemppinen()->set_density(density);
+      settings.mutable_material()->mutable_kemppinen()->set_microroughness(1e-5f);
+      ASSERT_TRUE(ValidateSettings(settings, {}).ok());
+      ASSERT_TRUE(ValidateQueriesForModel(q, settings).ok());
+      EvalPlan plan = MakeEvalPlan(settings, q);
+      auto dev = Device(plan, q);
+      for (size_t i = 0; i < dev.size(); ++i)
+        EXPECT_TRUE(std::isfinite(dev[i]) && dev[i] >= 0.0f)
+            << "query " << i / 3 << " density " << density << " fp64 " << fp64 << " = " << dev[i];
+    }
+}
+
+}  // namespace
+}  // namespace glint

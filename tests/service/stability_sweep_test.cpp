@@ -87,6 +87,8 @@ struct Kinds {
 // draws every combination.
 Kinds DeviceKinds(v1::Model model, int request) {
   if (model == v1::BINOMIAL) return Kinds{v1::BECKMANN, 0, false, false};
+  if (model == v1::CHERMAIN) return Kinds{v1::BECKMANN, 1, true, false};  // Beckmann only
+  if (model == v1::KEMPPINEN) return Kinds{v1::GGX, 0, true, request % 4 == 3};
   const bool probe = request % 4 == 3;  // a quarter of the smooth requests are BRDF probes
   return probe ? Kinds{v1::BECKMANN, 1, true, true} : Kinds{v1::GGX, 2, true, false};
 }
@@ -156,7 +158,7 @@ class RequestSampler {
 
   void Material(v1::Model model, const Kinds &k, v1::Material *m) {
     m->set_model(model);
-    m->set_ndf(k.ndf);
+    m->set_ndf(model == v1::CHERMAIN ? v1::BECKMANN : k.ndf);
     m->set_alpha_x(Alpha());
     m->set_alpha_y(Chance(0.3) ? m->alpha_x() : Alpha());
     if (k.fresnel == 0) {
@@ -187,6 +189,37 @@ class RequestSampler {
       b->set_normal_threshold(float(x < 0.2 ? 0.0 : x < 0.3 ? 1.0 : x < 0.4 ? 40.0 : U(1, 40)));
       x = U(0.0, 1.0);
       b->set_slope_cell(float(x < 0.2 ? 0.0 : x < 0.25 ? 1e-45 : LogRange(1e-6, 1e3)));
+    }
+    if (model == v1::CHERMAIN) {  // ranges of models/chermain/chermain_model.cpp
+      auto *c = m->mutable_chermain();
+      double x = U(0.0, 1.0);
+      c->set_log_density(float(x < 0.1 ? 0.0 : x < 0.2 ? 60.0 : U(0.0, 60.0)));
+      x = U(0.0, 1.0);
+      c->set_relative_area(float(x < 0.2 ? 0.0 : x < 0.3 ? 1e-6 : x < 0.4 ? 1.0 : U(0.0, 1.0)));
+      x = U(0.0, 1.0);
+      c->set_density_randomisation(float(x < 0.2 ? 0.0 : x < 0.3 ? 10.0 : U(0.0, 10.0)));
+      x = U(0.0, 1.0);
+      c->set_max_anisotropy(float(x < 0.2 ? 0.0 : x < 0.3 ? 1.0 : x < 0.4 ? 16.0 : U(1.0, 16.0)));
+      const uint32_t sizes[] = {0, 16, 64, 192};
+      c->set_dictionary_size(sizes[Int(0, 3)]);
+      for (int i = 3 * Int(0, 8); i > 0; --i) c->add_colors(float(Chance(0.2) ? 0.0 : U(0.0, 1.0)));
+    }
+    if (model == v1::KEMPPINEN) {  // ranges of models/kemppinen/kemppinen_model.cpp
+      auto *p = m->mutable_kemppinen();
+      double x = U(0.0, 1.0);
+      p->set_density(x < 0.1 ? 1e-6 : x < 0.2 ? 1e30 : LogU(1e-6, 1e30));
+      x = U(0.0, 1.0);
+      p->set_microroughness(float(x < 0.2   ? 0.0
+                                  : x < 0.3 ? 1e-5
+                                  : x < 0.4 ? 1.0
+                                            : LogU(1e-5, 1.0)));
+      x = U(0.0, 1.0);
+      p->set_filter_size(float(x < 0.2 ? 0.0 : x < 0.3 ? 0.1 : x < 0.4 ? 4.0 : U(0.1, 4.0)));
+      const uint32_t neighbors[] = {0, 1, 4, 9, 16};
+      p->set_neighbors(neighbors[Int(0, 4)]);
+      x = U(0.0, 1.0);
+      p->set_anisotropy(float(x < 0.2 ? 0.0 : x < 0.3 ? 0.05 : x < 0.4 ? 20.0 : LogU(0.05, 20.0)));
+      for (int i = 3 * Int(0, 2); i > 0; --i) p->add_colors(float(Chance(0.2) ? 1.0 : U(0.0, 1.0)));
     }
   }
 
@@ -272,6 +305,10 @@ class RequestSampler {
     int n_dir = device ? Int(1, 2) : Int(0, 2);
     int n_point = device ? Int(1, 2) : Int(0, 2);
     int n_poly = device ? Int(1, 2) : Int(0, 2);
+    if (model == v1::CHERMAIN) {  // refused by the model (no area lights in the paper)
+      n_poly = 0;
+      if (n_dir + n_point == 0) n_dir = 1;
+    }
     if (n_dir + n_point + n_poly == 0) n_poly = 1;
     for (int i = 0; i < n_dir; ++i) {
       auto *d = r->add_lights()->mutable_directional();
@@ -361,7 +398,9 @@ class RequestSampler {
       // uv and footprint (needed by BINOMIAL, allowed for all).
       for (int c = 0; c < 2; ++c) {
         double x = U(0.0, 1.0);
-        double u = x < 0.1 ? 0.0 : x < 0.15 ? 1e7 : x < 0.17 ? kFloatMax : LogU(1e-6, 1e7);
+        // KEMPPINEN accepts |uv| <= 1e7 (its validation), the others the whole float range.
+        const double huge = r.material().model() == v1::KEMPPINEN ? 1e7 : kFloatMax;
+        double u = x < 0.1 ? 0.0 : x < 0.15 ? 1e7 : x < 0.17 ? huge : LogU(1e-6, 1e7);
         q->add_uv(float(Sign() * u));
       }
       double x = U(0.0, 1.0);
@@ -447,7 +486,7 @@ TEST_F(StabilitySweep, EveryAcceptedRequestGivesFiniteNonNegativeOutput) {
   // GLINT_SWEEP_DUMP=FILE: every failing query as a one-query request, one JSON per line.
   const char *dump_path = std::getenv("GLINT_SWEEP_DUMP");
   std::FILE *dump = dump_path ? std::fopen(dump_path, "w") : nullptr;
-  for (v1::Model model : {v1::SMOOTH, v1::BINOMIAL})
+  for (v1::Model model : {v1::SMOOTH, v1::BINOMIAL, v1::CHERMAIN, v1::KEMPPINEN})
     for (v1::AreaMethod method :
          {v1::LTC, v1::LECOCQ, v1::LECOCQ_PEARSON, v1::MONTE_CARLO, v1::REFERENCE})
       for (bool fp64 : {false, true})
@@ -465,7 +504,7 @@ TEST_F(StabilitySweep, EveryAcceptedRequestGivesFiniteNonNegativeOutput) {
               k.ndf = sampler.Chance(0.5) ? v1::GGX : v1::BECKMANN;
               k.fresnel = sampler.Int(0, 2);
               k.framed = sampler.Chance(0.5);
-              k.probe = model == v1::SMOOTH && sampler.Chance(0.25);
+              k.probe = model != v1::BINOMIAL && sampler.Chance(0.25);
             }
             EvaluateRequest settings;
             QueryBatch q;

@@ -118,6 +118,15 @@ TEST(KemppinenValidation, RefusalsNameTheField) {
   // Queries without uv (or footprint) are refused, naming the field.
   v1::QueryBatch q = test::RandomQueries(4, false, false, 1);
   EXPECT_TRUE(ValidateQueriesForModel(q, r).ok());
+  // |uv| beyond 1e7 is refused with the query index (offset by a stream chunk's first query):
+  // the facet grid made NaN at uv = 3.4e38 in fp32 (found by the stability sweep).
+  v1::QueryBatch far = q;
+  far.set_uv(5, 3.4e38f);  // query 2's v
+  Status far_s = ValidateQueriesForModel(far, r, 100);
+  EXPECT_FALSE(far_s.ok());
+  EXPECT_NE(far_s.message().find("queries.uv[102]"), std::string::npos) << far_s.message();
+  far.set_uv(5, -1e7f);
+  EXPECT_TRUE(ValidateQueriesForModel(far, r).ok());
   v1::QueryBatch no_uv = q;
   no_uv.clear_uv();
   Status s = ValidateQueriesForModel(no_uv, r);

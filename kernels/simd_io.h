@@ -13,6 +13,7 @@
 #define GLINT_SIMD_IO_H
 
 #include "kernels/compat.h"
+#include "kernels/kernel_args.h"
 #include "kernels/query.h"
 
 #if GLINT_LANES == 1
@@ -55,13 +56,13 @@ typedef float16 floatn;
   (float16)(p0.s147a, p0.sd, p1.s0369, p1.scf, p2.s258b, p2.se)
 #define GLINT_DEINTERLEAVE_Z(p0, p1, p2) \
   (float16)(p0.s258b, p0.se, p1.s147a, p1.sd, p2.s0369, p2.scf)
-#define GLINT_INTERLEAVE_0(x, y, z)                                                          \
+#define GLINT_INTERLEAVE_0(x, y, z)                                                             \
   (float16)(x.s0, y.s0, z.s0, x.s1, y.s1, z.s1, x.s2, y.s2, z.s2, x.s3, y.s3, z.s3, x.s4, y.s4, \
             z.s4, x.s5)
-#define GLINT_INTERLEAVE_1(x, y, z)                                                          \
+#define GLINT_INTERLEAVE_1(x, y, z)                                                             \
   (float16)(y.s5, z.s5, x.s6, y.s6, z.s6, x.s7, y.s7, z.s7, x.s8, y.s8, z.s8, x.s9, y.s9, z.s9, \
             x.sa, y.sa)
-#define GLINT_INTERLEAVE_2(x, y, z)                                                          \
+#define GLINT_INTERLEAVE_2(x, y, z)                                                             \
   (float16)(z.sa, x.sb, y.sb, z.sb, x.sc, y.sc, z.sc, x.sd, y.sd, z.sd, x.se, y.se, z.se, x.sf, \
             y.sf, z.sf)
 #endif
@@ -131,5 +132,24 @@ GLINT_FN void block_store3(__global float *out, uint base, uint n, real3 v) {
 #else
 #error "kernels/simd_io.h supports GLINT_LANES 1, 8 and 16"
 #endif
+
+/* The query inputs of the block of queries [base, base + GLINT_LANES): the
+ * 8-lane counterpart of query_load (kernels/query.h). */
+GLINT_FN QueryInputs block_load_queries(EvalSpec spec, KernelInputs in, uint base) {
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  QueryInputs q;
+  q.wo = block_load3(in.wo, base, in.n);
+  q.wi = zero;
+  q.position = zero;
+  q.normal = zero;
+  q.tangent = zero;
+  if (spec.probe) q.wi = block_load3(in.wi, base, in.n);
+  if (spec.has_frame) {
+    q.position = block_load3(in.position, base, in.n);
+    q.normal = block_load3(in.normal, base, in.n);
+    q.tangent = block_load3(in.tangent, base, in.n);
+  }
+  return q;
+}
 
 #endif /* GLINT_SIMD_IO_H */

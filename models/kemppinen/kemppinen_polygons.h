@@ -11,6 +11,7 @@
 #define GLINT_KEMPPINEN_POLYGONS_H
 
 #include "kernels/area/area_lights.h"
+#include "kernels/area/polygon_lights.h"
 #include "models/kemppinen/kemppinen_eval.h"
 
 /* Polygon lights for query i, one query per work-item (clipping branches):
@@ -26,26 +27,15 @@ GLINT_FN real3 kemppinen_polygons_query(EvalSpec spec, KernelInputs in, uint i) 
   kemppinen_load_footprint(in, i, footprint);
   KemppinenFootprint fp = kemppinen_footprint(p, (real)in.uv[2 * i], (real)in.uv[2 * i + 1],
                                               footprint, in.seed_lo, in.seed_hi);
-  real alpha = sqrt(m.alpha_x * m.alpha_y);
   uint area_key = area_query_key(in.seed_lo, in.seed_hi, in.wo + 3 * i,
                                  spec.has_frame ? in.position + 3 * i : 0);
   for (uint l = 0; l < in.n_polygon; ++l) {
-    const GLINT_GLOBAL float *rec = in.polygons + GLINT_POLYGON_FLOATS * l;
-    real3 v[GLINT_POLYGON_MAX_VERTICES];
-    int n = area_polygon_load(rec, spec.has_frame, sp.frame, sp.p, v);
-    if (area_polygon_weight(v, n, rec[1] != 0.0f) == GLINT_R(0.0)) continue;
-    real3 L = make_real3((real)rec[2], (real)rec[3], (real)rec[4]);
-    real el[GLINT_LTC_ENTRY];
-    real ff = area_ltc_form_factor(in.ltc_table, alpha, wo, v, n, el);
-    real3 unit = in.area_method == GLINT_AREA_LTC
-                     ? r3_scale(area_ltc_albedo(m, el), ff)
-                     : area_polygon_integral(m, in.ltc_table, in.area_method, in.area_samples, wo,
-                                             v, n, rng_absorb(area_key, l));
-    real3 ls = r3_mul(unit, L);
+    PolygonLight P = polygon_light(spec, in, sp, m, l, area_key);
+    real3 ls = P.radiance;
     if (!(ls.x + ls.y + ls.z > GLINT_R(0.0))) continue;
     /* The centre direction: mean of the unit vertex directions. */
     real3 c = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-    for (int k = 0; k < n; ++k) c = r3_add(c, area_safe_normalize(v[k], v[k]));
+    for (int k = 0; k < P.n; ++k) c = r3_add(c, area_safe_normalize(P.v[k], P.v[k]));
     real3 up = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0));
     real3 wc = area_safe_normalize(c, up);
     real3 h = area_safe_normalize(r3_add(wc, wo), up);

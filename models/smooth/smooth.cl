@@ -14,19 +14,7 @@ __kernel void glint_smooth(GLINT_KERNEL_ARGS) {
   EvalSpec spec = kernel_spec();
   KernelInputs in = GLINT_KERNEL_INPUTS();
 
-  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-  QueryInputs q;
-  q.wo = block_load3(wo, base, n);
-  q.wi = zero;
-  q.position = zero;
-  q.normal = zero;
-  q.tangent = zero;
-  if (GLINT_PROBE) q.wi = block_load3(wi, base, n);
-  if (GLINT_HAS_FRAME) {
-    q.position = block_load3(position, base, n);
-    q.normal = block_load3(normal, base, n);
-    q.tangent = block_load3(tangent, base, n);
-  }
+  QueryInputs q = block_load_queries(spec, in, base);
   real3 L = smooth_shade(spec, in, q);
   /* Only when an earlier pass wrote `out`; the smooth model runs this pass first. */
   if (accumulate) L = r3_add(block_load3(out, base, n), L);

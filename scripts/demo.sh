@@ -12,11 +12,15 @@ PORT_FILE="$(mktemp)"
 "$BUILD_DIR/server/glintd" --listen 127.0.0.1:0 --port-file "$PORT_FILE" 2>"$OUT/glintd.log" &
 GLINTD=$!
 trap 'kill $GLINTD 2>/dev/null || true; rm -f "$PORT_FILE"' EXIT
-for _ in $(seq 1 300); do
+# The port file appears once glintd reports SERVING, i.e. after it has compiled and run its
+# warm-up kernels: tens of seconds with a cold kernel cache on a 2-core CPU, instant after.
+echo "Waiting for glintd to compile its kernels (first run only) ..."
+for _ in $(seq 1 6000); do
   [ -s "$PORT_FILE" ] && break
   kill -0 $GLINTD 2>/dev/null || { cat "$OUT/glintd.log"; exit 1; }
   sleep 0.1
 done
+[ -s "$PORT_FILE" ] || { echo "glintd did not report SERVING within 600 s; see $OUT/glintd.log"; exit 1; }
 SERVER="127.0.0.1:$(cat "$PORT_FILE")"
 GLINT="$BUILD_DIR/client/cli/glint"
 "$GLINT" info --server "$SERVER"

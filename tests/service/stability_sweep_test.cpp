@@ -81,10 +81,11 @@ struct Kinds {
 };
 
 // The device's kernel variants: one lit smooth set (glint_smooth + glint_smooth_area), one probe
-// set and one binomial set, the same in both precisions so that the fp32-vs-fp64 test below
-// reuses them: 8 OpenCL builds (~40 s cold on a loaded 2-core machine, then cached). Between them
-// they cover both NDFs, the three Fresnel kinds and framed and unframed queries; the host path
-// draws every combination.
+// set, one binomial set, one CHERMAIN set (Beckmann, conductor, framed) and one KEMPPINEN set (GGX,
+// Schlick, framed; a quarter probes), the same in both precisions so that the fp32-vs-fp64 test
+// below reuses the smooth ones: a few dozen seconds of OpenCL builds cold, then cached. Between
+// them they cover both NDFs, the three Fresnel kinds and framed and unframed queries; the host
+// path draws every combination.
 Kinds DeviceKinds(v1::Model model, int request) {
   if (model == v1::BINOMIAL) return Kinds{v1::BECKMANN, 0, false, false};
   if (model == v1::CHERMAIN) return Kinds{v1::BECKMANN, 1, true, false};  // Beckmann only

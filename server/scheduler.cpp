@@ -42,9 +42,12 @@ void Scheduler::WorkerLoop(int worker) {
       queue_.pop_front();
       ++running_;
     }
-    job(worker);
-    std::lock_guard<std::mutex> lock(mutex_);
-    --running_;
+    Respond respond = job(worker);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      --running_;
+    }
+    if (respond) respond();
   }
 }
 

@@ -2,6 +2,9 @@
 // gRPC handlers only enqueue; evaluation runs here, never on gRPC's threads.
 // When the queue is full, TrySubmit fails at once and the caller answers
 // RESOURCE_EXHAUSTED: overload fails fast instead of queueing without bound.
+// A job computes, then returns how to answer its client; the worker frees the
+// job's slot *before* answering, so a client that sends its next request on
+// receipt of the last answer never finds the slot still taken by its own work.
 #pragma once
 
 #include <condition_variable>
@@ -16,7 +19,8 @@ namespace glint {
 
 class Scheduler {
  public:
-  using Job = std::function<void(int worker)>;
+  using Respond = std::function<void()>;           // answers the client; may be empty
+  using Job = std::function<Respond(int worker)>;  // computes on `worker`
 
   Scheduler(int workers, size_t max_pending);
   ~Scheduler();  // runs every queued job, then joins

@@ -115,7 +115,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
          << (st.ok() ? " ok" : " refused: " + st.message());
     LogLine(line.str());
     if (!st.ok()) response->Clear();
-    reactor->Finish(ToGrpcStatus(st));
+    return [reactor, st] { reactor->Finish(ToGrpcStatus(st)); };
   });
   if (!queued) {
     Status busy = OverloadStatus(*scheduler_);
@@ -157,7 +157,7 @@ class GlintServiceImpl::StreamReactor
       Status s = ValidateSettings(settings_, service_->options().limits);
       if (!s.ok()) return Fail(ChunkStatus(next_index_, s));
     }
-    bool queued = service_->scheduler().TrySubmit([this](int worker) {
+    bool queued = service_->scheduler().TrySubmit([this](int worker) -> Scheduler::Respond {
       result_.Clear();
       result_.set_chunk_index(next_index_);
       result_.set_first_query(next_query_);
@@ -165,10 +165,10 @@ class GlintServiceImpl::StreamReactor
                                     true, result_.mutable_result());
       // The engine's own code (INTERNAL for a device failure, INVALID_ARGUMENT for a bad
       // query, ...), exactly as the unary path would return it.
-      if (!s.ok()) return Fail(ChunkStatus(next_index_, s));
+      if (!s.ok()) return [this, st = ChunkStatus(next_index_, s)] { Fail(st); };
       next_query_ += chunk_.request().queries().count();
       ++next_index_;
-      StartWrite(&result_);
+      return [this] { StartWrite(&result_); };
     });
     if (!queued) Fail(ToGrpcStatus(OverloadStatus(service_->scheduler())));
   }

@@ -116,6 +116,12 @@ GLINT_FN EvalSpec kernel_spec(void) {
   return spec;
 }
 
+/* The output contract: radiance beyond the float range (an extreme light at
+ * extreme geometry, which validation accepts) saturates at FLT_MAX instead of
+ * +Inf; NaN is left as it is, so the stability sweep still sees a kernel bug.
+ * Done in the kernels' stores (and the host loop's), where it costs nothing. */
+#define GLINT_SATURATE_FLOAT(x) ((x) > FLT_MAX ? FLT_MAX : (x))
+
 #if GLINT_LANES == 1
 /* Writes (or, after an earlier pass, adds) one query's RGB, summed in float as
  * the host path does (server/host_pass.h). Entries with one query per
@@ -127,9 +133,9 @@ GLINT_FN void kernel_store(__global float *out, uint i, real3 L, int accumulate)
     g += out[3 * i + 1];
     b += out[3 * i + 2];
   }
-  out[3 * i] = r;
-  out[3 * i + 1] = g;
-  out[3 * i + 2] = b;
+  out[3 * i] = GLINT_SATURATE_FLOAT(r);
+  out[3 * i + 1] = GLINT_SATURATE_FLOAT(g);
+  out[3 * i + 2] = GLINT_SATURATE_FLOAT(b);
 }
 #endif
 #endif

@@ -39,7 +39,7 @@ GLINT_FN real lights_real_max(void) {
  * nothing rather than infinity. I / d^2 saturates at the largest finite real
  * instead of overflowing to +Inf (fp32: I = 3e38 at d < 1): a light behind the
  * surface has f = 0, and 0 x Inf made the radiance NaN (issue 8). The sum may
- * still overflow; the engines saturate the output (server/output_range.h). */
+ * still overflow; the kernels saturate the output (GLINT_SATURATE_FLOAT, kernels/kernel_args.h). */
 GLINT_FN real3 point_light_dir(const GLINT_GLOBAL float *rec, real3 p,
                                GLINT_PRIVATE real3 *irradiance) {
   real3 d = r3_sub(light_load3(rec, 0), p);

@@ -23,9 +23,10 @@ GLINT_FN real3 block_load3(const __global float *a, uint base, uint n) {
 }
 
 GLINT_FN void block_store3(__global float *out, uint base, uint n, real3 v) {
-  out[3 * base + 0] = (float)v.x;
-  out[3 * base + 1] = (float)v.y;
-  out[3 * base + 2] = (float)v.z;
+  float x = (float)v.x, y = (float)v.y, z = (float)v.z;
+  out[3 * base + 0] = GLINT_SATURATE_FLOAT(x);
+  out[3 * base + 1] = GLINT_SATURATE_FLOAT(y);
+  out[3 * base + 2] = GLINT_SATURATE_FLOAT(z);
 }
 
 #elif GLINT_LANES == 8 || GLINT_LANES == 16
@@ -104,9 +105,14 @@ GLINT_FN real3 block_load3(const __global float *a, uint base, uint n) {
 
 /* The inverse: lanes back to xyz triples; only queries < n are written. */
 GLINT_FN void block_store3(__global float *out, uint base, uint n, real3 v) {
+  /* Saturated at FLT_MAX, NaN kept (GLINT_SATURATE_FLOAT, kernels/kernel_args.h). */
+  const floatn max = (floatn)(FLT_MAX);
   floatn x = GLINT_REAL_TO_FLOATS(v.x);
   floatn y = GLINT_REAL_TO_FLOATS(v.y);
   floatn z = GLINT_REAL_TO_FLOATS(v.z);
+  x = select(x, max, x > max);
+  y = select(y, max, y > max);
+  z = select(z, max, z > max);
   floatn q0 = GLINT_INTERLEAVE_0(x, y, z);
   floatn q1 = GLINT_INTERLEAVE_1(x, y, z);
   floatn q2 = GLINT_INTERLEAVE_2(x, y, z);

@@ -5,7 +5,6 @@
 
 #include "server/kernel_source.h"
 #include "server/model_table.h"
-#include "server/output_range.h"
 
 namespace glint {
 
@@ -265,7 +264,6 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const glint::v1:
                                           nullptr, nullptr));
   }
   s = ReadBackAndFinish(queue.queue.get(), args.out.get(), size_t(n) * 3 * sizeof(float));
-  if (s.ok()) SaturateRadiance(out_rgb, 3 * size_t(n));
   return s;
 }
 

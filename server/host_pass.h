@@ -5,6 +5,7 @@
 // models/CMakeLists.txt), and defines its passes with GLINT_DEFINE_HOST_PASS.
 #pragma once
 
+#include <cfloat>
 #include <cstdint>
 
 namespace glint {
@@ -30,6 +31,13 @@ struct HostInputs {
   int area_method = 1, area_samples = 64;
   uint32_t seed_lo = 0, seed_hi = 0;
 };
+
+// The output contract of kernels/kernel_args.h GLINT_SATURATE_FLOAT: beyond the float range ->
+// FLT_MAX, NaN kept. Compared in the working precision before the conversion to float.
+template <class Real>
+float SaturateToFloat(Real x) {
+  return x > Real(FLT_MAX) ? FLT_MAX : float(x);
+}
 
 // Writes (or with `accumulate`, adds) 3 floats per query to `out`.
 using HostPassFn = void (*)(const HostInputs &in, float *out, bool accumulate);
@@ -71,10 +79,10 @@ void RunHostPass(const HostInputs &h, QueryFn query_fn, float *out, bool accumul
   for (uint32_t i = 0; i < h.n; ++i) {
     const auto L = query_fn(spec, in, i);
     float *o = out + 3 * size_t(i);
-    const float r = float(L.x), g = float(L.y), b = float(L.z);
-    o[0] = accumulate ? o[0] + r : r;
-    o[1] = accumulate ? o[1] + g : g;
-    o[2] = accumulate ? o[2] + b : b;
+    const float r = SaturateToFloat(L.x), g = SaturateToFloat(L.y), b = SaturateToFloat(L.z);
+    o[0] = accumulate ? SaturateToFloat(o[0] + r) : r;
+    o[1] = accumulate ? SaturateToFloat(o[1] + g) : g;
+    o[2] = accumulate ? SaturateToFloat(o[2] + b) : b;
   }
 }
 

@@ -4,7 +4,6 @@
 
 #include "server/host_pass.h"
 #include "server/model_table.h"
-#include "server/output_range.h"
 
 namespace glint {
 
@@ -50,7 +49,6 @@ void HostEvaluate(const EvalPlan &plan, const glint::v1::QueryBatch &q, float *o
     (plan.spec.fp64 ? pass.host_f64 : pass.host_f32)(in, out_rgb, accumulate);
     accumulate = true;
   }
-  SaturateRadiance(out_rgb, 3 * size_t(q.count()));
 }
 
 }  // namespace glint

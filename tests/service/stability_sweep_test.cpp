@@ -1092,8 +1092,9 @@ TEST_F(StabilityRegression, TinyDielectricIorIsTotalReflection) {
 // A point light's irradiance I / d^2 overflowed fp32 (I = 3e38 at d = 1e-3), and a light behind
 // the surface then gave 0 x Inf = NaN; in front, the radiance was +Inf in both precisions (fp64
 // overflowed the float output). Now I / d^2 saturates at the largest real (kernels/lights.h) and
-// the output at FLT_MAX (server/output_range.h): behind, exactly 0; in front, fp64 saturates at
-// FLT_MAX, and fp32 sees an irradiance of FLT_MAX, i.e. gives what intensity FLT_MAX d^2 gives.
+// the output at FLT_MAX (GLINT_SATURATE_FLOAT, kernels/kernel_args.h): behind, exactly 0; in front,
+// fp64 saturates at FLT_MAX, and fp32 sees an irradiance of FLT_MAX, i.e. gives what intensity
+// FLT_MAX d^2 gives.
 TEST_F(StabilityRegression, HugePointLightSaturatesInsteadOfNaN) {
   EvaluateRequest r;
   auto *m = r.mutable_material();

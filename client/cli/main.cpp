@@ -1,4 +1,4 @@
-// glint: command-line client of glintd. Commands: info, eval, preview (see kUsage below).
+// glint: command-line client of glintd. Commands: info, eval, preview, render (see kUsage below).
 // Exit codes: 0 success, 1 failure at run time (server, files), 2 wrong command line.
 #include <unistd.h>
 
@@ -14,6 +14,9 @@
 #include <string_view>
 #include <vector>
 
+#include "client/cli/cli_common.h"
+#include "client/cli/preview_command.h"
+#include "client/cli/render_command.h"
 #include "client/lib/glint_client.h"
 #include "client/lib/query_io.h"
 #include "client/preview/image_io.h"
@@ -22,10 +25,7 @@
 namespace {
 
 using glint::client::GlintClient;
-
-constexpr int kExitOk = 0;
-constexpr int kExitFailure = 1;
-constexpr int kExitUsage = 2;
+using namespace glint::cli;  // Options, UsageError, exit codes, settings, progress (cli_common.h)
 
 constexpr const char *kUsage =
     R"(glint: command-line client of glintd, the glint BRDF evaluation service
@@ -35,7 +35,9 @@ usage: glint <command> [options]
 commands:
   info      print the server's capabilities; exit 0 only when it reports SERVING
   eval      evaluate a CSV of shading queries; write radiance as CSV, NPY or EXR
-  preview   render a sphere or plane preview of a material under lights (EXR + PNG)
+  preview   render a sphere or plane preview of a material under lights (EXR + PNG), or a
+            batch of materials with a contact sheet
+  render    shade a renderer's G-buffer EXR (P, N, uv, ...) with a material: beauty EXR
 
 Run 'glint <command> --help' for the options of a command.
 )";
@@ -81,170 +83,6 @@ order). Batches larger than the server's limits are streamed in chunks automatic
 
 A progress bar is drawn on stderr when it is a terminal; a one-line summary goes to stdout.
 )";
-
-constexpr const char *kPreviewUsage =
-    R"(usage: glint preview --server ADDR --material M.json --lights L.json --out IMG.exr
-                     [--scene sphere|plane] [--size WxH] [--exposure STOPS]
-                     [--precision fp32|fp64] [--seed N] [--half]
-                     [--area-method ltc|reference|lecocq|lecocq-pearson|mc] [--samples N]
-
-Renders the material on a unit sphere or a ground plane seen by a fixed pinhole camera (one
-query per covered pixel, with ray-differential footprints) under world-space lights. Writes
-IMG.exr (linear radiance) and IMG.png next to it (tone-mapped sRGB) and prints both paths.
-
-  --server ADDR       gRPC target, e.g. 127.0.0.1:50051
-  --material M.json   glint.v1.Material in proto3 JSON
-  --lights L.json     glint.v1.LightList in proto3 JSON (world space, +z up)
-  --out IMG.exr       output EXR; the PNG gets the same name with .png
-  --scene S           sphere (default) or plane
-  --size WxH          image size in pixels (default 512x512)
-  --exposure STOPS    PNG exposure in stops, scale 2^STOPS (default 0)
-  --precision P       fp32 (default) or fp64
-  --seed N            seed of the stochastic glint models (default 0)
-  --area-method M     polygon lights: ltc (default), lecocq, lecocq-pearson (Lecocq et al.
-                      peak fits), mc (Monte Carlo, seeded) or reference (quadrature)
-  --samples N         reference: quadrature nodes per dimension per triangle; mc: samples
-                      per query and light (default 64)
-  --half              store half floats in the EXR instead of float32
-)";
-
-// A command-line mistake: printed with the command's usage, exit 2.
-struct UsageError {
-  std::string message;
-};
-
-// --name value, --name=value, or a bare --flag. Only the options a command declares exist.
-class Options {
- public:
-  Options(int argc, char **argv, const std::vector<std::string> &with_value,
-          const std::vector<std::string> &flags) {
-    for (int i = 0; i < argc; ++i) {
-      std::string arg = argv[i];
-      if (arg == "--help" || arg == "-h") {
-        help_ = true;
-        continue;
-      }
-      if (arg.rfind("--", 0) != 0) throw UsageError{"unexpected argument '" + arg + "'"};
-      std::string name = arg.substr(2);
-      std::optional<std::string> inline_value;
-      if (const size_t eq = name.find('='); eq != std::string::npos) {
-        inline_value = name.substr(eq + 1);
-        name = name.substr(0, eq);
-      }
-      const bool takes_value = Contains(with_value, name);
-      if (!takes_value && !Contains(flags, name)) throw UsageError{"unknown option --" + name};
-      if (values_.count(name)) throw UsageError{"option --" + name + " given twice"};
-      if (!takes_value) {
-        if (inline_value) throw UsageError{"option --" + name + " takes no value"};
-        values_[name] = "";
-        continue;
-      }
-      if (inline_value) {
-        values_[name] = *inline_value;
-      } else if (i + 1 < argc) {
-        values_[name] = argv[++i];
-      } else {
-        throw UsageError{"option --" + name + " needs a value"};
-      }
-    }
-  }
-
-  bool help() const { return help_; }
-  bool Has(const std::string &name) const { return values_.count(name) != 0; }
-  std::string Required(const std::string &name) const {
-    auto it = values_.find(name);
-    if (it == values_.end() || it->second.empty()) throw UsageError{"missing --" + name};
-    return it->second;
-  }
-  std::string Get(const std::string &name, const std::string &fallback) const {
-    auto it = values_.find(name);
-    return it == values_.end() ? fallback : it->second;
-  }
-
- private:
-  static bool Contains(const std::vector<std::string> &v, const std::string &s) {
-    for (const auto &x : v) {
-      if (x == s) return true;
-    }
-    return false;
-  }
-  bool help_ = false;
-  std::map<std::string, std::string> values_;
-};
-
-template <typename T>
-T ParseNumber(const std::string &option, const std::string &text) {
-  T value{};
-  const char *end = text.data() + text.size();
-  auto [ptr, ec] = std::from_chars(text.data(), end, value);
-  if (ec != std::errc() || ptr != end || text.empty()) {
-    throw UsageError{"--" + option + ": '" + text + "' is not a valid number"};
-  }
-  return value;
-}
-
-glint::v1::Precision ParsePrecision(const std::string &text) {
-  if (text == "fp32") return glint::v1::FP32;
-  if (text == "fp64") return glint::v1::FP64;
-  throw UsageError{"--precision: '" + text + "' is neither fp32 nor fp64"};
-}
-
-glint::v1::AreaMethod ParseAreaMethod(const std::string &text) {
-  if (text == "ltc") return glint::v1::LTC;
-  if (text == "reference") return glint::v1::REFERENCE;
-  if (text == "lecocq") return glint::v1::LECOCQ;
-  if (text == "lecocq-pearson") return glint::v1::LECOCQ_PEARSON;
-  if (text == "mc") return glint::v1::MONTE_CARLO;
-  throw UsageError{"--area-method: '" + text +
-                   "' is not one of ltc, reference, lecocq, lecocq-pearson, mc"};
-}
-
-// Draws "[=====>     ]  45%  450000/1000000 queries" on stderr, only when stderr is a
-// terminal: logs and pipes must not fill up with carriage returns.
-class ProgressBar {
- public:
-  ProgressBar() : enabled_(isatty(STDERR_FILENO) == 1) {}
-  ~ProgressBar() { Finish(); }
-
-  void Update(uint64_t done, uint64_t total) {
-    if (!enabled_ || total == 0) return;
-    const auto now = std::chrono::steady_clock::now();
-    // Redrawing more often than ~10 Hz costs time and shows nothing new.
-    if (done < total && drawn_ && now - last_ < std::chrono::milliseconds(100)) return;
-    last_ = now;
-    drawn_ = true;
-    constexpr int kWidth = 40;
-    const double fraction = static_cast<double>(done) / static_cast<double>(total);
-    const int filled = static_cast<int>(fraction * kWidth);
-    std::string bar(static_cast<size_t>(kWidth), ' ');
-    for (int i = 0; i < filled; ++i) bar[static_cast<size_t>(i)] = '=';
-    if (filled < kWidth) bar[static_cast<size_t>(filled)] = '>';
-    std::fprintf(stderr, "\r[%s] %3d%%  %llu/%llu queries", bar.c_str(),
-                 static_cast<int>(fraction * 100.0), static_cast<unsigned long long>(done),
-                 static_cast<unsigned long long>(total));
-    std::fflush(stderr);
-  }
-
-  void Finish() {
-    if (enabled_ && drawn_) std::fputc('\n', stderr);
-    drawn_ = false;
-  }
-
- private:
-  bool enabled_;
-  bool drawn_ = false;
-  std::chrono::steady_clock::time_point last_{};
-};
-
-// "glint: <what>: UNAVAILABLE: ..." plus a hint where the code has an obvious cause.
-int ReportRpcError(const std::string &what, const grpc::Status &status, const std::string &server) {
-  std::fprintf(stderr, "glint: %s: %s\n", what.c_str(),
-               glint::client::FormatStatus(status).c_str());
-  if (status.error_code() == grpc::StatusCode::UNAVAILABLE) {
-    std::fprintf(stderr, "glint: is glintd running and listening on %s?\n", server.c_str());
-  }
-  return kExitFailure;
-}
 
 std::string Join(const google::protobuf::RepeatedPtrField<std::string> &items) {
   std::string out;
@@ -297,41 +135,6 @@ int RunInfo(const Options &options) {
               caps.max_pending_requests());
   std::printf("unit tolerance   %g\n", caps.unit_vector_tolerance());
   return kExitOk;
-}
-
-// Fills the settings every evaluating command shares.
-void FillSettings(const Options &options, glint::v1::EvaluateRequest *request) {
-  request->set_precision(ParsePrecision(options.Get("precision", "fp32")));
-  request->set_seed(ParseNumber<uint64_t>("seed", options.Get("seed", "0")));
-  request->set_area_method(ParseAreaMethod(options.Get("area-method", "ltc")));
-  if (options.Has("samples"))
-    request->set_area_samples(ParseNumber<uint32_t>("samples", options.Get("samples", "")));
-}
-
-// Evaluates with a progress bar and returns the wall time in seconds, or nullopt after
-// reporting an RPC error.
-std::optional<double> EvaluateWithProgress(GlintClient &client,
-                                           const glint::v1::EvaluateRequest &request,
-                                           std::vector<float> *rgb,
-                                           glint::client::EvaluateInfo *info,
-                                           const std::string &server) {
-  ProgressBar bar;
-  const auto start = std::chrono::steady_clock::now();
-  grpc::Status status = client.Evaluate(
-      request, rgb, [&](uint64_t done, uint64_t total) { bar.Update(done, total); }, info);
-  const std::chrono::duration<double> elapsed = std::chrono::steady_clock::now() - start;
-  bar.Finish();
-  if (!status.ok()) {
-    ReportRpcError("evaluation failed", status, server);
-    return std::nullopt;
-  }
-  return elapsed.count();
-}
-
-std::string Transport(const glint::client::EvaluateInfo &info) {
-  if (!info.streamed) return "unary";
-  return "stream (" + std::to_string(info.chunks) +
-         " chunks of <= " + std::to_string(info.chunk_queries) + " queries)";
 }
 
 int RunEval(const Options &options) {
@@ -395,69 +198,6 @@ int RunEval(const Options &options) {
   return kExitOk;
 }
 
-bool ParseSize(const std::string &text, int *width, int *height) {
-  const size_t x = text.find_first_of("xX");
-  if (x == std::string::npos) return false;
-  const std::string w = text.substr(0, x);
-  const std::string h = text.substr(x + 1);
-  auto parse = [](const std::string &s, int *v) {
-    const char *end = s.data() + s.size();
-    auto [ptr, ec] = std::from_chars(s.data(), end, *v);
-    return !s.empty() && ec == std::errc() && ptr == end && *v > 0;
-  };
-  return parse(w, width) && parse(h, height);
-}
-
-int RunPreview(const Options &options) {
-  const std::string server = options.Required("server");
-  const std::string material_path = options.Required("material");
-  const std::string lights_path = options.Required("lights");
-  const std::string out = options.Required("out");
-  if (glint::client::OutputFormatFromPath(out) != glint::client::OutputFormat::kExr) {
-    throw UsageError{"--out " + out + ": preview writes an .exr (and a .png beside it)"};
-  }
-  glint::client::PreviewShape shape;
-  const std::string scene_name = options.Get("scene", "sphere");
-  if (!glint::client::ParsePreviewShape(scene_name, &shape)) {
-    throw UsageError{"--scene: '" + scene_name + "' is neither sphere nor plane"};
-  }
-  int width = 0;
-  int height = 0;
-  const std::string size = options.Get("size", "512x512");
-  if (!ParseSize(size, &width, &height)) {
-    throw UsageError{"--size: '" + size + "' is not WIDTHxHEIGHT with positive integers"};
-  }
-  const auto exposure = ParseNumber<float>("exposure", options.Get("exposure", "0"));
-  if (!std::isfinite(exposure)) throw UsageError{"--exposure must be finite"};
-
-  glint::v1::EvaluateRequest request;
-  FillSettings(options, &request);
-  *request.mutable_material() = glint::client::ReadMaterialJson(material_path);
-  for (auto &light : glint::client::ReadLightsJson(lights_path)) {
-    *request.add_lights() = std::move(light);
-  }
-  glint::client::PreviewQueries scene = glint::client::BuildPreviewQueries(shape, width, height);
-  *request.mutable_queries() = scene.queries;
-
-  GlintClient client(server);
-  std::vector<float> rgb;
-  glint::client::EvaluateInfo info;
-  double seconds = 0.0;
-  if (request.queries().count() > 0) {
-    const std::optional<double> t = EvaluateWithProgress(client, request, &rgb, &info, server);
-    if (!t) return kExitFailure;
-    seconds = *t;
-  }
-  const std::vector<float> image = glint::client::ScatterToImage(scene, rgb);
-  glint::client::WriteExrRgb(out, width, height, image, options.Has("half"));
-  const std::string png = out.substr(0, out.size() - 4) + ".png";
-  glint::client::WritePngToneMapped(png, width, height, image, exposure);
-  std::printf("glint preview: %s %dx%d, %u queries in %.3f s via %s\n", scene_name.c_str(), width,
-              height, request.queries().count(), seconds, Transport(info).c_str());
-  std::printf("%s\n%s\n", out.c_str(), png.c_str());
-  return kExitOk;
-}
-
 struct Command {
   const char *name;
   const char *usage;
@@ -477,12 +217,8 @@ int main(int argc, char **argv) {
         "area-method", "samples"},
        {"half"},
        RunEval},
-      {"preview",
-       kPreviewUsage,
-       {"server", "material", "lights", "out", "scene", "size", "exposure", "precision", "seed",
-        "area-method", "samples"},
-       {"half"},
-       RunPreview},
+      {"preview", kPreviewUsage, kPreviewOptions, {"half"}, RunPreview},
+      {"render", kRenderUsage, kRenderOptions, {"half"}, RunRender},
   };
   if (argc < 2) {
     std::fputs(kUsage, stderr);

@@ -57,6 +57,9 @@ class GlintClient {
   GlintClient(std::shared_ptr<grpc::Channel> channel, ClientOptions options = {});
 
   const std::string &address() const { return address_; }
+  // For callers that open their own calls on the same connection (evaluate_series.h).
+  const std::shared_ptr<grpc::Channel> &channel() const { return channel_; }
+  const ClientOptions &options() const { return options_; }
 
   // Always asks the server (and refreshes the cache Evaluate uses).
   grpc::Status GetCapabilities(glint::v1::Capabilities *capabilities);

@@ -114,11 +114,11 @@ std::vector<float> ReadExrRgb(const std::string &path, int *width, int *height) 
   }
 }
 
-void WritePngToneMapped(const std::string &path, int width, int height,
-                        const std::vector<float> &rgb, float exposure_stops) {
-  CheckImageSize("WritePngToneMapped", path, width, height, rgb);
+std::vector<uint8_t> ToneMapToSrgb8(int width, int height, const std::vector<float> &rgb,
+                                    float exposure_stops) {
+  CheckImageSize("ToneMapToSrgb8", "(in memory)", width, height, rgb);
   if (!std::isfinite(exposure_stops)) {
-    throw std::runtime_error("WritePngToneMapped " + path + ": exposure_stops is not finite");
+    throw std::runtime_error("ToneMapToSrgb8: exposure_stops is not finite");
   }
   const float scale = std::exp2(exposure_stops);
   const size_t pixels = static_cast<size_t>(width) * static_cast<size_t>(height);
@@ -134,7 +134,17 @@ void WritePngToneMapped(const std::string &path, int width, int height,
     }
     for (int c = 0; c < 3; ++c) out[c] = Quantize(SrgbOetf(ToneMap(in[c] * scale)));
   }
+  return bytes;
+}
 
+void WritePngRgb8(const std::string &path, int width, int height,
+                  const std::vector<uint8_t> &bytes) {
+  if (width <= 0 || height <= 0 ||
+      bytes.size() != size_t{3} * static_cast<size_t>(width) * static_cast<size_t>(height)) {
+    throw std::runtime_error("WritePngRgb8 " + path + ": " + std::to_string(bytes.size()) +
+                             " bytes do not make a " + std::to_string(width) + "x" +
+                             std::to_string(height) + " RGB image");
+  }
   // libpng's simplified API reports errors through image.message instead of longjmp.
   png_image image;
   std::memset(&image, 0, sizeof(image));
@@ -144,8 +154,17 @@ void WritePngToneMapped(const std::string &path, int width, int height,
   image.format = PNG_FORMAT_RGB;
   if (png_image_write_to_file(&image, path.c_str(), /*convert_to_8bit=*/0, bytes.data(),
                               /*row_stride=*/0, /*colormap=*/nullptr) == 0) {
-    throw std::runtime_error("WritePngToneMapped " + path + ": " + image.message);
+    throw std::runtime_error("WritePngRgb8 " + path + ": " + image.message);
   }
+}
+
+void WritePngToneMapped(const std::string &path, int width, int height,
+                        const std::vector<float> &rgb, float exposure_stops) {
+  CheckImageSize("WritePngToneMapped", path, width, height, rgb);
+  if (!std::isfinite(exposure_stops)) {
+    throw std::runtime_error("WritePngToneMapped " + path + ": exposure_stops is not finite");
+  }
+  WritePngRgb8(path, width, height, ToneMapToSrgb8(width, height, rgb, exposure_stops));
 }
 
 std::vector<float> ScatterToImage(const PreviewQueries &scene,

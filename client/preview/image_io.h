@@ -6,6 +6,7 @@
 #ifndef GLINT_CLIENT_PREVIEW_IMAGE_IO_H
 #define GLINT_CLIENT_PREVIEW_IMAGE_IO_H
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,16 @@ std::vector<float> ReadExrRgb(const std::string &path, int *width, int *height);
 inline constexpr float kPngWhitePoint = 4.0f;
 void WritePngToneMapped(const std::string &path, int width, int height,
                         const std::vector<float> &rgb, float exposure_stops = 0.0f);
+
+// The 8-bit sRGB bytes WritePngToneMapped stores (3 per pixel, same curve, NaN/Inf magenta),
+// for callers that compose several images (contact_sheet.h).
+std::vector<uint8_t> ToneMapToSrgb8(int width, int height, const std::vector<float> &rgb,
+                                    float exposure_stops = 0.0f);
+
+// Writes 8-bit RGB bytes (3 per pixel, row-major, top row first) as a PNG. Throws
+// std::runtime_error with the path on failure.
+void WritePngRgb8(const std::string &path, int width, int height,
+                  const std::vector<uint8_t> &bytes);
 
 // Scatters per-query RGB (3 * scene.queries.count() floats, in query order) into a
 // scene.width x scene.height image (background = 0). Throws std::invalid_argument if the

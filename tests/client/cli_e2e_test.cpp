@@ -218,9 +218,9 @@ TEST_F(Cli, HelpAndUsageErrors) {
 
   const RunResult none = RunProcess(dir_, {kGlint});
   EXPECT_EQ(none.exit_code, 2);
-  const RunResult unknown = RunProcess(dir_, {kGlint, "render"});
+  const RunResult unknown = RunProcess(dir_, {kGlint, "frobnicate"});
   EXPECT_EQ(unknown.exit_code, 2);
-  EXPECT_NE(unknown.err.find("unknown command 'render'"), std::string::npos) << unknown.err;
+  EXPECT_NE(unknown.err.find("unknown command 'frobnicate'"), std::string::npos) << unknown.err;
   const RunResult bad_option = RunProcess(dir_, {kGlint, "info", "--server", "x", "--colour"});
   EXPECT_EQ(bad_option.exit_code, 2);
   EXPECT_NE(bad_option.err.find("--colour"), std::string::npos) << bad_option.err;

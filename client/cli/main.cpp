@@ -218,7 +218,7 @@ int main(int argc, char **argv) {
        {"half"},
        RunEval},
       {"preview", kPreviewUsage, kPreviewOptions, {"half"}, RunPreview},
-      {"render", kRenderUsage, kRenderOptions, {"half"}, RunRender},
+      {"render", kRenderUsage, kRenderOptions, {"half", "png"}, RunRender},
   };
   if (argc < 2) {
     std::fputs(kUsage, stderr);

@@ -16,7 +16,7 @@ namespace glint::cli {
 
 const char *const kRenderUsage =
     R"(usage: glint render --server ADDR --gbuffer G.exr --material M.json --lights L.json
-                    --out BEAUTY.exr [--camera X,Y,Z] [--channels KEY=LAYER,...] [--half]
+                    --out BEAUTY.exr [--camera X,Y,Z] [--channels KEY=LAYER,...] [--half] [--png]
                     [--precision fp32|fp64] [--seed N]
                     [--area-method ltc|reference|lecocq|lecocq-pearson|mc] [--samples N]
 
@@ -48,6 +48,7 @@ G-buffer layers (single-part EXR; P, N, T, V channels .X/.Y/.Z or .R/.G/.B, uv c
                       P=ViewLayer.Position,N=ViewLayer.Normal,uv=ViewLayer.UV,A=ViewLayer.Combined.A
                       keys: P, N, T, uv, V, A (a full channel name), footprint (a prefix)
   --half              store half floats instead of float32
+  --png               also write BEAUTY.png beside the EXR (tone-mapped sRGB, as preview's)
   --precision P       fp32 (default) or fp64
   --seed N            seed of the stochastic glint models (default 0)
   --area-method M     polygon lights: ltc (default), lecocq, lecocq-pearson, mc or reference
@@ -132,6 +133,11 @@ int RunRender(const Options &options) {
   if (!gbuffer.alpha.empty()) channels.push_back({"A", gbuffer.alpha.data()});
   glint::client::WriteExrChannels(out, gbuffer.data_window, gbuffer.display_window, channels,
                                   options.Has("half"));
+  if (options.Has("png")) {
+    const std::string png = out.substr(0, out.size() - 4) + ".png";
+    glint::client::WritePngToneMapped(png, gbuffer.width, gbuffer.height, image);
+    std::printf("%s\n", png.c_str());
+  }
   const double rate = seconds > 0.0 ? count / seconds : 0.0;
   std::printf("glint render: %dx%d, %u covered pixels in %.3f s (%.0f queries/s) via %s -> %s\n",
               gbuffer.width, gbuffer.height, count, seconds, rate, Transport(info).c_str(),

@@ -15,6 +15,7 @@
 #include <mutex>
 #include <optional>
 #include <set>
+#include <stdexcept>
 #include <thread>
 
 #include "client/lib/evaluate_series.h"
@@ -241,6 +242,15 @@ int RunBatch(const Options &options) {
     stems.push_back(stem);
     settings.push_back(base);
     *settings.back().mutable_material() = glint::client::ReadMaterialJson(path);
+  }
+  // The outputs are written while the stream runs: a missing directory must fail up front,
+  // not after every material has been evaluated.
+  for (const std::string &path : {s.out, sheet}) {
+    const fs::path dir = fs::path(path).parent_path();
+    std::error_code ec;
+    if (!path.empty() && !dir.empty() && !fs::is_directory(dir, ec)) {
+      throw std::runtime_error(path + ": directory " + dir.string() + " does not exist");
+    }
   }
   const glint::client::PreviewQueries scene =
       glint::client::BuildPreviewQueries(s.shape, s.width, s.height);

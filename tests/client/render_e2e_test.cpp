@@ -420,6 +420,22 @@ TEST_F(RenderEndToEnd, BatchOfTwoEqualsTwoSinglePreviewsAndTheSheetTilesThem) {
     ++col;
   }
 
+  // A material the server refuses stops the batch there, naming it; the ones before it are
+  // written.
+  WriteFile(dir_->File("zz_bad.json"), R"({"model": "SMOOTH", "ndf": "GGX", "alpha_x": 0,
+                                          "alpha_y": 0.3, "schlick": {"f0": [1, 1, 1]}})");
+  const RunResult bad =
+      RunGlint(*dir_, {kGlint, "preview", "--server", stream_->address(), "--material",
+                       mats + "/paint.json", "--material", dir_->File("zz_bad.json"), "--lights",
+                       Lights("sun"), "--out", dir_->File("e.exr"), "--size", size});
+  EXPECT_EQ(bad.exit_code, 1) << Describe(bad);
+  EXPECT_NE(bad.err.find("after 1 of 2 materials (at " + dir_->File("zz_bad.json") + ")"),
+            std::string::npos)
+      << bad.err;
+  EXPECT_NE(bad.err.find("INVALID_ARGUMENT"), std::string::npos) << bad.err;
+  EXPECT_TRUE(fs::exists(dir_->File("e_paint.exr")));
+  EXPECT_FALSE(fs::exists(dir_->File("e_zz_bad.exr")));
+
   // Two materials with the same stem would overwrite each other's files: refused.
   const RunResult dup = RunGlint(
       *dir_, {kGlint, "preview", "--server", unary_->address(), "--material", mats + "/paint.json",

@@ -7,6 +7,7 @@ PACKAGES=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers clinfo
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler grpc-proto
   libopenexr-dev libpng-dev libgtest-dev
+  nlohmann-json3-dev python3  # bench_models --json; scripts/bench_tables.py (README tables)
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

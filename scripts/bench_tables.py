@@ -142,7 +142,8 @@ def render(doc, json_ref):
         f"over those of `SMOOTH` `schlick` `directional_point` device fp32. Glint models shade "
         f"polygon lights with LTC.")
     out.append("")
-    out.append("Evaluations per second:")
+    out.append("Evaluations per second (an evaluation is one query shading every light of its "
+               "set):")
     out.append("")
     cols = [("device", "fp32"), ("device", "fp64"), ("host", "fp32"), ("host", "fp64"),
             ("end_to_end", "fp32")]

@@ -1,10 +1,10 @@
 // Speed and accuracy of the polygon-light integration methods (EvaluateRequest.area_method) on
 // the smooth model, one row per method and sample count:
 //   evals/s   polygon-light evaluations per second on the OpenCL device in fp32 (DeviceEngine,
-//             one worker (command queue), in process; includes buffer set-up and the result copy like
-//             bench_smooth), summed over the sweep's requests: sum of queries / sum of per-request
-//             median times, each request's batch tiled until one run takes >= ~50 ms (capped at
-//             max_batch) so kernel launch is amortised;
+//             one worker (command queue), in process; includes buffer set-up and the result copy
+//             like bench_smooth), summed over the sweep's requests: sum of queries / sum of
+//             per-request median times, each request's batch tiled until one run takes >= ~50 ms
+//             (capped at max_batch) so kernel launch is amortised;
 //   error     relative error against the truth over the sweep: mean, 95th percentile and max,
 //             overall and per roughness band (alpha < 0.1, 0.1 <= alpha <= 0.4, alpha > 0.4).
 //
@@ -37,7 +37,8 @@
 // available: <message>" and skipped, so a method is measured as soon as validation accepts it
 // (LECOCQ, LECOCQ_PEARSON and MONTE_CARLO were refused as "not implemented yet" when this was
 // written). An engine failure is reported as "failed: <message>". MONTE_CARLO runs at
-// area_samples 4, 16, 64, 256 (seed 1), REFERENCE at 8 and 32.
+// area_samples 4, 16, 64, 256 (seed 1), REFERENCE at 8 and 32 (bench/lib AreaMethodChoices, the
+// list bench_models uses too).
 //
 //   build/bench/bench_area                       # GGX, full sweep (~3-4 min on 2 cores)
 //   build/bench/bench_area --beckmann --csv docs/area_speed_accuracy.csv   # + Beckmann (~8 min)
@@ -58,6 +59,8 @@
 #include <thread>
 #include <vector>
 
+#include "bench/lib/bench_case.h"
+#include "bench/lib/bench_lib.h"
 #include "client/lib/glint_client.h"
 #include "glint/v1/glint.pb.h"
 #include "server/device_engine.h"
@@ -74,7 +77,7 @@ namespace kd {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using glint::bench::Clock;
 constexpr double kPi = 3.14159265358979323846;
 
 struct D3 {
@@ -313,18 +316,6 @@ int TruthSamples(double alpha) {
   return alpha < 0.02 ? 1024 : alpha < 0.06 ? 512 : 256;
 }
 
-glint::v1::QueryBatch Tile(const glint::v1::QueryBatch &q, uint32_t times) {
-  glint::v1::QueryBatch t;
-  t.set_count(q.count() * times);
-  for (uint32_t k = 0; k < times; ++k) {
-    t.mutable_wo()->Add(q.wo().begin(), q.wo().end());
-    t.mutable_position()->Add(q.position().begin(), q.position().end());
-    t.mutable_normal()->Add(q.normal().begin(), q.normal().end());
-    t.mutable_tangent()->Add(q.tangent().begin(), q.tangent().end());
-  }
-  return t;
-}
-
 // Truth (red channel) of every query of every request: REFERENCE fp64 on the host path, chunks
 // of 32 queries spread over `threads` threads.
 std::vector<std::vector<double>> Truth(const std::vector<glint::v1::EvaluateRequest> &requests,
@@ -374,32 +365,17 @@ std::vector<std::vector<double>> Truth(const std::vector<glint::v1::EvaluateRequ
   return truth;
 }
 
-struct Stats {
-  double mean = NAN, p95 = NAN, max = NAN;
-};
-Stats Summarise(std::vector<double> e) {
-  Stats s;
-  if (e.empty()) return s;
-  std::sort(e.begin(), e.end());
-  double sum = 0;
-  for (double x : e) sum += x;
-  s.mean = sum / double(e.size());
-  s.p95 = e[std::min(e.size() - 1, size_t(std::ceil(0.95 * double(e.size())) - 1))];
-  s.max = e.back();
-  return s;
-}
+using Stats = glint::bench::ErrorStats;
+using glint::bench::Summarise;
 
-struct Method {
-  glint::v1::AreaMethod method;
-  uint32_t samples;
-};
+using Method = glint::bench::AreaMethodChoice;
 
 struct Row {
   std::string ndf, method, status;
   uint32_t samples = 0;
   double evals_per_s = NAN;
   uint64_t queries = 0;
-  Stats all, band[3];
+  Stats all{NAN, NAN, NAN}, band[3] = {{NAN, NAN, NAN}, {NAN, NAN, NAN}, {NAN, NAN, NAN}};
   struct Worst {
     double error, value;
     size_t request;
@@ -474,7 +450,7 @@ Row Measure(glint::DeviceEngine &engine, const Method &me, int ndf,
     while (t_run < 0.05 && tiles < max_tiles) {
       const double grow = std::clamp(0.06 / std::max(t_run, 1e-6), 2.0, 64.0);
       tiles = uint32_t(std::min(double(max_tiles), std::ceil(tiles * grow)));
-      big = Tile(req.queries(), tiles);
+      big = glint::bench::Tile(req.queries(), tiles * n);
       std::vector<float> tmp(3 * size_t(big.count()));
       auto t0 = Clock::now();
       s = engine.Evaluate(0, plan, big, tmp.data());
@@ -546,16 +522,10 @@ int main(int argc, char **argv) {
   }
   if (repeat < 1) repeat = quick ? 3 : 5;
   const Sweep sw = MakeSweep(quick);
-  const std::vector<Method> methods = {
-      {glint::v1::LTC, 0},           {glint::v1::LECOCQ, 0},       {glint::v1::LECOCQ_PEARSON, 0},
-      {glint::v1::MONTE_CARLO, 4},   {glint::v1::MONTE_CARLO, 16}, {glint::v1::MONTE_CARLO, 64},
-      {glint::v1::MONTE_CARLO, 256}, {glint::v1::REFERENCE, 8},    {glint::v1::REFERENCE, 32},
-  };
+  const std::vector<Method> &methods = glint::bench::AreaMethodChoices();
 
   std::unique_ptr<glint::DeviceEngine> engine;
-  glint::DeviceEngineOptions options;
-  options.workers = 1;
-  glint::Status st = glint::DeviceEngine::Create(options, &engine);
+  glint::Status st = glint::bench::CreateEngine(glint::bench::DefaultCacheDir(), &engine);
   if (!st.ok()) {
     std::fprintf(stderr, "%s\n", st.message().c_str());
     return 1;

@@ -8,6 +8,7 @@ PACKAGES=(
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler grpc-proto
   libopenexr-dev libpng-dev libgtest-dev
   libfreetype-dev fonts-dejavu-core
+  nlohmann-json3-dev python3  # bench_models --json; scripts/bench_tables.py (README tables)
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

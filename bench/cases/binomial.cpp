@@ -1,0 +1,42 @@
+// bench_models case of the BINOMIAL model (models/binomial/README.md): the facet count N_P in the
+// mean footprint and the normal threshold, on lights of finite size (the model refuses probes).
+// Error: the bias of the expected value against the smooth model (Kneiphof & Klein 2024: the
+// count's mean is N_P p, so the mean radiance is the smooth one).
+#include <cstdio>
+
+#include "bench/lib/bench_case.h"
+
+namespace glint::bench {
+namespace {
+
+ModelBenchCase MakeBinomialCase() {
+  ModelBenchCase c;
+  c.model = glint::v1::BINOMIAL;
+  c.error = ErrorReference::kSmoothMean;
+  c.base = [](glint::v1::Material *m) {
+    m->set_ndf(glint::v1::GGX);
+    m->set_alpha_x(0.3f);
+    m->set_alpha_y(0.1f);
+    for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
+  };
+  for (double np : {1e2, 1e4, 1e6})
+    for (float threshold : {1.0f, 9.0f, 40.0f}) {
+      char name[64];
+      std::snprintf(name, sizeof name, "N_P=%.0e,threshold=%g", np, threshold);
+      // Density so that the mean footprint of the shared queries holds N_P facets.
+      c.variants.push_back({name,
+                            {},
+                            threshold == 9.0f,
+                            [np, threshold](glint::v1::EvaluateRequest *r, const QueryStats &s) {
+                              auto *b = r->mutable_material()->mutable_binomial();
+                              b->set_density(np / s.mean_footprint_area);
+                              b->set_normal_threshold(threshold);
+                            }});
+    }
+  return c;
+}
+
+GLINT_BENCH_CASE(MakeBinomialCase);
+
+}  // namespace
+}  // namespace glint::bench

@@ -1,0 +1,40 @@
+// bench_models case of the KEMPPINEN model (models/kemppinen/README.md): facet density and the
+// explicitly evaluated angular neighbours k. Error: the bias of the mean radiance against the
+// smooth model (Kemppinen et al. 2025 Eq. 2: D_star averages to D away from the disk rim).
+#include <cstdio>
+
+#include "bench/lib/bench_case.h"
+
+namespace glint::bench {
+namespace {
+
+ModelBenchCase MakeKemppinenCase() {
+  ModelBenchCase c;
+  c.model = glint::v1::KEMPPINEN;
+  c.error = ErrorReference::kSmoothMean;
+  c.base = [](glint::v1::Material *m) {
+    m->set_ndf(glint::v1::GGX);
+    m->set_alpha_x(0.3f);
+    m->set_alpha_y(0.3f);
+    for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
+  };
+  for (double density : {1e5, 1e9})
+    for (uint32_t k : {1u, 4u, 9u, 16u}) {
+      char name[64];
+      std::snprintf(name, sizeof name, "density=%.0e,k=%u", density, k);
+      c.variants.push_back({name,
+                            {},
+                            density == 1e5 && k != 9,
+                            [density, k](glint::v1::EvaluateRequest *r, const QueryStats &) {
+                              auto *p = r->mutable_material()->mutable_kemppinen();
+                              p->set_density(density);
+                              p->set_neighbors(k);
+                            }});
+    }
+  return c;
+}
+
+GLINT_BENCH_CASE(MakeKemppinenCase);
+
+}  // namespace
+}  // namespace glint::bench

@@ -6,6 +6,7 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -44,15 +45,29 @@ std::vector<float> UnitVectors(std::mt19937 &rng, uint32_t n, float min_z) {
   return v;
 }
 
-Queries MakeQueries(uint32_t n, bool probe, bool frame, uint32_t seed) {
+// The mirror direction of rect_small.json's light seen from the origin: the sparkle preset's
+// glints (binomial counts of facets reflecting the light) light up only near it.
+constexpr float kSparkleMirror[3] = {0.0f, -0.845f, 0.534f};
+
+// With `near`, wo is scattered about it and footprints cover some 100 sparkle facets.
+Queries MakeQueries(uint32_t n, bool probe, bool frame, uint32_t seed,
+                    const float *near = nullptr) {
   std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(-3.0f, 3.0f), f(1e-4f, 2e-3f);
+  std::uniform_real_distribution<float> u(-3.0f, 3.0f), f(1e-4f, 2e-3f), big(5e-3f, 2e-2f);
+  std::normal_distribution<float> g(0.0f, 0.15f);
   Queries q;
   q.n = n;
   q.wo = UnitVectors(rng, n, 0.1f);
+  if (near) {
+    for (uint32_t i = 0; i < n; ++i) {
+      float w[3] = {near[0] + g(rng), near[1] + g(rng), std::max(near[2] + g(rng), 0.1f)};
+      const float len = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+      for (int c = 0; c < 3; ++c) q.wo[3 * i + c] = w[c] / len;
+    }
+  }
   if (probe) q.wi = UnitVectors(rng, n, 0.1f);
   for (uint32_t i = 0; i < 2 * n; ++i) q.uv.push_back(u(rng));
-  for (uint32_t i = 0; i < 4 * n; ++i) q.footprint.push_back(f(rng));
+  for (uint32_t i = 0; i < 4 * n; ++i) q.footprint.push_back(near ? big(rng) : f(rng));
   if (frame) {
     for (uint32_t i = 0; i < n; ++i) {
       // A frame tilted about x by angle a: n = (0, -sin a, cos a), t = (1, 0, 0).
@@ -206,7 +221,9 @@ TEST_F(KServeService, ModelInferEqualsEvaluateBitForBitTypedAndRaw) {
   uint32_t seed = 1;
   for (const Case &c : cases) {
     SCOPED_TRACE(std::string(c.model) + (c.frame ? " with frame" : ""));
-    const Queries q = MakeQueries(777, c.probe, c.frame, seed++);
+    const bool sparkle = std::string(c.model) == "sparkle";
+    const Queries q =
+        MakeQueries(777, c.probe, c.frame, seed++, sparkle ? kSparkleMirror : nullptr);
     const std::vector<float> reference = Evaluate(Settings(c.flag), q);
     ASSERT_EQ(reference.size(), size_t(q.n) * 3);
     for (bool raw : {false, true}) {
@@ -220,7 +237,7 @@ TEST_F(KServeService, ModelInferEqualsEvaluateBitForBitTypedAndRaw) {
 }
 
 TEST_F(KServeService, ParametersOverrideSeedPrecisionAndAreaMethodAsInEvaluate) {
-  const Queries q = MakeQueries(300, false, false, 11);
+  const Queries q = MakeQueries(300, false, false, 11, kSparkleMirror);
   glint::v1::EvaluateRequest settings = Settings("sparkle=" + Sparkle());
   const std::vector<float> seed0 = Evaluate(settings, q);
   settings.set_seed(7);
@@ -230,6 +247,7 @@ TEST_F(KServeService, ParametersOverrideSeedPrecisionAndAreaMethodAsInEvaluate) 
   const std::vector<float> reference = Evaluate(settings, q);
   // The overrides matter for these queries (otherwise the comparison below proves nothing).
   ASSERT_FALSE(BitEqual(seed0, reference));
+  ASSERT_GT(*std::max_element(reference.begin(), reference.end()), 0.0f);
 
   ModelInferRequest r = InferRequest("sparkle", q, true);
   (*r.mutable_parameters())["seed"].set_int64_param(7);

@@ -9,6 +9,7 @@ PACKAGES=(
   libopenexr-dev libpng-dev libgtest-dev
   libfreetype-dev fonts-dejavu-core
   nlohmann-json3-dev python3  # bench_models --json; scripts/bench_tables.py (README tables)
+  python3-venv libb64-0d  # KServe tests: tritonclient venv; perf_analyzer's libb64
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

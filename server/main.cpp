@@ -11,6 +11,7 @@
 #include <iostream>
 #include <string>
 
+#include "server/kserve_service.h"
 #include "server/model_table.h"
 #include "server/service.h"
 
@@ -27,6 +28,8 @@ struct Flags {
   int max_message_mb = 64;
   bool quiet = false;
   bool list_devices = false;
+  std::vector<std::string> models;      // --model NAME=MATERIAL.json[,LIGHTS.json]
+  std::vector<std::string> model_dirs;  // --model-dir DIR
 };
 
 const char kUsage[] =
@@ -43,6 +46,10 @@ const char kUsage[] =
     "  --max-pending N      queued+running requests before RESOURCE_EXHAUSTED (default 16)\n"
     "  --max-message-mb N   gRPC message size limit, both directions (default 64)\n"
     "  --port-file PATH     write the bound port here once SERVING\n"
+    "  --model NAME=MATERIAL.json[,LIGHTS.json]\n"
+    "                       serve a material preset as model NAME over the Open Inference\n"
+    "                       Protocol (inference.GRPCInferenceService); repeatable\n"
+    "  --model-dir DIR      serve every DIR/NAME.json preset (material + optional \"lights\")\n"
     "  --list-devices       print the OpenCL devices and exit\n"
     "  --quiet              no per-request log lines\n";
 
@@ -90,6 +97,10 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->max_pending = int(number("--max-pending", 1, 1 << 16));
     else if (a == "--max-message-mb")
       f->max_message_mb = int(number("--max-message-mb", 1, 1024));
+    else if (a == "--model")
+      f->models.push_back(value("--model"));
+    else if (a == "--model-dir")
+      f->model_dirs.push_back(value("--model-dir"));
     else if (a == "--list-devices")
       f->list_devices = true;
     else if (a == "--quiet")
@@ -158,6 +169,14 @@ int main(int argc, char **argv) {
   }
   glint::Scheduler scheduler(flags.workers, size_t(flags.max_pending));
   glint::GlintServiceImpl service(engine.get(), &scheduler, options);
+  std::vector<glint::KServeModel> kserve_models;
+  if (glint::Status s =
+          glint::LoadKServeModels(flags.models, flags.model_dirs, options.limits, &kserve_models);
+      !s.ok()) {
+    std::fprintf(stderr, "glintd: %s\n", s.message().c_str());
+    return 2;
+  }
+  glint::KServeServiceImpl kserve(&service, std::move(kserve_models));
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -167,6 +186,7 @@ int main(int argc, char **argv) {
   builder.SetMaxReceiveMessageSize(flags.max_message_mb << 20);
   builder.SetMaxSendMessageSize(flags.max_message_mb << 20);
   builder.RegisterService(&service);
+  builder.RegisterService(&kserve);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {
     std::fprintf(stderr, "glintd: could not listen on %s\n", flags.listen.c_str());
@@ -185,6 +205,11 @@ int main(int argc, char **argv) {
         return 1;
       }
     }
+    if (glint::Status s = kserve.Warm(engine.get()); !s.ok()) {
+      std::fprintf(stderr, "glintd: %s\n", s.message().c_str());
+      server->Shutdown();
+      return 1;
+    }
     std::fprintf(
         stderr,
         "glintd: device %s (%s), %zu kernels warm in %.0f ms (%d compiled, %d from cache %s)\n",
@@ -197,6 +222,7 @@ int main(int argc, char **argv) {
   }
 
   server->GetHealthCheckService()->SetServingStatus(true);
+  kserve.SetReady(true);
   std::string host = flags.listen.substr(0, flags.listen.rfind(':'));
   std::fprintf(stderr, "glintd: SERVING on %s:%d\n", host.c_str(), port);
   if (!flags.port_file.empty()) {
@@ -209,6 +235,7 @@ int main(int argc, char **argv) {
   sigwait(&stop_signals, &sig);
   std::fprintf(stderr, "glintd: signal %d, shutting down\n", sig);
   server->GetHealthCheckService()->SetServingStatus(false);
+  kserve.SetReady(false);
   server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
   return 0;
 }

@@ -1,0 +1,51 @@
+// Open Inference Protocol tensors <-> glint.v1 query batches: the one translation between
+// ModelInfer's FP32 tensors (typed fp32_contents or little-endian raw_input_contents) and the
+// structure-of-arrays QueryBatch that glint.v1's validation, scheduler and kernels take, so
+// that ModelInfer is Evaluate with another envelope. Every refusal names the input (or
+// parameter) and what was expected; the values inside a well-formed tensor are checked later
+// by glint.v1's ValidateQueries, whose messages name the field and first bad row
+// ("queries.wo[17]: (nan, 0, 1) is not finite": row 17 of input wo).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "glint/v1/glint.pb.h"
+#include "inference/grpc_service.pb.h"
+#include "server/status.h"
+
+namespace glint {
+
+// An input tensor a model takes: FP32 [-1, width].
+struct KServeInput {
+  const char *name;
+  int width;
+  bool required;
+};
+
+// The inputs of a model with or without lights: wo (required); wi (BRDF probes: required
+// without lights, absent with lights); uv, footprint, position, normal, tangent (optional).
+std::vector<KServeInput> KServeInputs(bool has_lights);
+
+// Fills `queries` from the request's input tensors: one query per row, as many rows as wo.
+Status DecodeInferInputs(const inference::ModelInferRequest &request, bool has_lights,
+                         glint::v1::QueryBatch *queries);
+
+// Applies the request parameters seed, precision, area_method and area_samples to
+// `settings`; ignores the ones Triton's clients set for their own features and refuses others.
+Status ApplyInferParameters(const inference::ModelInferRequest &request,
+                            glint::v1::EvaluateRequest *settings);
+
+// Checks the requested outputs: none (= all) or "radiance" once.
+Status CheckRequestedOutputs(const inference::ModelInferRequest &request);
+
+// glint.v1's messages in the protocol's words: "queries.wo[17]: ..." becomes
+// "input 'wo' row 17: ..." and "queries.uv: ..." becomes "input 'uv': ..."; others stay as
+// they are.
+std::string InferMessage(const std::string &glint_message);
+
+// Appends output "radiance" FP32 [count, 3] with its data as raw_output_contents.
+void EncodeRadiance(const float *rgb, uint32_t count, inference::ModelInferResponse *response);
+
+}  // namespace glint

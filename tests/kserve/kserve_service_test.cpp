@@ -1,0 +1,396 @@
+// inference.GRPCInferenceService against a real glintd (tests/support/glintd_process.h), with
+// the C++ stubs of proto/inference/grpc_service.proto. The reference for every ModelInfer
+// result is glint.v1 Evaluate of the same queries and settings on the same server: the two
+// must agree bit for bit, typed contents or raw bytes alike. (tests/kserve/tritonclient_test.py
+// does the same with Triton's own Python client.)
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "glint/v1/glint.grpc.pb.h"
+#include "glintd_process.h"
+#include "inference/grpc_service.grpc.pb.h"
+#include "server/kserve_models.h"
+
+namespace glint {
+namespace {
+
+using inference::GRPCInferenceService;
+using inference::ModelInferRequest;
+using inference::ModelInferResponse;
+
+const std::string kExamples = GLINT_EXAMPLES_DIR;
+
+// Queries of one batch, row-major per input (the protocol's layout and glint.v1's).
+struct Queries {
+  uint32_t n = 0;
+  std::vector<float> wo, wi, uv, footprint, position, normal, tangent;
+};
+
+std::vector<float> UnitVectors(std::mt19937 &rng, uint32_t n, float min_z) {
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<float> v;
+  for (uint32_t i = 0; i < n; ++i) {
+    const float z = min_z + (1.0f - min_z) * u(rng), phi = 6.2831853f * u(rng);
+    const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+    v.insert(v.end(), {r * std::cos(phi), r * std::sin(phi), z});
+  }
+  return v;
+}
+
+// The mirror direction of rect_small.json's light seen from the origin: the sparkle preset's
+// glints (binomial counts of facets reflecting the light) light up only near it.
+constexpr float kSparkleMirror[3] = {0.0f, -0.845f, 0.534f};
+
+// With `near`, wo is scattered about it and footprints cover some 100 sparkle facets.
+Queries MakeQueries(uint32_t n, bool probe, bool frame, uint32_t seed,
+                    const float *near = nullptr) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-3.0f, 3.0f), f(1e-4f, 2e-3f), big(5e-3f, 2e-2f);
+  std::normal_distribution<float> g(0.0f, 0.15f);
+  Queries q;
+  q.n = n;
+  q.wo = UnitVectors(rng, n, 0.1f);
+  if (near) {
+    for (uint32_t i = 0; i < n; ++i) {
+      float w[3] = {near[0] + g(rng), near[1] + g(rng), std::max(near[2] + g(rng), 0.1f)};
+      const float len = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+      for (int c = 0; c < 3; ++c) q.wo[3 * i + c] = w[c] / len;
+    }
+  }
+  if (probe) q.wi = UnitVectors(rng, n, 0.1f);
+  for (uint32_t i = 0; i < 2 * n; ++i) q.uv.push_back(u(rng));
+  for (uint32_t i = 0; i < 4 * n; ++i) q.footprint.push_back(near ? big(rng) : f(rng));
+  if (frame) {
+    for (uint32_t i = 0; i < n; ++i) {
+      // A frame tilted about x by angle a: n = (0, -sin a, cos a), t = (1, 0, 0).
+      const float a = 0.3f * float(i % 5);
+      q.position.insert(q.position.end(), {u(rng), u(rng), 0.0f});
+      q.normal.insert(q.normal.end(), {0.0f, -std::sin(a), std::cos(a)});
+      q.tangent.insert(q.tangent.end(), {1.0f, 0.0f, 0.0f});
+    }
+  }
+  return q;
+}
+
+void AddTensor(ModelInferRequest *r, const char *name, const std::vector<float> &v, int width,
+               bool raw) {
+  if (v.empty()) return;
+  auto *in = r->add_inputs();
+  in->set_name(name);
+  in->set_datatype("FP32");
+  in->add_shape(int64_t(v.size()) / width);
+  in->add_shape(width);
+  if (raw) {
+    r->add_raw_input_contents()->assign(reinterpret_cast<const char *>(v.data()),
+                                        v.size() * sizeof(float));
+  } else {
+    in->mutable_contents()->mutable_fp32_contents()->Add(v.begin(), v.end());
+  }
+}
+
+ModelInferRequest InferRequest(const std::string &model, const Queries &q, bool raw) {
+  ModelInferRequest r;
+  r.set_model_name(model);
+  r.set_id("req-1");
+  AddTensor(&r, "wo", q.wo, 3, raw);
+  AddTensor(&r, "wi", q.wi, 3, raw);
+  AddTensor(&r, "uv", q.uv, 2, raw);
+  AddTensor(&r, "footprint", q.footprint, 4, raw);
+  AddTensor(&r, "position", q.position, 3, raw);
+  AddTensor(&r, "normal", q.normal, 3, raw);
+  AddTensor(&r, "tangent", q.tangent, 3, raw);
+  return r;
+}
+
+glint::v1::QueryBatch Batch(const Queries &q) {
+  glint::v1::QueryBatch b;
+  b.set_count(q.n);
+  b.mutable_wo()->Add(q.wo.begin(), q.wo.end());
+  b.mutable_wi()->Add(q.wi.begin(), q.wi.end());
+  b.mutable_uv()->Add(q.uv.begin(), q.uv.end());
+  b.mutable_footprint()->Add(q.footprint.begin(), q.footprint.end());
+  b.mutable_position()->Add(q.position.begin(), q.position.end());
+  b.mutable_normal()->Add(q.normal.begin(), q.normal.end());
+  b.mutable_tangent()->Add(q.tangent.begin(), q.tangent.end());
+  return b;
+}
+
+class KServeService : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new test::TempDir("kserve_service");
+    std::string error;
+    server_ = test::Glintd::Start(GLINTD_PATH, *dir_, "glintd",
+                                  {"--model", "paint=" + Paint(), "--model", "probe=" + Probe(),
+                                   "--model", "sparkle=" + Sparkle()},
+                                  &error)
+                  .release();
+    ASSERT_NE(server_, nullptr) << error;
+    auto channel = grpc::CreateChannel(server_->address(), grpc::InsecureChannelCredentials());
+    kserve_ = GRPCInferenceService::NewStub(channel).release();
+    glint_ = glint::v1::GlintService::NewStub(channel).release();
+  }
+  static void TearDownTestSuite() {
+    delete kserve_;
+    delete glint_;
+    delete server_;
+    delete dir_;
+  }
+  static std::string Paint() {
+    return kExamples + "/materials/paint_schlick.json," + kExamples + "/lights/studio.json";
+  }
+  static std::string Probe() { return kExamples + "/materials/gold_aniso.json"; }
+  static std::string Sparkle() {
+    return kExamples + "/materials/sparkle_binomial.json," + kExamples + "/lights/rect_small.json";
+  }
+
+  // The preset as glint.v1 settings, read by glintd's own loader.
+  static glint::v1::EvaluateRequest Settings(const std::string &model_flag) {
+    KServeModel m;
+    EXPECT_TRUE(LoadModelFlag(model_flag, &m).ok());
+    return m.settings;
+  }
+
+  static grpc::Status Infer(const ModelInferRequest &r, ModelInferResponse *response) {
+    grpc::ClientContext ctx;
+    return kserve_->ModelInfer(&ctx, r, response);
+  }
+
+  static std::vector<float> Evaluate(glint::v1::EvaluateRequest request, const Queries &q) {
+    *request.mutable_queries() = Batch(q);
+    glint::v1::EvaluateResponse response;
+    grpc::ClientContext ctx;
+    const grpc::Status s = glint_->Evaluate(&ctx, request, &response);
+    EXPECT_TRUE(s.ok()) << s.error_message();
+    return std::vector<float>(response.radiance().begin(), response.radiance().end());
+  }
+
+  // ModelInfer's radiance, after checking the envelope (name, shape, raw FP32).
+  static std::vector<float> Radiance(const ModelInferResponse &r, uint32_t n) {
+    EXPECT_EQ(r.id(), "req-1");
+    EXPECT_EQ(r.model_version(), "1");
+    EXPECT_EQ(r.outputs_size(), 1);
+    EXPECT_EQ(r.raw_output_contents_size(), 1);
+    if (r.outputs_size() != 1 || r.raw_output_contents_size() != 1) return {};
+    EXPECT_EQ(r.outputs(0).name(), "radiance");
+    EXPECT_EQ(r.outputs(0).datatype(), "FP32");
+    EXPECT_EQ(r.outputs(0).shape_size(), 2);
+    EXPECT_EQ(r.outputs(0).shape(0), int64_t(n));
+    EXPECT_EQ(r.outputs(0).shape(1), 3);
+    const std::string &bytes = r.raw_output_contents(0);
+    EXPECT_EQ(bytes.size(), size_t(n) * 3 * sizeof(float));
+    std::vector<float> v(bytes.size() / sizeof(float));
+    std::memcpy(v.data(), bytes.data(), v.size() * sizeof(float));
+    return v;
+  }
+
+  static bool BitEqual(const std::vector<float> &a, const std::vector<float> &b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+  }
+
+  static test::TempDir *dir_;
+  static test::Glintd *server_;
+  static GRPCInferenceService::Stub *kserve_;
+  static glint::v1::GlintService::Stub *glint_;
+};
+
+test::TempDir *KServeService::dir_ = nullptr;
+test::Glintd *KServeService::server_ = nullptr;
+GRPCInferenceService::Stub *KServeService::kserve_ = nullptr;
+glint::v1::GlintService::Stub *KServeService::glint_ = nullptr;
+
+TEST_F(KServeService, ModelInferEqualsEvaluateBitForBitTypedAndRaw) {
+  struct Case {
+    const char *model;
+    std::string flag;
+    bool probe, frame;
+  };
+  const Case cases[] = {{"paint", "paint=" + Paint(), false, false},
+                        {"paint", "paint=" + Paint(), false, true},
+                        {"probe", "probe=" + Probe(), true, false},
+                        {"probe", "probe=" + Probe(), true, true},
+                        {"sparkle", "sparkle=" + Sparkle(), false, false}};
+  uint32_t seed = 1;
+  for (const Case &c : cases) {
+    SCOPED_TRACE(std::string(c.model) + (c.frame ? " with frame" : ""));
+    const bool sparkle = std::string(c.model) == "sparkle";
+    const Queries q =
+        MakeQueries(777, c.probe, c.frame, seed++, sparkle ? kSparkleMirror : nullptr);
+    const std::vector<float> reference = Evaluate(Settings(c.flag), q);
+    ASSERT_EQ(reference.size(), size_t(q.n) * 3);
+    for (bool raw : {false, true}) {
+      ModelInferResponse response;
+      const grpc::Status s = Infer(InferRequest(c.model, q, raw), &response);
+      ASSERT_TRUE(s.ok()) << s.error_message();
+      EXPECT_EQ(response.model_name(), c.model);
+      EXPECT_TRUE(BitEqual(Radiance(response, q.n), reference)) << (raw ? "raw" : "typed");
+    }
+  }
+}
+
+TEST_F(KServeService, ParametersOverrideSeedPrecisionAndAreaMethodAsInEvaluate) {
+  const Queries q = MakeQueries(300, false, false, 11, kSparkleMirror);
+  glint::v1::EvaluateRequest settings = Settings("sparkle=" + Sparkle());
+  const std::vector<float> seed0 = Evaluate(settings, q);
+  settings.set_seed(7);
+  settings.set_area_method(glint::v1::MONTE_CARLO);
+  settings.set_area_samples(16);
+  settings.set_precision(glint::v1::FP64);
+  const std::vector<float> reference = Evaluate(settings, q);
+  // The overrides matter for these queries (otherwise the comparison below proves nothing).
+  ASSERT_FALSE(BitEqual(seed0, reference));
+  ASSERT_GT(*std::max_element(reference.begin(), reference.end()), 0.0f);
+
+  ModelInferRequest r = InferRequest("sparkle", q, true);
+  (*r.mutable_parameters())["seed"].set_int64_param(7);
+  (*r.mutable_parameters())["area_method"].set_string_param("MONTE_CARLO");
+  (*r.mutable_parameters())["area_samples"].set_int64_param(16);
+  (*r.mutable_parameters())["precision"].set_string_param("FP64");
+  ModelInferResponse response;
+  const grpc::Status s = Infer(r, &response);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  EXPECT_TRUE(BitEqual(Radiance(response, q.n), reference));
+}
+
+TEST_F(KServeService, BadTensorsAreInvalidArgumentNamingInputAndRow) {
+  Queries q = MakeQueries(40, false, false, 5);
+  q.wo[17 * 3 + 1] = std::nanf("");
+  ModelInferResponse response;
+  grpc::Status s = Infer(InferRequest("paint", q, true), &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("input 'wo' row 17"), std::string::npos) << s.error_message();
+  EXPECT_NE(s.error_message().find("not finite"), std::string::npos) << s.error_message();
+
+  q = MakeQueries(40, false, false, 5);
+  q.wo[3 * 3 + 2] *= 1.01f;  // |wo| off by about 1e-2 > the 1e-3 tolerance
+  s = Infer(InferRequest("paint", q, false), &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("input 'wo' row 3"), std::string::npos) << s.error_message();
+
+  q = MakeQueries(40, false, false, 5);
+  ModelInferRequest r = InferRequest("paint", q, true);
+  r.mutable_raw_input_contents(1)->resize(7);  // uv
+  s = Infer(r, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("input 'uv': raw_input_contents holds 7 bytes"),
+            std::string::npos)
+      << s.error_message();
+
+  r = InferRequest("paint", q, true);
+  (*r.mutable_parameters())["seed"].set_string_param("seven");
+  s = Infer(r, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("parameter 'seed'"), std::string::npos) << s.error_message();
+
+  r = InferRequest("nope", q, true);
+  s = Infer(r, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_NE(s.error_message().find("registered models: paint, probe, sparkle"), std::string::npos)
+      << s.error_message();
+  r = InferRequest("paint", q, true);
+  r.set_model_version("2");
+  EXPECT_EQ(Infer(r, &response).error_code(), grpc::StatusCode::NOT_FOUND);
+
+  // The server is unaffected: the same request without the defect is answered.
+  r = InferRequest("paint", q, true);
+  EXPECT_TRUE(Infer(r, &response).ok());
+  EXPECT_TRUE(server_->Alive());
+}
+
+TEST_F(KServeService, HealthMetadataConfigAndStatistics) {
+  {
+    grpc::ClientContext ctx;
+    inference::ServerLiveResponse live;
+    ASSERT_TRUE(kserve_->ServerLive(&ctx, {}, &live).ok());
+    EXPECT_TRUE(live.live());
+  }
+  {
+    grpc::ClientContext ctx;
+    inference::ServerReadyResponse ready;
+    ASSERT_TRUE(kserve_->ServerReady(&ctx, {}, &ready).ok());
+    EXPECT_TRUE(ready.ready());  // the port file is written only when SERVING
+  }
+  for (const char *name : {"paint", "nope"}) {
+    grpc::ClientContext ctx;
+    inference::ModelReadyRequest req;
+    req.set_name(name);
+    inference::ModelReadyResponse ready;
+    ASSERT_TRUE(kserve_->ModelReady(&ctx, req, &ready).ok());
+    EXPECT_EQ(ready.ready(), std::string(name) == "paint");
+  }
+  {
+    grpc::ClientContext ctx;
+    inference::ModelMetadataRequest req;
+    req.set_name("probe");
+    inference::ModelMetadataResponse md;
+    ASSERT_TRUE(kserve_->ModelMetadata(&ctx, req, &md).ok());
+    std::string inputs;
+    for (const auto &t : md.inputs()) {
+      inputs += t.name() + ":" + t.datatype() + "[" + std::to_string(t.shape(0)) + "," +
+                std::to_string(t.shape(1)) + "] ";
+    }
+    EXPECT_EQ(inputs,
+              "wo:FP32[-1,3] wi:FP32[-1,3] uv:FP32[-1,2] footprint:FP32[-1,4] "
+              "position:FP32[-1,3] normal:FP32[-1,3] tangent:FP32[-1,3] ");
+    ASSERT_EQ(md.outputs_size(), 1);
+    EXPECT_EQ(md.outputs(0).name(), "radiance");
+  }
+  {
+    grpc::ClientContext ctx;
+    inference::ModelConfigRequest req;
+    req.set_name("paint");
+    inference::ModelConfigResponse config;
+    ASSERT_TRUE(kserve_->ModelConfig(&ctx, req, &config).ok());
+    EXPECT_EQ(config.config().name(), "paint");
+    EXPECT_EQ(config.config().max_batch_size(), 0);
+    ASSERT_EQ(config.config().input_size(), 6);  // lit: no wi
+    EXPECT_EQ(config.config().input(0).name(), "wo");
+    EXPECT_FALSE(config.config().input(0).optional());
+    EXPECT_EQ(config.config().input(1).name(), "uv");
+    EXPECT_TRUE(config.config().input(1).optional());
+    EXPECT_EQ(config.config().input(1).data_type(), inference::TYPE_FP32);
+    EXPECT_EQ(config.config().input(1).dims(0), -1);
+    EXPECT_EQ(config.config().input(1).dims(1), 2);
+  }
+  auto stats = [](inference::InferStatistics *out) {
+    grpc::ClientContext ctx;
+    inference::ModelStatisticsRequest req;
+    req.set_name("probe");
+    inference::ModelStatisticsResponse r;
+    ASSERT_TRUE(kserve_->ModelStatistics(&ctx, req, &r).ok());
+    ASSERT_EQ(r.model_stats_size(), 1);
+    *out = r.model_stats(0).inference_stats();
+  };
+  inference::InferStatistics before, after;
+  stats(&before);
+  Queries q = MakeQueries(10, true, false, 3);
+  ModelInferResponse response;
+  ASSERT_TRUE(Infer(InferRequest("probe", q, true), &response).ok());
+  q.wi[0] = 2.0f;
+  ASSERT_FALSE(Infer(InferRequest("probe", q, true), &response).ok());
+  stats(&after);
+  EXPECT_EQ(after.success().count(), before.success().count() + 1);
+  EXPECT_EQ(after.fail().count(), before.fail().count() + 1);
+  EXPECT_GT(after.compute_infer().ns(), before.compute_infer().ns());
+}
+
+TEST(KServeStartup, ABadPresetStopsGlintdNamingTheFile) {
+  test::TempDir dir("kserve_startup");
+  const std::string bad = dir.File("bad.json");
+  std::ofstream(bad) << R"({"model": "SMOOTH", "ndf": "GGX", "alpha_x": 0.3, "alpha_y": 0.1})";
+  std::string error;
+  auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd", {"--model", "bad=" + bad}, &error);
+  EXPECT_EQ(server, nullptr);
+  EXPECT_NE(error.find("model 'bad' (" + bad + ")"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace glint

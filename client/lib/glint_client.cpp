@@ -161,8 +161,11 @@ GlintClient::GlintClient(std::shared_ptr<grpc::Channel> channel, ClientOptions o
       channel_(std::move(channel)),
       stub_(glint::v1::GlintService::NewStub(channel_)) {}
 
+void GlintClient::PrepareContext(grpc::ClientContext *) const {}
+
 grpc::Status GlintClient::GetCapabilities(glint::v1::Capabilities *capabilities) {
   grpc::ClientContext context;
+  PrepareContext(&context);
   context.set_deadline(std::chrono::system_clock::now() + options_.rpc_timeout);
   glint::v1::Capabilities caps;
   grpc::Status status =
@@ -282,6 +285,10 @@ grpc::Status GlintClient::Evaluate(const glint::v1::EvaluateRequest &request,
 grpc::Status GlintClient::EvaluateUnary(const glint::v1::EvaluateRequest &request,
                                         std::vector<float> *radiance, EvaluateInfo *info) {
   grpc::ClientContext context;
+  PrepareContext(&context);
+  if (options_.evaluate_timeout.count() > 0) {
+    context.set_deadline(std::chrono::system_clock::now() + options_.evaluate_timeout);
+  }
   glint::v1::EvaluateResponse response;
   grpc::Status status = stub_->Evaluate(&context, request, &response);
   if (!status.ok()) return status;
@@ -311,6 +318,10 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
 
   std::vector<float> out(uint64_t{count} * 3);
   grpc::ClientContext context;
+  PrepareContext(&context);
+  if (options_.evaluate_timeout.count() > 0) {
+    context.set_deadline(std::chrono::system_clock::now() + options_.evaluate_timeout);
+  }
   std::unique_ptr<
       grpc::ClientReaderWriter<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult>>
       stream = stub_->EvaluateStream(&context);

@@ -37,6 +37,8 @@ struct ClientOptions {
   // Deadline for the cheap RPCs (GetCapabilities). Evaluate has none: a large batch may
   // legitimately take minutes, and the caller can cancel by closing the process.
   std::chrono::milliseconds rpc_timeout{10000};
+  // Deadline of one Evaluate call, unary or streamed, from its start (0 = none).
+  std::chrono::milliseconds evaluate_timeout{0};
 };
 
 // How the last Evaluate call was carried out (for summaries and tests).
@@ -57,6 +59,10 @@ class GlintClient {
   GlintClient(std::shared_ptr<grpc::Channel> channel, ClientOptions options = {});
 
   const std::string &address() const { return address_; }
+  // The channel, for callers that use stubs of their own (the load tool's streams).
+  std::shared_ptr<grpc::Channel> channel() const { return channel_; }
+  // Adds what every call of this client carries (the bearer token, when one is configured).
+  void PrepareContext(grpc::ClientContext *context) const;
 
   // Always asks the server (and refreshes the cache Evaluate uses).
   grpc::Status GetCapabilities(glint::v1::Capabilities *capabilities);

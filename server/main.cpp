@@ -12,6 +12,7 @@
 #include <string>
 
 #include "server/model_table.h"
+#include "server/ops.h"
 #include "server/service.h"
 
 namespace {
@@ -27,6 +28,7 @@ struct Flags {
   int max_message_mb = 64;
   bool quiet = false;
   bool list_devices = false;
+  glint::OpsFlags ops;  // metrics, TLS, tokens (server/ops.h)
 };
 
 const char kUsage[] =
@@ -94,11 +96,13 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->list_devices = true;
     else if (a == "--quiet")
       f->quiet = true;
-    else if (a == "--help" || a == "-h") {
+    else if (glint::ParseOpsFlag(argc, argv, &i, &f->ops)) {
+    } else if (a == "--help" || a == "-h") {
       std::fputs(kUsage, stdout);
+      std::fputs(glint::kOpsUsage, stdout);
       std::exit(0);
     } else {
-      std::fprintf(stderr, "glintd: unknown option %s\n%s", a.c_str(), kUsage);
+      std::fprintf(stderr, "glintd: unknown option %s\n%s%s", a.c_str(), kUsage, glint::kOpsUsage);
       return false;
     }
   }
@@ -157,6 +161,8 @@ int main(int argc, char **argv) {
     options.limits.fp64_available = engine->info().fp64;
   }
   glint::Scheduler scheduler(flags.workers, size_t(flags.max_pending));
+  glint::Ops ops(flags.ops);
+  options.metrics = ops.metrics();
   glint::GlintServiceImpl service(engine.get(), &scheduler, options);
 
   grpc::EnableDefaultHealthCheckService(true);
@@ -167,12 +173,18 @@ int main(int argc, char **argv) {
   builder.SetMaxReceiveMessageSize(flags.max_message_mb << 20);
   builder.SetMaxSendMessageSize(flags.max_message_mb << 20);
   builder.RegisterService(&service);
+  ops.Configure(&builder, &scheduler, engine.get());
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {
     std::fprintf(stderr, "glintd: could not listen on %s\n", flags.listen.c_str());
     return 1;
   }
   server->GetHealthCheckService()->SetServingStatus(false);
+  if (std::string error; !ops.Start(&error)) {
+    std::fprintf(stderr, "glintd: %s\n", error.c_str());
+    server->Shutdown();
+    return 1;
+  }
 
   if (engine) {
     const auto t0 = std::chrono::steady_clock::now();

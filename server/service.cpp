@@ -88,6 +88,9 @@ Status GlintServiceImpl::RunBatch(int worker, const glint::v1::EvaluateRequest &
   }
   response->mutable_stats()->set_compute_ms(MsSince(start));
   response->mutable_stats()->set_device(DeviceName());
+  if (options_.metrics && s.ok())
+    options_.metrics->CountEvaluated(ModelName(settings), queries.count(),
+                                     response->stats().compute_ms() / 1e3);
   return s;
 }
 
@@ -105,6 +108,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   }
   bool queued = scheduler_->TrySubmit([this, reactor, request, response, received](int worker) {
     const double queue_ms = MsSince(received);
+    if (options_.metrics) options_.metrics->ObserveQueueWait(queue_ms / 1e3);
     std::string kernel = "-";
     Status st = RunBatch(worker, *request, request->queries(), 0, false, response, &kernel);
     response->mutable_stats()->set_queue_ms(queue_ms);
@@ -157,7 +161,9 @@ class GlintServiceImpl::StreamReactor
       Status s = ValidateSettings(settings_, service_->options().limits);
       if (!s.ok()) return Fail(ChunkStatus(next_index_, s));
     }
+    submitted_ = Clock::now();
     bool queued = service_->scheduler().TrySubmit([this](int worker) -> Scheduler::Respond {
+      if (Metrics *m = service_->options().metrics) m->ObserveQueueWait(MsSince(submitted_) / 1e3);
       result_.Clear();
       result_.set_chunk_index(next_index_);
       result_.set_first_query(next_query_);
@@ -192,6 +198,7 @@ class GlintServiceImpl::StreamReactor
 
   GlintServiceImpl *service_;
   Clock::time_point start_;
+  Clock::time_point submitted_;  // when the current chunk was queued (queue-wait metric)
   glint::v1::EvaluateChunk chunk_;
   glint::v1::EvaluateRequest settings_;
   glint::v1::EvaluateChunkResult result_;

@@ -11,6 +11,7 @@
 
 #include "glint/v1/glint.grpc.pb.h"
 #include "server/device_engine.h"
+#include "server/metrics.h"
 #include "server/scheduler.h"
 #include "server/validation.h"
 
@@ -20,6 +21,7 @@ struct ServiceOptions {
   ValidationLimits limits;
   uint64_t max_message_bytes = 64ull << 20;
   bool log_requests = true;
+  Metrics *metrics = nullptr;  // --metrics-listen; null: no metric hooks
 };
 
 // Evaluates on the OpenCL engine, or on the host path when engine is null.

@@ -8,6 +8,7 @@ PACKAGES=(
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler grpc-proto
   libopenexr-dev libpng-dev libgtest-dev
   libcpp-httplib-dev  # glintd --metrics-listen (Prometheus /metrics)
+  openssl             # tests: certificates for TLS / mutual TLS made at test time
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

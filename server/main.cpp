@@ -162,14 +162,21 @@ int main(int argc, char **argv) {
   }
   glint::Scheduler scheduler(flags.workers, size_t(flags.max_pending));
   glint::Ops ops(flags.ops);
+  if (std::string error; !ops.Init(&error)) {
+    std::fprintf(stderr, "glintd: %s\n", error.c_str());
+    return 2;
+  }
   options.metrics = ops.metrics();
+  options.auth = ops.auth();
   glint::GlintServiceImpl service(engine.get(), &scheduler, options);
 
   grpc::EnableDefaultHealthCheckService(true);
-  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  // Reflection is gRPC's own service, which the token check cannot guard: off with tokens.
+  if (!ops.auth()) grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(flags.listen, grpc::InsecureServerCredentials(), &port);
+  builder.AddListeningPort(flags.listen, ops.ServerCredentials(), &port);
+  ops.WarnIfExposed(flags.listen);
   builder.SetMaxReceiveMessageSize(flags.max_message_mb << 20);
   builder.SetMaxSendMessageSize(flags.max_message_mb << 20);
   builder.RegisterService(&service);

@@ -99,6 +99,10 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
                                                      glint::v1::EvaluateResponse *response) {
   grpc::ServerUnaryReactor *reactor = ctx->DefaultReactor();
   const auto received = Clock::now();
+  if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
+    reactor->Finish(denied);
+    return reactor;
+  }
   Status s = ValidateSettings(*request, options_.limits);
   if (!s.ok()) {
     LogLine("Evaluate n=" + std::to_string(request->queries().count()) +
@@ -207,13 +211,21 @@ class GlintServiceImpl::StreamReactor
 };
 
 grpc::ServerBidiReactor<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult>
-    *GlintServiceImpl::EvaluateStream(grpc::CallbackServerContext *) {
+    *GlintServiceImpl::EvaluateStream(grpc::CallbackServerContext *ctx) {
+  if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
+    return new RefusedBidiReactor<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult>(denied);
+  }
   return new StreamReactor(this);
 }
 
 grpc::ServerUnaryReactor *GlintServiceImpl::GetCapabilities(
     grpc::CallbackServerContext *ctx, const glint::v1::GetCapabilitiesRequest *,
     glint::v1::Capabilities *c) {
+  if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
+    auto *reactor = ctx->DefaultReactor();
+    reactor->Finish(denied);
+    return reactor;
+  }
   c->set_server_version(GLINT_VERSION);
   if (engine_) {
     const DeviceInfo &d = engine_->info();

@@ -45,15 +45,18 @@ retried. Only ADDR is contacted.
                        streams (default 60000)
   --csv OUT.csv        write the CSV here (default: stdout only)
   --wait-ms MS         how long to wait for the server to report SERVING (default 10000)
+  --tls-ca PEM, --tls-cert PEM, --tls-key PEM, --token-file FILE
+                       TLS, mutual TLS and bearer token as for every glint command
+                       (the token defaults to $GLINT_TOKEN)
 )";
 
 struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-const std::set<std::string> kWithValue = {"server",   "concurrency", "batch",        "duration",
-                                          "material", "lights",      "requests-max", "timeout-ms",
-                                          "csv",      "wait-ms"};
+const std::set<std::string> kWithValue = {
+    "server",     "concurrency", "batch",   "duration", "material", "lights",  "requests-max",
+    "timeout-ms", "csv",         "wait-ms", "tls-ca",   "tls-cert", "tls-key", "token-file"};
 const std::set<std::string> kFlags = {"stream"};
 
 std::map<std::string, std::string> ParseArgs(int argc, char **argv, bool *help) {
@@ -167,6 +170,8 @@ int Run(const std::map<std::string, std::string> &args) {
 
   glint::client::ClientOptions options;
   options.evaluate_timeout = config.timeout;
+  options.security = glint::client::LoadChannelSecurity(get("tls-ca", ""), get("tls-cert", ""),
+                                                        get("tls-key", ""), get("token-file", ""));
   glint::client::GlintClient client(server, options);
   std::string why;
   const auto wait = std::chrono::milliseconds(

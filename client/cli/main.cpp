@@ -110,6 +110,18 @@ IMG.exr (linear radiance) and IMG.png next to it (tone-mapped sRGB) and prints b
   --half              store half floats in the EXR instead of float32
 )";
 
+// Options every command that talks to a server takes (appended to each command's list).
+const std::vector<std::string> kConnectionOptions = {"tls-ca", "tls-cert", "tls-key", "token-file"};
+constexpr const char *kConnectionUsage = R"(
+connection (every command):
+  --tls-ca PEM        connect with TLS, verifying the server against these roots
+                      (--tls-cert alone: TLS with the system roots)
+  --tls-cert PEM      client certificate chain for mutual TLS (with --tls-key)
+  --tls-key PEM       its private key
+  --token-file FILE   send 'authorization: Bearer <first line of FILE>' on every call;
+                      without it the token comes from $GLINT_TOKEN when that is set
+)";
+
 // A command-line mistake: printed with the command's usage, exit 2.
 struct UsageError {
   std::string message;
@@ -238,6 +250,15 @@ class ProgressBar {
   std::chrono::steady_clock::time_point last_{};
 };
 
+// The channel settings of --tls-ca/--tls-cert/--tls-key/--token-file (or $GLINT_TOKEN).
+glint::client::ClientOptions ConnectionOptions(const Options &options) {
+  glint::client::ClientOptions client;
+  client.security =
+      glint::client::LoadChannelSecurity(options.Get("tls-ca", ""), options.Get("tls-cert", ""),
+                                         options.Get("tls-key", ""), options.Get("token-file", ""));
+  return client;
+}
+
 // "glint: <what>: UNAVAILABLE: ..." plus a hint where the code has an obvious cause.
 int ReportRpcError(const std::string &what, const grpc::Status &status, const std::string &server) {
   std::fprintf(stderr, "glint: %s: %s\n", what.c_str(),
@@ -271,7 +292,7 @@ int RunInfo(const Options &options) {
   const std::string server = options.Required("server");
   const auto timeout_ms = ParseNumber<int64_t>("timeout-ms", options.Get("timeout-ms", "5000"));
   if (timeout_ms < 0) throw UsageError{"--timeout-ms must not be negative"};
-  GlintClient client(server);
+  GlintClient client(server, ConnectionOptions(options));
   std::string why;
   if (!client.WaitUntilServing(std::chrono::milliseconds(timeout_ms), &why)) {
     std::fprintf(stderr, "glint: server %s: %s\n", server.c_str(), why.c_str());
@@ -370,7 +391,7 @@ int RunEval(const Options &options) {
     return kExitFailure;
   }
 
-  GlintClient client(server);
+  GlintClient client(server, ConnectionOptions(options));
   std::vector<float> rgb;
   glint::client::EvaluateInfo info;
   const std::optional<double> seconds = EvaluateWithProgress(client, request, &rgb, &info, server);
@@ -441,7 +462,7 @@ int RunPreview(const Options &options) {
   glint::client::PreviewQueries scene = glint::client::BuildPreviewQueries(shape, width, height);
   *request.mutable_queries() = scene.queries;
 
-  GlintClient client(server);
+  GlintClient client(server, ConnectionOptions(options));
   std::vector<float> rgb;
   glint::client::EvaluateInfo info;
   double seconds = 0.0;
@@ -499,9 +520,12 @@ int main(int argc, char **argv) {
   for (const Command &command : commands) {
     if (name != command.name) continue;
     try {
-      const Options options(argc - 2, argv + 2, command.with_value, command.flags);
+      std::vector<std::string> with_value = command.with_value;
+      with_value.insert(with_value.end(), kConnectionOptions.begin(), kConnectionOptions.end());
+      const Options options(argc - 2, argv + 2, with_value, command.flags);
       if (options.help()) {
         std::fputs(command.usage, stdout);
+        std::fputs(kConnectionUsage, stdout);
         return kExitOk;
       }
       return command.run(options);

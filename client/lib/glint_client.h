@@ -23,6 +23,29 @@ namespace glint::client {
 // Runs on the calling thread of Evaluate.
 using ProgressFn = std::function<void(uint64_t done, uint64_t total)>;
 
+// How the channel authenticates: TLS (server verified against tls_ca_pem, or the system roots
+// when it is empty), mutual TLS with a client certificate, and a bearer token sent as
+// `authorization: Bearer <token>` on every call. Empty: plaintext, no token.
+struct ChannelSecurity {
+  bool tls = false;
+  std::string tls_ca_pem;    // PEM contents, not paths
+  std::string tls_cert_pem;  // client certificate chain (mutual TLS), with tls_key_pem
+  std::string tls_key_pem;
+  std::string token;
+};
+
+// The CLI's --tls-ca, --tls-cert, --tls-key and --token-file (each "" when not given): reads the
+// files; without --token-file the token comes from $GLINT_TOKEN when set. TLS is on when any TLS
+// file is given. Throws std::runtime_error naming the option and file on an unreadable file, a
+// file with no PEM block or no token, or --tls-cert without --tls-key.
+ChannelSecurity LoadChannelSecurity(const std::string &tls_ca_file,
+                                    const std::string &tls_cert_file,
+                                    const std::string &tls_key_file, const std::string &token_file);
+
+// The channel every GlintClient uses: message limits, quick reconnects, and `security`.
+std::shared_ptr<grpc::Channel> MakeChannel(const std::string &address, int max_message_bytes,
+                                           const ChannelSecurity &security);
+
 struct ClientOptions {
   // Both directions. The server advertises its own limit in Capabilities.max_message_bytes; this
   // only has to be at least as large so that the client is never the side that refuses.
@@ -39,6 +62,7 @@ struct ClientOptions {
   std::chrono::milliseconds rpc_timeout{10000};
   // Deadline of one Evaluate call, unary or streamed, from its start (0 = none).
   std::chrono::milliseconds evaluate_timeout{0};
+  ChannelSecurity security;
 };
 
 // How the last Evaluate call was carried out (for summaries and tests).

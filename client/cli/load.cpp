@@ -170,6 +170,7 @@ int Run(const std::map<std::string, std::string> &args) {
 
   glint::client::ClientOptions options;
   options.evaluate_timeout = config.timeout;
+  options.retry.max_attempts = 1;  // refusals are what a load test measures
   options.security = glint::client::LoadChannelSecurity(get("tls-ca", ""), get("tls-cert", ""),
                                                         get("tls-key", ""), get("token-file", ""));
   glint::client::GlintClient client(server, options);

@@ -231,10 +231,33 @@ void GlintClient::PrepareContext(grpc::ClientContext *context) const {
   }
 }
 
+namespace {
+
+// The steady-clock deadline of the retry loop and the system-clock one gRPC takes, for the
+// same instant; max() stays max() (no deadline).
+Clock::time_point SteadyDeadline(std::chrono::system_clock::time_point deadline) {
+  if (deadline == std::chrono::system_clock::time_point::max()) return Clock::time_point::max();
+  return Clock::now() +
+         std::chrono::duration_cast<Clock::duration>(deadline - std::chrono::system_clock::now());
+}
+
+void SetDeadline(grpc::ClientContext *context, std::chrono::system_clock::time_point deadline) {
+  if (deadline != std::chrono::system_clock::time_point::max()) context->set_deadline(deadline);
+}
+
+}  // namespace
+
 grpc::Status GlintClient::GetCapabilities(glint::v1::Capabilities *capabilities) {
+  const auto deadline = std::chrono::system_clock::now() + options_.rpc_timeout;
+  return CallWithRetries(options_.retry, SteadyDeadline(deadline),
+                         [&] { return FetchCapabilities(capabilities, deadline); });
+}
+
+grpc::Status GlintClient::FetchCapabilities(glint::v1::Capabilities *capabilities,
+                                            std::chrono::system_clock::time_point deadline) {
   grpc::ClientContext context;
   PrepareContext(&context);
-  context.set_deadline(std::chrono::system_clock::now() + options_.rpc_timeout);
+  SetDeadline(&context, deadline);
   glint::v1::Capabilities caps;
   grpc::Status status =
       stub_->GetCapabilities(&context, glint::v1::GetCapabilitiesRequest(), &caps);
@@ -247,7 +270,8 @@ grpc::Status GlintClient::GetCapabilities(glint::v1::Capabilities *capabilities)
   return grpc::Status::OK;
 }
 
-grpc::Status GlintClient::CachedCapabilities(glint::v1::Capabilities *capabilities) {
+grpc::Status GlintClient::CachedCapabilities(glint::v1::Capabilities *capabilities,
+                                             std::chrono::system_clock::time_point deadline) {
   {
     std::lock_guard<std::mutex> lock(caps_mutex_);
     if (caps_) {
@@ -255,7 +279,9 @@ grpc::Status GlintClient::CachedCapabilities(glint::v1::Capabilities *capabiliti
       return grpc::Status::OK;
     }
   }
-  return GetCapabilities(capabilities);
+  // Within Evaluate's deadline, or the cheap-RPC timeout when that is sooner.
+  return FetchCapabilities(
+      capabilities, std::min(deadline, std::chrono::system_clock::now() + options_.rpc_timeout));
 }
 
 bool GlintClient::WaitUntilServing(std::chrono::milliseconds timeout, std::string *why) {
@@ -302,10 +328,27 @@ grpc::Status GlintClient::Evaluate(const glint::v1::EvaluateRequest &request,
   }
   EvaluateInfo local_info;
   if (info == nullptr) info = &local_info;
-  *info = EvaluateInfo();
+  const auto deadline = options_.evaluate_timeout.count() > 0
+                            ? std::chrono::system_clock::now() + options_.evaluate_timeout
+                            : std::chrono::system_clock::time_point::max();
+  int attempts = 0;
+  grpc::Status status = CallWithRetries(
+      options_.retry, SteadyDeadline(deadline),
+      [&] {
+        *info = EvaluateInfo();
+        return EvaluateOnce(request, radiance, progress, info, deadline);
+      },
+      &attempts);
+  info->attempts = attempts;
+  return status;
+}
 
+grpc::Status GlintClient::EvaluateOnce(const glint::v1::EvaluateRequest &request,
+                                       std::vector<float> *radiance, const ProgressFn &progress,
+                                       EvaluateInfo *info,
+                                       std::chrono::system_clock::time_point deadline) {
   glint::v1::Capabilities caps;
-  if (grpc::Status status = CachedCapabilities(&caps); !status.ok()) return status;
+  if (grpc::Status status = CachedCapabilities(&caps, deadline); !status.ok()) return status;
 
   // The smaller of the server's and our own message limit, and of the server's batch limit and
   // our optional chunk cap. 0 from the server means "not reported".
@@ -324,7 +367,7 @@ grpc::Status GlintClient::Evaluate(const glint::v1::EvaluateRequest &request,
   const uint64_t request_bytes = request.ByteSizeLong();
   const uint64_t response_bytes = uint64_t{count} * kResponseBytesPerQuery + kEnvelopeBytes;
   if (count <= max_batch && request_bytes <= budget && response_bytes <= budget) {
-    grpc::Status status = EvaluateUnary(request, radiance, info);
+    grpc::Status status = EvaluateUnary(request, radiance, info, deadline);
     if (status.ok() && progress) progress(count, count);
     return status;
   }
@@ -348,16 +391,15 @@ grpc::Status GlintClient::Evaluate(const glint::v1::EvaluateRequest &request,
   const size_t per_query = std::max(BytesPerQuery(queries), kResponseBytesPerQuery);
   const uint64_t by_bytes = std::max<uint64_t>(1, (chunk_budget_total - overhead) / per_query);
   const auto chunk_queries = static_cast<uint32_t>(std::min<uint64_t>(by_bytes, max_batch));
-  return EvaluateStreamed(request, chunk_queries, radiance, progress, info);
+  return EvaluateStreamed(request, chunk_queries, radiance, progress, info, deadline);
 }
 
 grpc::Status GlintClient::EvaluateUnary(const glint::v1::EvaluateRequest &request,
-                                        std::vector<float> *radiance, EvaluateInfo *info) {
+                                        std::vector<float> *radiance, EvaluateInfo *info,
+                                        std::chrono::system_clock::time_point deadline) {
   grpc::ClientContext context;
   PrepareContext(&context);
-  if (options_.evaluate_timeout.count() > 0) {
-    context.set_deadline(std::chrono::system_clock::now() + options_.evaluate_timeout);
-  }
+  SetDeadline(&context, deadline);
   glint::v1::EvaluateResponse response;
   grpc::Status status = stub_->Evaluate(&context, request, &response);
   if (!status.ok()) return status;
@@ -378,7 +420,8 @@ grpc::Status GlintClient::EvaluateUnary(const glint::v1::EvaluateRequest &reques
 
 grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &request,
                                            uint32_t chunk_queries, std::vector<float> *radiance,
-                                           const ProgressFn &progress, EvaluateInfo *info) {
+                                           const ProgressFn &progress, EvaluateInfo *info,
+                                           std::chrono::system_clock::time_point deadline) {
   const uint32_t count = request.queries().count();
   const uint64_t chunks = (uint64_t{count} + chunk_queries - 1) / chunk_queries;
   info->streamed = true;
@@ -388,9 +431,7 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
   std::vector<float> out(uint64_t{count} * 3);
   grpc::ClientContext context;
   PrepareContext(&context);
-  if (options_.evaluate_timeout.count() > 0) {
-    context.set_deadline(std::chrono::system_clock::now() + options_.evaluate_timeout);
-  }
+  SetDeadline(&context, deadline);
   std::unique_ptr<
       grpc::ClientReaderWriter<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult>>
       stream = stub_->EvaluateStream(&context);

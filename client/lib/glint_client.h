@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "client/lib/retry.h"
 #include "glint/v1/glint.grpc.pb.h"
 #include "glint/v1/glint.pb.h"
 
@@ -60,8 +61,12 @@ struct ClientOptions {
   // Deadline for the cheap RPCs (GetCapabilities). Evaluate has none: a large batch may
   // legitimately take minutes, and the caller can cancel by closing the process.
   std::chrono::milliseconds rpc_timeout{10000};
-  // Deadline of one Evaluate call, unary or streamed, from its start (0 = none).
+  // Deadline of one Evaluate call, unary or streamed, from its start, over all its attempts
+  // (0 = none).
   std::chrono::milliseconds evaluate_timeout{0};
+  // GetCapabilities and Evaluate retry UNAVAILABLE and RESOURCE_EXHAUSTED with jittered
+  // exponential backoff (client/lib/retry.h) within their deadline; max_attempts 1 disables.
+  RetryPolicy retry;
   ChannelSecurity security;
 };
 
@@ -71,6 +76,7 @@ struct EvaluateInfo {
   uint64_t chunks = 0;         // 1 for a unary call
   uint32_t chunk_queries = 0;  // queries per chunk (the last one may be smaller)
   std::string device;          // from the server's EvaluateStats, if it reported one
+  int attempts = 0;            // 1 + retries
 };
 
 // One channel to one server (or one load-balanced target). Thread-safe: concurrent calls,
@@ -105,12 +111,20 @@ class GlintClient {
                         ProgressFn progress = {}, EvaluateInfo *info = nullptr);
 
  private:
-  grpc::Status CachedCapabilities(glint::v1::Capabilities *capabilities);
+  grpc::Status CachedCapabilities(glint::v1::Capabilities *capabilities,
+                                  std::chrono::system_clock::time_point deadline);
+  grpc::Status FetchCapabilities(glint::v1::Capabilities *capabilities,
+                                 std::chrono::system_clock::time_point deadline);
+  // One attempt of Evaluate; `deadline` is system_clock::time_point::max() for none.
+  grpc::Status EvaluateOnce(const glint::v1::EvaluateRequest &request, std::vector<float> *radiance,
+                            const ProgressFn &progress, EvaluateInfo *info,
+                            std::chrono::system_clock::time_point deadline);
   grpc::Status EvaluateUnary(const glint::v1::EvaluateRequest &request,
-                             std::vector<float> *radiance, EvaluateInfo *info);
+                             std::vector<float> *radiance, EvaluateInfo *info,
+                             std::chrono::system_clock::time_point deadline);
   grpc::Status EvaluateStreamed(const glint::v1::EvaluateRequest &request, uint32_t chunk_queries,
                                 std::vector<float> *radiance, const ProgressFn &progress,
-                                EvaluateInfo *info);
+                                EvaluateInfo *info, std::chrono::system_clock::time_point deadline);
 
   std::string address_;
   ClientOptions options_;

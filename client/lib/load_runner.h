@@ -44,8 +44,8 @@ struct LoadLevelResult {
   std::string first_error;  // the first non-OK status seen, formatted, for the report
 };
 
-// Runs one level. `client` should have retries off (ClientOptions::max_attempts = 1): refusals
-// are part of what a load test measures.
+// Runs one level. `client` should have retries off (ClientOptions::retry.max_attempts = 1):
+// refusals are part of what a load test measures.
 LoadLevelResult RunLoadLevel(GlintClient &client, const LoadConfig &config, int concurrency);
 
 // `n` BRDF probes (with_wi) or lit queries (wo only), deterministic and valid for every model:

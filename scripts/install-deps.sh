@@ -10,6 +10,8 @@ PACKAGES=(
   libfreetype-dev fonts-dejavu-core
   nlohmann-json3-dev python3  # bench_models --json; scripts/bench_tables.py (README tables)
   python3-venv libb64-0d  # KServe tests: tritonclient venv; perf_analyzer's libb64
+  libcpp-httplib-dev  # glintd --metrics-listen (Prometheus /metrics)
+  openssl             # tests: certificates for TLS / mutual TLS made at test time
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -193,6 +193,11 @@ int ClRuntime::programs_loaded_from_disk() const {
   return loaded_;
 }
 
+int ClRuntime::programs_memory_hits() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return memory_hits_;
+}
+
 Status ClRuntime::GetProgram(const std::string &source, const std::string &options,
                              cl_program *out) {
   const std::string key = options + '\n' + source;
@@ -201,6 +206,7 @@ Status ClRuntime::GetProgram(const std::string &source, const std::string &optio
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = programs_.find(key);
   if (it != programs_.end()) {
+    ++memory_hits_;
     *out = it->second.get();
     return Status::Ok();
   }

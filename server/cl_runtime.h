@@ -47,6 +47,8 @@ class ClRuntime {
   // Counters for capabilities/logs: programs compiled from source and loaded from disk.
   int programs_compiled() const;
   int programs_loaded_from_disk() const;
+  // Lookups answered from the in-memory cache (for /metrics).
+  int programs_memory_hits() const;
 
  private:
   ClRuntime() = default;
@@ -62,7 +64,7 @@ class ClRuntime {
 
   mutable std::mutex mutex_;
   std::map<std::string, ClProgram> programs_;  // key: options + '\n' + source
-  int compiled_ = 0, loaded_ = 0;
+  int compiled_ = 0, loaded_ = 0, memory_hits_ = 0;
 };
 
 // "CL_INVALID_VALUE" style names for error messages.

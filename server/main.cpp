@@ -13,6 +13,7 @@
 
 #include "server/kserve_service.h"
 #include "server/model_table.h"
+#include "server/ops.h"
 #include "server/service.h"
 
 namespace {
@@ -30,6 +31,7 @@ struct Flags {
   bool list_devices = false;
   std::vector<std::string> models;      // --model NAME=MATERIAL.json[,LIGHTS.json]
   std::vector<std::string> model_dirs;  // --model-dir DIR
+  glint::OpsFlags ops;  // metrics, TLS, tokens (server/ops.h)
 };
 
 const char kUsage[] =
@@ -105,11 +107,13 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->list_devices = true;
     else if (a == "--quiet")
       f->quiet = true;
-    else if (a == "--help" || a == "-h") {
+    else if (glint::ParseOpsFlag(argc, argv, &i, &f->ops)) {
+    } else if (a == "--help" || a == "-h") {
       std::fputs(kUsage, stdout);
+      std::fputs(glint::kOpsUsage, stdout);
       std::exit(0);
     } else {
-      std::fprintf(stderr, "glintd: unknown option %s\n%s", a.c_str(), kUsage);
+      std::fprintf(stderr, "glintd: unknown option %s\n%s%s", a.c_str(), kUsage, glint::kOpsUsage);
       return false;
     }
   }
@@ -168,6 +172,13 @@ int main(int argc, char **argv) {
     options.limits.fp64_available = engine->info().fp64;
   }
   glint::Scheduler scheduler(flags.workers, size_t(flags.max_pending));
+  glint::Ops ops(flags.ops);
+  if (std::string error; !ops.Init(&error)) {
+    std::fprintf(stderr, "glintd: %s\n", error.c_str());
+    return 2;
+  }
+  options.metrics = ops.metrics();
+  options.auth = ops.auth();
   glint::GlintServiceImpl service(engine.get(), &scheduler, options);
   std::vector<glint::KServeModel> kserve_models;
   if (glint::Status s =
@@ -179,20 +190,28 @@ int main(int argc, char **argv) {
   glint::KServeServiceImpl kserve(&service, std::move(kserve_models));
 
   grpc::EnableDefaultHealthCheckService(true);
-  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  // Reflection is gRPC's own service, which the token check cannot guard: off with tokens.
+  if (!ops.auth()) grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(flags.listen, grpc::InsecureServerCredentials(), &port);
+  builder.AddListeningPort(flags.listen, ops.ServerCredentials(), &port);
+  ops.WarnIfExposed(flags.listen);
   builder.SetMaxReceiveMessageSize(flags.max_message_mb << 20);
   builder.SetMaxSendMessageSize(flags.max_message_mb << 20);
   builder.RegisterService(&service);
   builder.RegisterService(&kserve);
+  ops.Configure(&builder, &scheduler, engine.get());
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {
     std::fprintf(stderr, "glintd: could not listen on %s\n", flags.listen.c_str());
     return 1;
   }
   server->GetHealthCheckService()->SetServingStatus(false);
+  if (std::string error; !ops.Start(&error)) {
+    std::fprintf(stderr, "glintd: %s\n", error.c_str());
+    server->Shutdown();
+    return 1;
+  }
 
   if (engine) {
     const auto t0 = std::chrono::steady_clock::now();

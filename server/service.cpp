@@ -88,6 +88,9 @@ Status GlintServiceImpl::RunBatch(int worker, const glint::v1::EvaluateRequest &
   }
   response->mutable_stats()->set_compute_ms(MsSince(start));
   response->mutable_stats()->set_device(DeviceName());
+  if (options_.metrics && s.ok())
+    options_.metrics->CountEvaluated(ModelName(settings), queries.count(),
+                                     response->stats().compute_ms() / 1e3);
   return s;
 }
 
@@ -96,6 +99,10 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
                                                      glint::v1::EvaluateResponse *response) {
   grpc::ServerUnaryReactor *reactor = ctx->DefaultReactor();
   const auto received = Clock::now();
+  if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
+    reactor->Finish(denied);
+    return reactor;
+  }
   Status s = ValidateSettings(*request, options_.limits);
   if (!s.ok()) {
     LogLine("Evaluate n=" + std::to_string(request->queries().count()) +
@@ -105,6 +112,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   }
   bool queued = scheduler_->TrySubmit([this, reactor, request, response, received](int worker) {
     const double queue_ms = MsSince(received);
+    if (options_.metrics) options_.metrics->ObserveQueueWait(queue_ms / 1e3);
     std::string kernel = "-";
     Status st = RunBatch(worker, *request, request->queries(), 0, false, response, &kernel);
     response->mutable_stats()->set_queue_ms(queue_ms);
@@ -157,7 +165,9 @@ class GlintServiceImpl::StreamReactor
       Status s = ValidateSettings(settings_, service_->options().limits);
       if (!s.ok()) return Fail(ChunkStatus(next_index_, s));
     }
+    submitted_ = Clock::now();
     bool queued = service_->scheduler().TrySubmit([this](int worker) -> Scheduler::Respond {
+      if (Metrics *m = service_->options().metrics) m->ObserveQueueWait(MsSince(submitted_) / 1e3);
       result_.Clear();
       result_.set_chunk_index(next_index_);
       result_.set_first_query(next_query_);
@@ -192,6 +202,7 @@ class GlintServiceImpl::StreamReactor
 
   GlintServiceImpl *service_;
   Clock::time_point start_;
+  Clock::time_point submitted_;  // when the current chunk was queued (queue-wait metric)
   glint::v1::EvaluateChunk chunk_;
   glint::v1::EvaluateRequest settings_;
   glint::v1::EvaluateChunkResult result_;
@@ -200,13 +211,21 @@ class GlintServiceImpl::StreamReactor
 };
 
 grpc::ServerBidiReactor<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult>
-    *GlintServiceImpl::EvaluateStream(grpc::CallbackServerContext *) {
+    *GlintServiceImpl::EvaluateStream(grpc::CallbackServerContext *ctx) {
+  if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
+    return new RefusedBidiReactor<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult>(denied);
+  }
   return new StreamReactor(this);
 }
 
 grpc::ServerUnaryReactor *GlintServiceImpl::GetCapabilities(
     grpc::CallbackServerContext *ctx, const glint::v1::GetCapabilitiesRequest *,
     glint::v1::Capabilities *c) {
+  if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
+    auto *reactor = ctx->DefaultReactor();
+    reactor->Finish(denied);
+    return reactor;
+  }
   c->set_server_version(GLINT_VERSION);
   if (engine_) {
     const DeviceInfo &d = engine_->info();

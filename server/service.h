@@ -10,7 +10,9 @@
 #include <string>
 
 #include "glint/v1/glint.grpc.pb.h"
+#include "server/auth.h"
 #include "server/device_engine.h"
+#include "server/metrics.h"
 #include "server/scheduler.h"
 #include "server/validation.h"
 
@@ -20,6 +22,8 @@ struct ServiceOptions {
   ValidationLimits limits;
   uint64_t max_message_bytes = 64ull << 20;
   bool log_requests = true;
+  Metrics *metrics = nullptr;       // --metrics-listen; null: no metric hooks
+  const TokenAuth *auth = nullptr;  // --auth-tokens; null: every call is let through
 };
 
 // Evaluates on the OpenCL engine, or on the host path when engine is null.

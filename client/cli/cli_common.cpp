@@ -123,6 +123,25 @@ void ProgressBar::Finish() {
   drawn_ = false;
 }
 
+const std::vector<std::string> kConnectionOptions = {"tls-ca", "tls-cert", "tls-key", "token-file"};
+const char *const kConnectionUsage = R"(
+connection (every command):
+  --tls-ca PEM        connect with TLS, verifying the server against these roots
+                      (--tls-cert alone: TLS with the system roots)
+  --tls-cert PEM      client certificate chain for mutual TLS (with --tls-key)
+  --tls-key PEM       its private key
+  --token-file FILE   send 'authorization: Bearer <first line of FILE>' on every call;
+                      without it the token comes from $GLINT_TOKEN when that is set
+)";
+
+glint::client::ClientOptions ConnectionOptions(const Options &options) {
+  glint::client::ClientOptions client;
+  client.security =
+      glint::client::LoadChannelSecurity(options.Get("tls-ca", ""), options.Get("tls-cert", ""),
+                                         options.Get("tls-key", ""), options.Get("token-file", ""));
+  return client;
+}
+
 int ReportRpcError(const std::string &what, const grpc::Status &status, const std::string &server) {
   std::fprintf(stderr, "glint: %s: %s\n", what.c_str(),
                glint::client::FormatStatus(status).c_str());

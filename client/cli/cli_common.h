@@ -75,6 +75,14 @@ class ProgressBar {
   std::chrono::steady_clock::time_point last_{};
 };
 
+// Options every command that talks to a server takes (appended to each command's list), and
+// their usage text.
+extern const std::vector<std::string> kConnectionOptions;
+extern const char *const kConnectionUsage;
+
+// The channel settings of --tls-ca/--tls-cert/--tls-key/--token-file (or $GLINT_TOKEN).
+glint::client::ClientOptions ConnectionOptions(const Options &options);
+
 // "glint: <what>: UNAVAILABLE: ..." plus a hint where the code has an obvious cause.
 int ReportRpcError(const std::string &what, const grpc::Status &status, const std::string &server);
 

@@ -1,5 +1,5 @@
-// glint: command-line client of glintd. Commands: info, eval, preview, render (see kUsage below).
-// Exit codes: 0 success, 1 failure at run time (server, files), 2 wrong command line.
+// glint: command-line client of glintd. Commands: info, eval, preview, render, load (see kUsage
+// below). Exit codes: 0 success, 1 failure at run time (server, files), 2 wrong command line.
 #include <unistd.h>
 
 #include <charconv>
@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "client/cli/cli_common.h"
+#include "client/cli/load.h"
 #include "client/cli/preview_command.h"
 #include "client/cli/render_command.h"
 #include "client/lib/glint_client.h"
@@ -38,6 +39,7 @@ commands:
   preview   render a sphere or plane preview of a material under lights (EXR + PNG), or a
             batch of materials with a contact sheet
   render    shade a renderer's G-buffer EXR (P, N, uv, ...) with a material: beauty EXR
+  load      load-test a server: throughput and latency percentiles per concurrency level
 
 Run 'glint <command> --help' for the options of a command.
 )";
@@ -107,7 +109,7 @@ int RunInfo(const Options &options) {
   const std::string server = options.Required("server");
   const auto timeout_ms = ParseNumber<int64_t>("timeout-ms", options.Get("timeout-ms", "5000"));
   if (timeout_ms < 0) throw UsageError{"--timeout-ms must not be negative"};
-  GlintClient client(server);
+  GlintClient client(server, ConnectionOptions(options));
   std::string why;
   if (!client.WaitUntilServing(std::chrono::milliseconds(timeout_ms), &why)) {
     std::fprintf(stderr, "glint: server %s: %s\n", server.c_str(), why.c_str());
@@ -171,7 +173,7 @@ int RunEval(const Options &options) {
     return kExitFailure;
   }
 
-  GlintClient client(server);
+  GlintClient client(server, ConnectionOptions(options));
   std::vector<float> rgb;
   glint::client::EvaluateInfo info;
   const std::optional<double> seconds = EvaluateWithProgress(client, request, &rgb, &info, server);
@@ -225,6 +227,7 @@ int main(int argc, char **argv) {
     return kExitUsage;
   }
   const std::string name = argv[1];
+  if (name == "load") return glint::cli::RunLoad(argc - 2, argv + 2);
   if (name == "--help" || name == "-h" || name == "help") {
     std::fputs(kUsage, stdout);
     return kExitOk;
@@ -232,9 +235,12 @@ int main(int argc, char **argv) {
   for (const Command &command : commands) {
     if (name != command.name) continue;
     try {
-      const Options options(argc - 2, argv + 2, command.with_value, command.flags);
+      std::vector<std::string> with_value = command.with_value;
+      with_value.insert(with_value.end(), kConnectionOptions.begin(), kConnectionOptions.end());
+      const Options options(argc - 2, argv + 2, with_value, command.flags);
       if (options.help()) {
         std::fputs(command.usage, stdout);
+        std::fputs(kConnectionUsage, stdout);
         return kExitOk;
       }
       return command.run(options);

@@ -128,7 +128,7 @@ int RunSingle(const Options &options) {
       glint::client::BuildPreviewQueries(s.shape, s.width, s.height);
   *request.mutable_queries() = scene.queries;
 
-  glint::client::GlintClient client(s.server);
+  glint::client::GlintClient client(s.server, ConnectionOptions(options));
   std::vector<float> rgb;
   glint::client::EvaluateInfo info;
   double seconds = 0.0;
@@ -257,7 +257,7 @@ int RunBatch(const Options &options) {
   WriteGBufferIfAsked(options, scene);
   const std::string stem_base = s.out.substr(0, s.out.size() - 4);
 
-  glint::client::GlintClient client(s.server);
+  glint::client::GlintClient client(s.server, ConnectionOptions(options));
   const glint::client::ContactSheetLayout layout =
       glint::client::LayoutContactSheet(static_cast<int>(stems.size()), s.width, s.height);
   std::vector<std::vector<uint8_t>> tiles(stems.size());

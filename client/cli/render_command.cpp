@@ -112,7 +112,7 @@ int RunRender(const Options &options) {
   *request.mutable_queries() = std::move(scene.queries);
   const uint32_t count = request.queries().count();
 
-  glint::client::GlintClient client(server);
+  glint::client::GlintClient client(server, ConnectionOptions(options));
   std::vector<float> rgb;
   glint::client::EvaluateInfo info;
   double seconds = 0.0;

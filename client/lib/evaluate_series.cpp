@@ -55,6 +55,7 @@ grpc::Status EvaluateSeries(GlintClient &client,
   if (info) *info = {chunks, chunk_queries};
 
   grpc::ClientContext context;
+  client.PrepareContext(&context);  // the bearer token, when one is configured
   auto stub = glint::v1::GlintService::NewStub(client.channel());
   auto stream = stub->EvaluateStream(&context);
 

@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 #include <utility>
@@ -21,19 +24,6 @@ constexpr uint64_t kGrpcDefaultMessageBytes = 4u << 20;
 constexpr size_t kResponseBytesPerQuery = 3 * sizeof(float);
 // Room for message framing, tags, stats and the chunk envelope on top of the payload.
 constexpr size_t kEnvelopeBytes = 4096;
-
-std::shared_ptr<grpc::Channel> MakeChannel(const std::string &address,
-                                           const ClientOptions &options) {
-  grpc::ChannelArguments args;
-  args.SetMaxReceiveMessageSize(options.max_message_bytes);
-  args.SetMaxSendMessageSize(options.max_message_bytes);
-  // gRPC backs off up to 120 s between connection attempts by default; an interactive tool that
-  // waits for a starting server wants to notice it within a second or so.
-  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
-  args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
-  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 1000);
-  return grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
-}
 
 // One SoA array of QueryBatch with its number of floats per query.
 struct ArrayRef {
@@ -70,6 +60,78 @@ std::string CheckShapes(const QueryBatch &batch) {
 }
 
 }  // namespace
+
+namespace {
+
+std::string ReadWholeFile(const std::string &option, const std::string &path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(option + " " + path + ": cannot read the file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::string ReadPem(const std::string &option, const std::string &path) {
+  std::string pem = ReadWholeFile(option, path);
+  if (pem.find("-----BEGIN ") == std::string::npos) {
+    throw std::runtime_error(option + " " + path + ": no PEM block (-----BEGIN ...) in the file");
+  }
+  return pem;
+}
+
+std::string Trim(const std::string &s) {
+  const size_t b = s.find_first_not_of(" \t\r\n");
+  if (b == std::string::npos) return "";
+  return s.substr(b, s.find_last_not_of(" \t\r\n") - b + 1);
+}
+
+}  // namespace
+
+ChannelSecurity LoadChannelSecurity(const std::string &tls_ca_file,
+                                    const std::string &tls_cert_file,
+                                    const std::string &tls_key_file,
+                                    const std::string &token_file) {
+  ChannelSecurity s;
+  if (tls_cert_file.empty() != tls_key_file.empty()) {
+    throw std::runtime_error("--tls-cert and --tls-key go together");
+  }
+  s.tls = !tls_ca_file.empty() || !tls_cert_file.empty();
+  if (!tls_ca_file.empty()) s.tls_ca_pem = ReadPem("--tls-ca", tls_ca_file);
+  if (!tls_cert_file.empty()) {
+    s.tls_cert_pem = ReadPem("--tls-cert", tls_cert_file);
+    s.tls_key_pem = ReadPem("--tls-key", tls_key_file);
+  }
+  if (!token_file.empty()) {
+    // The first non-blank line; the rest of the file is ignored.
+    std::istringstream lines(ReadWholeFile("--token-file", token_file));
+    for (std::string line; std::getline(lines, line) && s.token.empty();) s.token = Trim(line);
+    if (s.token.empty()) throw std::runtime_error("--token-file " + token_file + ": no token");
+  } else if (const char *env = std::getenv("GLINT_TOKEN")) {
+    s.token = Trim(env);
+  }
+  return s;
+}
+
+std::shared_ptr<grpc::Channel> MakeChannel(const std::string &address, int max_message_bytes,
+                                           const ChannelSecurity &security) {
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(max_message_bytes);
+  args.SetMaxSendMessageSize(max_message_bytes);
+  // gRPC backs off up to 120 s between connection attempts by default; an interactive tool that
+  // waits for a starting server wants to notice it within a second or so.
+  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
+  args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
+  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 1000);
+  std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
+  if (security.tls) {
+    grpc::SslCredentialsOptions ssl;
+    ssl.pem_root_certs = security.tls_ca_pem;
+    ssl.pem_cert_chain = security.tls_cert_pem;
+    ssl.pem_private_key = security.tls_key_pem;
+    credentials = grpc::SslCredentials(ssl);
+  }
+  return grpc::CreateCustomChannel(address, credentials, args);
+}
 
 QueryBatch SliceQueries(const QueryBatch &batch, uint32_t begin, uint32_t end) {
   if (begin > end || end > batch.count()) {
@@ -152,7 +214,7 @@ std::string FormatStatus(const grpc::Status &status) {
 GlintClient::GlintClient(const std::string &address, ClientOptions options)
     : address_(address),
       options_(options),
-      channel_(MakeChannel(address, options)),
+      channel_(MakeChannel(address, options.max_message_bytes, options.security)),
       stub_(glint::v1::GlintService::NewStub(channel_)) {}
 
 GlintClient::GlintClient(std::shared_ptr<grpc::Channel> channel, ClientOptions options)
@@ -161,9 +223,41 @@ GlintClient::GlintClient(std::shared_ptr<grpc::Channel> channel, ClientOptions o
       channel_(std::move(channel)),
       stub_(glint::v1::GlintService::NewStub(channel_)) {}
 
+void GlintClient::PrepareContext(grpc::ClientContext *context) const {
+  // Sent as plain call metadata rather than call credentials: gRPC refuses to attach call
+  // credentials to a plaintext channel, and a token on a loopback port is a valid setup.
+  if (!options_.security.token.empty()) {
+    context->AddMetadata("authorization", "Bearer " + options_.security.token);
+  }
+}
+
+namespace {
+
+// The steady-clock deadline of the retry loop and the system-clock one gRPC takes, for the
+// same instant; max() stays max() (no deadline).
+Clock::time_point SteadyDeadline(std::chrono::system_clock::time_point deadline) {
+  if (deadline == std::chrono::system_clock::time_point::max()) return Clock::time_point::max();
+  return Clock::now() +
+         std::chrono::duration_cast<Clock::duration>(deadline - std::chrono::system_clock::now());
+}
+
+void SetDeadline(grpc::ClientContext *context, std::chrono::system_clock::time_point deadline) {
+  if (deadline != std::chrono::system_clock::time_point::max()) context->set_deadline(deadline);
+}
+
+}  // namespace
+
 grpc::Status GlintClient::GetCapabilities(glint::v1::Capabilities *capabilities) {
+  const auto deadline = std::chrono::system_clock::now() + options_.rpc_timeout;
+  return CallWithRetries(options_.retry, SteadyDeadline(deadline),
+                         [&] { return FetchCapabilities(capabilities, deadline); });
+}
+
+grpc::Status GlintClient::FetchCapabilities(glint::v1::Capabilities *capabilities,
+                                            std::chrono::system_clock::time_point deadline) {
   grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() + options_.rpc_timeout);
+  PrepareContext(&context);
+  SetDeadline(&context, deadline);
   glint::v1::Capabilities caps;
   grpc::Status status =
       stub_->GetCapabilities(&context, glint::v1::GetCapabilitiesRequest(), &caps);
@@ -176,7 +270,8 @@ grpc::Status GlintClient::GetCapabilities(glint::v1::Capabilities *capabilities)
   return grpc::Status::OK;
 }
 
-grpc::Status GlintClient::CachedCapabilities(glint::v1::Capabilities *capabilities) {
+grpc::Status GlintClient::CachedCapabilities(glint::v1::Capabilities *capabilities,
+                                             std::chrono::system_clock::time_point deadline) {
   {
     std::lock_guard<std::mutex> lock(caps_mutex_);
     if (caps_) {
@@ -184,7 +279,9 @@ grpc::Status GlintClient::CachedCapabilities(glint::v1::Capabilities *capabiliti
       return grpc::Status::OK;
     }
   }
-  return GetCapabilities(capabilities);
+  // Within Evaluate's deadline, or the cheap-RPC timeout when that is sooner.
+  return FetchCapabilities(
+      capabilities, std::min(deadline, std::chrono::system_clock::now() + options_.rpc_timeout));
 }
 
 bool GlintClient::WaitUntilServing(std::chrono::milliseconds timeout, std::string *why) {
@@ -196,6 +293,7 @@ bool GlintClient::WaitUntilServing(std::chrono::milliseconds timeout, std::strin
     const auto now = std::chrono::steady_clock::now();
     if (now >= end) break;
     grpc::ClientContext context;
+    PrepareContext(&context);
     // Fail fast (no wait_for_ready): a refused connection then reports its real reason
     // instead of a bare DEADLINE_EXCEEDED, and the loop below does the waiting.
     context.set_deadline(
@@ -230,10 +328,27 @@ grpc::Status GlintClient::Evaluate(const glint::v1::EvaluateRequest &request,
   }
   EvaluateInfo local_info;
   if (info == nullptr) info = &local_info;
-  *info = EvaluateInfo();
+  const auto deadline = options_.evaluate_timeout.count() > 0
+                            ? std::chrono::system_clock::now() + options_.evaluate_timeout
+                            : std::chrono::system_clock::time_point::max();
+  int attempts = 0;
+  grpc::Status status = CallWithRetries(
+      options_.retry, SteadyDeadline(deadline),
+      [&] {
+        *info = EvaluateInfo();
+        return EvaluateOnce(request, radiance, progress, info, deadline);
+      },
+      &attempts);
+  info->attempts = attempts;
+  return status;
+}
 
+grpc::Status GlintClient::EvaluateOnce(const glint::v1::EvaluateRequest &request,
+                                       std::vector<float> *radiance, const ProgressFn &progress,
+                                       EvaluateInfo *info,
+                                       std::chrono::system_clock::time_point deadline) {
   glint::v1::Capabilities caps;
-  if (grpc::Status status = CachedCapabilities(&caps); !status.ok()) return status;
+  if (grpc::Status status = CachedCapabilities(&caps, deadline); !status.ok()) return status;
 
   // The smaller of the server's and our own message limit, and of the server's batch limit and
   // our optional chunk cap. 0 from the server means "not reported".
@@ -252,7 +367,7 @@ grpc::Status GlintClient::Evaluate(const glint::v1::EvaluateRequest &request,
   const uint64_t request_bytes = request.ByteSizeLong();
   const uint64_t response_bytes = uint64_t{count} * kResponseBytesPerQuery + kEnvelopeBytes;
   if (count <= max_batch && request_bytes <= budget && response_bytes <= budget) {
-    grpc::Status status = EvaluateUnary(request, radiance, info);
+    grpc::Status status = EvaluateUnary(request, radiance, info, deadline);
     if (status.ok() && progress) progress(count, count);
     return status;
   }
@@ -276,12 +391,15 @@ grpc::Status GlintClient::Evaluate(const glint::v1::EvaluateRequest &request,
   const size_t per_query = std::max(BytesPerQuery(queries), kResponseBytesPerQuery);
   const uint64_t by_bytes = std::max<uint64_t>(1, (chunk_budget_total - overhead) / per_query);
   const auto chunk_queries = static_cast<uint32_t>(std::min<uint64_t>(by_bytes, max_batch));
-  return EvaluateStreamed(request, chunk_queries, radiance, progress, info);
+  return EvaluateStreamed(request, chunk_queries, radiance, progress, info, deadline);
 }
 
 grpc::Status GlintClient::EvaluateUnary(const glint::v1::EvaluateRequest &request,
-                                        std::vector<float> *radiance, EvaluateInfo *info) {
+                                        std::vector<float> *radiance, EvaluateInfo *info,
+                                        std::chrono::system_clock::time_point deadline) {
   grpc::ClientContext context;
+  PrepareContext(&context);
+  SetDeadline(&context, deadline);
   glint::v1::EvaluateResponse response;
   grpc::Status status = stub_->Evaluate(&context, request, &response);
   if (!status.ok()) return status;
@@ -302,7 +420,8 @@ grpc::Status GlintClient::EvaluateUnary(const glint::v1::EvaluateRequest &reques
 
 grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &request,
                                            uint32_t chunk_queries, std::vector<float> *radiance,
-                                           const ProgressFn &progress, EvaluateInfo *info) {
+                                           const ProgressFn &progress, EvaluateInfo *info,
+                                           std::chrono::system_clock::time_point deadline) {
   const uint32_t count = request.queries().count();
   const uint64_t chunks = (uint64_t{count} + chunk_queries - 1) / chunk_queries;
   info->streamed = true;
@@ -311,6 +430,8 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
 
   std::vector<float> out(uint64_t{count} * 3);
   grpc::ClientContext context;
+  PrepareContext(&context);
+  SetDeadline(&context, deadline);
   std::unique_ptr<
       grpc::ClientReaderWriter<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult>>
       stream = stub_->EvaluateStream(&context);

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "client/lib/retry.h"
 #include "glint/v1/glint.grpc.pb.h"
 #include "glint/v1/glint.pb.h"
 
@@ -22,6 +23,29 @@ namespace glint::client {
 // Called after each part of a batch has come back: `done` of `total` queries evaluated.
 // Runs on the calling thread of Evaluate.
 using ProgressFn = std::function<void(uint64_t done, uint64_t total)>;
+
+// How the channel authenticates: TLS (server verified against tls_ca_pem, or the system roots
+// when it is empty), mutual TLS with a client certificate, and a bearer token sent as
+// `authorization: Bearer <token>` on every call. Empty: plaintext, no token.
+struct ChannelSecurity {
+  bool tls = false;
+  std::string tls_ca_pem;    // PEM contents, not paths
+  std::string tls_cert_pem;  // client certificate chain (mutual TLS), with tls_key_pem
+  std::string tls_key_pem;
+  std::string token;
+};
+
+// The CLI's --tls-ca, --tls-cert, --tls-key and --token-file (each "" when not given): reads the
+// files; without --token-file the token comes from $GLINT_TOKEN when set. TLS is on when any TLS
+// file is given. Throws std::runtime_error naming the option and file on an unreadable file, a
+// file with no PEM block or no token, or --tls-cert without --tls-key.
+ChannelSecurity LoadChannelSecurity(const std::string &tls_ca_file,
+                                    const std::string &tls_cert_file,
+                                    const std::string &tls_key_file, const std::string &token_file);
+
+// The channel every GlintClient uses: message limits, quick reconnects, and `security`.
+std::shared_ptr<grpc::Channel> MakeChannel(const std::string &address, int max_message_bytes,
+                                           const ChannelSecurity &security);
 
 struct ClientOptions {
   // Both directions. The server advertises its own limit in Capabilities.max_message_bytes; this
@@ -37,6 +61,13 @@ struct ClientOptions {
   // Deadline for the cheap RPCs (GetCapabilities). Evaluate has none: a large batch may
   // legitimately take minutes, and the caller can cancel by closing the process.
   std::chrono::milliseconds rpc_timeout{10000};
+  // Deadline of one Evaluate call, unary or streamed, from its start, over all its attempts
+  // (0 = none).
+  std::chrono::milliseconds evaluate_timeout{0};
+  // GetCapabilities and Evaluate retry UNAVAILABLE and RESOURCE_EXHAUSTED with jittered
+  // exponential backoff (client/lib/retry.h) within their deadline; max_attempts 1 disables.
+  RetryPolicy retry;
+  ChannelSecurity security;
 };
 
 // How the last Evaluate call was carried out (for summaries and tests).
@@ -45,6 +76,7 @@ struct EvaluateInfo {
   uint64_t chunks = 0;         // 1 for a unary call
   uint32_t chunk_queries = 0;  // queries per chunk (the last one may be smaller)
   std::string device;          // from the server's EvaluateStats, if it reported one
+  int attempts = 0;            // 1 + retries
 };
 
 // One channel to one server (or one load-balanced target). Thread-safe: concurrent calls,
@@ -57,9 +89,12 @@ class GlintClient {
   GlintClient(std::shared_ptr<grpc::Channel> channel, ClientOptions options = {});
 
   const std::string &address() const { return address_; }
-  // For callers that open their own calls on the same connection (evaluate_series.h).
+  // For callers that open their own calls on the same connection (evaluate_series.h, the
+  // load tool's streams).
   const std::shared_ptr<grpc::Channel> &channel() const { return channel_; }
   const ClientOptions &options() const { return options_; }
+  // Adds what every call of this client carries (the bearer token, when one is configured).
+  void PrepareContext(grpc::ClientContext *context) const;
 
   // Always asks the server (and refreshes the cache Evaluate uses).
   grpc::Status GetCapabilities(glint::v1::Capabilities *capabilities);
@@ -78,12 +113,20 @@ class GlintClient {
                         ProgressFn progress = {}, EvaluateInfo *info = nullptr);
 
  private:
-  grpc::Status CachedCapabilities(glint::v1::Capabilities *capabilities);
+  grpc::Status CachedCapabilities(glint::v1::Capabilities *capabilities,
+                                  std::chrono::system_clock::time_point deadline);
+  grpc::Status FetchCapabilities(glint::v1::Capabilities *capabilities,
+                                 std::chrono::system_clock::time_point deadline);
+  // One attempt of Evaluate; `deadline` is system_clock::time_point::max() for none.
+  grpc::Status EvaluateOnce(const glint::v1::EvaluateRequest &request, std::vector<float> *radiance,
+                            const ProgressFn &progress, EvaluateInfo *info,
+                            std::chrono::system_clock::time_point deadline);
   grpc::Status EvaluateUnary(const glint::v1::EvaluateRequest &request,
-                             std::vector<float> *radiance, EvaluateInfo *info);
+                             std::vector<float> *radiance, EvaluateInfo *info,
+                             std::chrono::system_clock::time_point deadline);
   grpc::Status EvaluateStreamed(const glint::v1::EvaluateRequest &request, uint32_t chunk_queries,
                                 std::vector<float> *radiance, const ProgressFn &progress,
-                                EvaluateInfo *info);
+                                EvaluateInfo *info, std::chrono::system_clock::time_point deadline);
 
   std::string address_;
   ClientOptions options_;

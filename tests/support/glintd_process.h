@@ -168,6 +168,7 @@ class Glintd {
   }
 
   const std::string &address() const { return address_; }
+  pid_t pid() const { return pid_; }  // for signals other than the destructor's SIGTERM
   std::string Stderr() const { return ReadFile(log_ + ".err"); }
   bool Alive() {
     if (pid_ <= 0) return false;

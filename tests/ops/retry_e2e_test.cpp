@@ -1,0 +1,128 @@
+// Client retries against a real glintd with --max-pending 1 (one request queued or running).
+// A slow request (REFERENCE quadrature of a polygon light) holds the only slot; while it runs a
+// client without retries is refused (RESOURCE_EXHAUSTED), and eight concurrent clients with
+// retries all get every answer, each equal to the answer of a quiet server, after retrying.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstring>
+#include <thread>
+#include <vector>
+
+#include "client/lib/glint_client.h"
+#include "client/lib/load_runner.h"
+#include "glintd_process.h"
+
+namespace {
+
+using glint::client::ClientOptions;
+using glint::client::GlintClient;
+using glint::test::Glintd;
+using glint::test::TempDir;
+
+glint::v1::EvaluateRequest Smooth(uint32_t n) {
+  glint::v1::EvaluateRequest r;
+  auto *m = r.mutable_material();
+  m->set_model(glint::v1::SMOOTH);
+  m->set_ndf(glint::v1::GGX);
+  m->set_alpha_x(0.3f);
+  m->set_alpha_y(0.3f);
+  for (int c = 0; c < 3; ++c) m->mutable_schlick()->add_f0(0.5f);
+  *r.mutable_queries() = glint::client::MakeLoadQueries(n, true);
+  return r;
+}
+
+// Seconds of work on the host path: REFERENCE with 256 x 256 nodes per spherical triangle of a
+// square light, i.e. ~1.3e5 BRDF evaluations per query.
+glint::v1::EvaluateRequest Slow() {
+  glint::v1::EvaluateRequest r = Smooth(1);
+  *r.mutable_queries() = glint::client::MakeLoadQueries(200, false);
+  auto *polygon = r.add_lights()->mutable_polygon();
+  for (const float v : {-1.f, -1.f, 1.f, 1.f, -1.f, 1.f, 1.f, 1.f, 1.f, -1.f, 1.f, 1.f}) {
+    polygon->add_vertices(v);
+  }
+  for (int c = 0; c < 3; ++c) polygon->add_radiance(1.0f);
+  polygon->set_two_sided(true);
+  r.set_area_method(glint::v1::REFERENCE);
+  r.set_area_samples(256);
+  return r;
+}
+
+TEST(RetryEndToEnd, ConcurrentClientsOfAFullServerAllSucceed) {
+  TempDir dir("glint_retry");
+  std::string error;
+  auto server = Glintd::Start(GLINTD_PATH, dir, "glintd",
+                              {"--device", "host", "--max-pending", "1", "--workers", "1"}, &error);
+  ASSERT_NE(server, nullptr) << error;
+  const glint::v1::EvaluateRequest small = Smooth(1024);
+  std::vector<float> expected;
+  {
+    GlintClient quiet(server->address());
+    ASSERT_TRUE(quiet.Evaluate(small, &expected).ok());
+  }
+
+  // The slow request takes the slot; wait until a retry-less probe is refused, which proves
+  // the slot is held (it cannot be the probe's own earlier request: there is none).
+  std::atomic<bool> slow_done{false};
+  grpc::Status slow_status;
+  std::thread slow([&] {
+    ClientOptions o;
+    o.retry.max_attempts = 1;
+    GlintClient client(server->address(), o);
+    std::vector<float> rgb;
+    slow_status = client.Evaluate(Slow(), &rgb);
+    slow_done = true;
+  });
+  ClientOptions no_retry;
+  no_retry.retry.max_attempts = 1;
+  GlintClient impatient(server->address(), no_retry);
+  std::vector<float> rgb;
+  grpc::Status refused;
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  do {
+    refused = impatient.Evaluate(small, &rgb);
+  } while (refused.ok() && !slow_done && std::chrono::steady_clock::now() < give_up);
+  ASSERT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED)
+      << "the slow request never held the slot; slow finished: " << slow_done;
+
+  // Eight clients, three requests each, while the slot is taken: they are refused and retry.
+  // Budget: 60 attempts with waits up to 500 ms, ~15 s expected, far above the slow request.
+  constexpr int kClients = 8, kRequests = 3;
+  std::vector<grpc::Status> statuses(kClients * kRequests);
+  std::vector<int> attempts(kClients * kRequests, 0);
+  std::vector<bool> equal(kClients * kRequests, false);
+  std::vector<std::thread> clients;
+  for (int c = 0; c < kClients; ++c) {
+    clients.emplace_back([&, c] {
+      ClientOptions o;
+      o.retry.max_attempts = 60;
+      o.retry.initial_backoff = std::chrono::milliseconds(20);
+      o.retry.max_backoff = std::chrono::milliseconds(500);
+      o.evaluate_timeout = std::chrono::seconds(120);
+      GlintClient client(server->address(), o);
+      for (int k = 0; k < kRequests; ++k) {
+        std::vector<float> out;
+        glint::client::EvaluateInfo info;
+        const size_t i = static_cast<size_t>(c * kRequests + k);
+        statuses[i] = client.Evaluate(small, &out, {}, &info);
+        attempts[i] = info.attempts;
+        equal[i] = out.size() == expected.size() &&
+                   std::memcmp(out.data(), expected.data(), out.size() * sizeof(float)) == 0;
+      }
+    });
+  }
+  for (auto &t : clients) t.join();
+  slow.join();
+  EXPECT_TRUE(slow_status.ok()) << glint::client::FormatStatus(slow_status);
+  int retried = 0;
+  for (size_t i = 0; i < statuses.size(); ++i) {
+    EXPECT_TRUE(statuses[i].ok()) << i << ": " << glint::client::FormatStatus(statuses[i]);
+    EXPECT_TRUE(equal[i]) << i;
+    retried += attempts[i] > 1;
+  }
+  // Each client's first request started while the slow one held the slot.
+  EXPECT_GE(retried, 1);
+}
+
+}  // namespace

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <sstream>
 
+#include "server/auth.h"
 #include "server/eval_plan.h"
 #include "server/kserve_tensors.h"
 
@@ -105,6 +106,8 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ServerReady(grpc::CallbackServerCon
 grpc::ServerUnaryReactor *KServeServiceImpl::ModelReady(grpc::CallbackServerContext *ctx,
                                                         const inference::ModelReadyRequest *request,
                                                         inference::ModelReadyResponse *response) {
+  if (grpc::Status denied = CheckBearer(glint_->options().auth, *ctx); !denied.ok())
+    return Done(ctx, denied);
   grpc::Status unused;
   response->set_ready(ready_ && Find(request->name(), request->version(), &unused) != nullptr);
   return Done(ctx, grpc::Status::OK);
@@ -113,6 +116,8 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelReady(grpc::CallbackServerCont
 grpc::ServerUnaryReactor *KServeServiceImpl::ServerMetadata(
     grpc::CallbackServerContext *ctx, const inference::ServerMetadataRequest *,
     inference::ServerMetadataResponse *response) {
+  if (grpc::Status denied = CheckBearer(glint_->options().auth, *ctx); !denied.ok())
+    return Done(ctx, denied);
   response->set_name("glintd");
   response->set_version(GLINT_VERSION);
   response->add_extensions("model_configuration");
@@ -123,6 +128,8 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ServerMetadata(
 grpc::ServerUnaryReactor *KServeServiceImpl::ModelMetadata(
     grpc::CallbackServerContext *ctx, const inference::ModelMetadataRequest *request,
     inference::ModelMetadataResponse *response) {
+  if (grpc::Status denied = CheckBearer(glint_->options().auth, *ctx); !denied.ok())
+    return Done(ctx, denied);
   grpc::Status status;
   const KServeModel *model = Find(request->name(), request->version(), &status);
   if (!model) return Done(ctx, status);
@@ -147,6 +154,8 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelMetadata(
 grpc::ServerUnaryReactor *KServeServiceImpl::ModelConfig(
     grpc::CallbackServerContext *ctx, const inference::ModelConfigRequest *request,
     inference::ModelConfigResponse *response) {
+  if (grpc::Status denied = CheckBearer(glint_->options().auth, *ctx); !denied.ok())
+    return Done(ctx, denied);
   grpc::Status status;
   const KServeModel *model = Find(request->name(), request->version(), &status);
   if (!model) return Done(ctx, status);
@@ -175,6 +184,8 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelConfig(
 grpc::ServerUnaryReactor *KServeServiceImpl::ModelStatistics(
     grpc::CallbackServerContext *ctx, const inference::ModelStatisticsRequest *request,
     inference::ModelStatisticsResponse *response) {
+  if (grpc::Status denied = CheckBearer(glint_->options().auth, *ctx); !denied.ok())
+    return Done(ctx, denied);
   if (!request->name().empty()) {
     grpc::Status status;
     if (!Find(request->name(), request->version(), &status)) return Done(ctx, status);
@@ -207,6 +218,8 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelStatistics(
 grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerContext *ctx,
                                                         const inference::ModelInferRequest *request,
                                                         inference::ModelInferResponse *response) {
+  if (grpc::Status denied = CheckBearer(glint_->options().auth, *ctx); !denied.ok())
+    return Done(ctx, denied);
   const auto received = Clock::now();
   grpc::Status status;
   const KServeModel *model = Find(request->model_name(), request->model_version(), &status);

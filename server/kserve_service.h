@@ -24,7 +24,9 @@ namespace glint {
 
 class KServeServiceImpl final : public inference::GRPCInferenceService::CallbackService {
  public:
-  // `glint` evaluates (its scheduler, limits, engine and request log); it must outlive this.
+  // `glint` evaluates (its scheduler, limits, engine, request log and bearer tokens: every RPC
+  // but ServerLive/ServerReady, the protocol's health calls, needs a token when glintd has
+  // --auth-tokens); it must outlive this.
   KServeServiceImpl(GlintServiceImpl *glint, std::vector<KServeModel> models);
 
   // ServerReady / ModelReady answer true only after this (glintd: when it reports SERVING).

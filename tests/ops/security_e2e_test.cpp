@@ -19,6 +19,7 @@
 #include "glint/v1/glint.grpc.pb.h"
 #include "glintd_process.h"
 #include "grpc/health/v1/health.grpc.pb.h"
+#include "inference/grpc_service.grpc.pb.h"
 #include "server/ops.h"
 
 namespace {
@@ -194,6 +195,28 @@ std::vector<grpc::StatusCode> CallAll(const std::string &address, const std::str
   return codes;
 }
 
+// The Open Inference Protocol on the same port: ServerLive (its health call) and
+// ServerMetadata (guarded like every other call), with `authorization` as given.
+std::vector<grpc::StatusCode> CallKServe(const std::string &address,
+                                         const std::string &authorization) {
+  auto channel = glint::client::MakeChannel(address, 1 << 20, ChannelSecurity{});
+  auto stub = inference::GRPCInferenceService::NewStub(channel);
+  std::vector<grpc::StatusCode> codes;
+  {
+    grpc::ClientContext c;
+    if (!authorization.empty()) c.AddMetadata("authorization", authorization);
+    inference::ServerLiveResponse response;
+    codes.push_back(stub->ServerLive(&c, {}, &response).error_code());
+  }
+  {
+    grpc::ClientContext c;
+    if (!authorization.empty()) c.AddMetadata("authorization", authorization);
+    inference::ServerMetadataResponse response;
+    codes.push_back(stub->ServerMetadata(&c, {}, &response).error_code());
+  }
+  return codes;
+}
+
 grpc::health::v1::HealthCheckResponse::ServingStatus Health(const std::string &address) {
   auto channel = glint::client::MakeChannel(address, 1 << 20, ChannelSecurity{});
   auto health = grpc::health::v1::Health::NewStub(channel);
@@ -218,6 +241,9 @@ TEST_F(Security, TokensGuardEveryRpcButHealthAndAreReloadedOnSighup) {
   EXPECT_EQ(CallAll(address, "Bearer alpha-token-123"), ok);
   EXPECT_EQ(CallAll(address, "Bearer beta-token-456"), ok);
   EXPECT_EQ(Health(address), grpc::health::v1::HealthCheckResponse::SERVING);  // no token
+  // KServe v2: ServerLive is open like health, everything else needs the token.
+  EXPECT_EQ(CallKServe(address, ""), C({grpc::StatusCode::OK, grpc::StatusCode::UNAUTHENTICATED}));
+  EXPECT_EQ(CallKServe(address, "Bearer alpha-token-123"), C(2, grpc::StatusCode::OK));
 
   // SIGHUP: the new file replaces the old tokens.
   Write(F("tokens"), "gamma-token-789\n");

@@ -13,5 +13,10 @@ from glint._client import Client, EvaluateInfo
 from glint._errors import Error
 from glint.v1 import glint_pb2 as pb
 
+# Tracebacks and reprs name the public path (glint.Error), not the private module.
+for _public in (Client, EvaluateInfo, Error):
+    _public.__module__ = "glint"
+del _public
+
 __version__ = "0.1.0"
 __all__ = ["Client", "Error", "EvaluateInfo", "pb", "__version__"]

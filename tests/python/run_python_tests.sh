@@ -45,7 +45,7 @@ if ! "${pip[@]}" install --no-compile --no-index --find-links "$wheelhouse" "$pa
   if ! "${pip[@]}" download -d "$wheelhouse" "$package" "setuptools>=61" > "$work/pip-download.log" 2>&1; then
     if ! "${pip[@]}" index versions pip > /dev/null 2>&1; then
       echo "SKIP: python.client: PyPI is unreachable and $wheelhouse lacks wheels for the" \
-           "package's requirements (pip: $(tail -n 1 "$work/pip-download.log"))"
+           "package's requirements (pip: $(grep -m 1 'ERROR' "$work/pip-download.log" | sed 's/^ *//'))"
       exit 77
     fi
     echo "python.client: pip download failed although PyPI answers:" >&2

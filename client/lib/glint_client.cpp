@@ -331,6 +331,8 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
           *part->mutable_lights() = request.lights();
           part->set_precision(request.precision());
           part->set_seed(request.seed());
+          part->set_area_method(request.area_method());
+          part->set_area_samples(request.area_samples());
         }
         const auto begin = static_cast<uint32_t>(k * chunk_queries);
         const auto end =

@@ -89,6 +89,7 @@ class Cli:
         self.address = address
         self.tmp = tmp
         self.calls = 0
+        self.last_stdout = ""
 
     def eval(self, material: pathlib.Path, lights: Optional[pathlib.Path], arrays: Dict[str, np.ndarray],
              *extra: str) -> np.ndarray:
@@ -106,6 +107,7 @@ class Cli:
             cmd += ["--lights", str(lights)]
         run = subprocess.run(cmd, capture_output=True, text=True)
         assert run.returncode == 0, f"{' '.join(cmd)} failed:\n{run.stdout}{run.stderr}"
+        self.last_stdout = run.stdout
         return np.load(out)
 
 

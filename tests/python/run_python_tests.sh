@@ -28,7 +28,15 @@ if ! "$python" -c 'import venv, ensurepip' 2>/dev/null; then
   exit 1
 fi
 rm -rf "$venv"
-"$python" -m venv "$venv"
+# pip comes from the wheelhouse when it is there: ensurepip byte-compiles all of pip, which took
+# longer than the rest of the install on a loaded machine.
+pip_wheel="$( (ls "$wheelhouse"/pip-*.whl 2>/dev/null || true) | sort -V | tail -n 1)"
+if [ -n "$pip_wheel" ]; then
+  "$python" -m venv --without-pip "$venv"
+  "$venv/bin/python" "$pip_wheel/pip" install -q --no-index --no-compile "$pip_wheel"
+else
+  "$python" -m venv "$venv"
+fi
 pip=("$venv/bin/python" -m pip --disable-pip-version-check --no-input -q)
 # Installed from a copy: setuptools writes build/ and *.egg-info/ next to the sources it builds,
 # and a test must not write into the source tree.
@@ -37,22 +45,31 @@ cp -r "$src/client/python" "$work/package"
 rm -rf "$work/package/build" "$work/package"/*.egg-info
 package="$work/package[test]"
 
-# Offline first, from the wheels of earlier runs; then fetch what is missing.
-if ! "${pip[@]}" install --no-compile --no-index --find-links "$wheelhouse" "$package" \
+# Offline first, from the wheels of earlier runs; then fetch what is missing (also pip's own
+# wheel, for the next run's venv).
+offline_ok=false
+if "${pip[@]}" install --no-compile --no-index --find-links "$wheelhouse" "$package" \
     > "$work/pip-offline.log" 2>&1; then
+  offline_ok=true
+fi
+if ! $offline_ok || [ -z "$pip_wheel" ]; then
   echo "python.client: fetching wheels from PyPI into $wheelhouse"
   # setuptools: the package's build backend, for pip's isolated build environment.
-  if ! "${pip[@]}" download -d "$wheelhouse" "$package" "setuptools>=61" > "$work/pip-download.log" 2>&1; then
-    if ! "${pip[@]}" index versions pip > /dev/null 2>&1; then
+  if ! "${pip[@]}" download -d "$wheelhouse" "$package" "setuptools>=61" pip > "$work/pip-download.log" 2>&1; then
+    if $offline_ok; then
+      echo "python.client: could not add pip's wheel to $wheelhouse; continuing with the installed package"
+    elif ! "${pip[@]}" index versions pip > /dev/null 2>&1; then
       echo "SKIP: python.client: PyPI is unreachable and $wheelhouse lacks wheels for the" \
            "package's requirements (pip: $(grep -m 1 'ERROR' "$work/pip-download.log" | sed 's/^ *//'))"
       exit 77
+    else
+      echo "python.client: pip download failed although PyPI answers:" >&2
+      cat "$work/pip-download.log" >&2
+      exit 1
     fi
-    echo "python.client: pip download failed although PyPI answers:" >&2
-    cat "$work/pip-download.log" >&2
-    exit 1
+  elif ! $offline_ok; then
+    "${pip[@]}" install --no-compile --no-index --find-links "$wheelhouse" "$package"
   fi
-  "${pip[@]}" install --no-compile --no-index --find-links "$wheelhouse" "$package"
 fi
 
 # Run from the work dir so that `import glint` can only find the installed package.

@@ -140,3 +140,29 @@ def test_dicts_and_messages_equal_files(client, cli_results):
                                   lights=json_format.ParseDict(l, glint.pb.LightList()), **arrays, **kwargs)
     for got in (as_dicts, as_light_list, as_messages):
         assert np.array_equal(_bits(got), _bits(cli_results["lights"]))
+
+
+def test_both_clients_stream_a_large_batch_alike(client, cli, tmp_path):
+    """A batch over the 8 MiB message budget: both clients stream it in the same chunks (the same
+    sizing rule) and get the same bits, with a non-default area method and sample count that the
+    first chunk must carry (the C++ client once dropped it from streams)."""
+    rng = np.random.default_rng(77)
+    # Every array but wi: 72 bytes per query, so chunks of 116,447 queries and 2 chunks here.
+    n = 125_000
+    p, nrm, t, wo = _frames(rng, n)
+    arrays = dict(uv=rng.uniform(-4, 4, size=(n, 2)).astype(np.float32), footprint=_glint_footprints(rng, n),
+                  wo=wo, wi=None, position=p, normal=nrm, tangent=t)
+    softbox = json.loads((EXAMPLES / "lights" / "softbox.json").read_text())
+    lights = tmp_path / "polygon.json"  # the softbox's polygon alone
+    lights.write_text(json.dumps({"lights": [l for l in softbox["lights"] if "polygon" in l]}))
+    material = EXAMPLES / "materials" / "gold_aniso.json"
+    # Monte Carlo with 4 samples: area method, sample count and seed must all reach the server.
+    expected = cli.eval(material, lights, arrays, "--area-method", "mc", "--samples", "4", "--seed", "5")
+    rgb = client.evaluate(material, lights=lights, area_method="mc", samples=4, seed=5, **arrays)
+    assert client.last_info.streamed and client.last_info.chunks == 2
+    assert f"via stream (2 chunks of <= {client.last_info.chunk_queries} queries)" in cli.last_stdout
+    head = {k: v[:1000] for k, v in arrays.items() if v is not None}
+    ltc = client.evaluate(material, lights=lights, **head)
+    assert not np.array_equal(_bits(ltc), _bits(expected[:1000]))  # the setting matters here
+    assert np.count_nonzero(expected.any(axis=1)) > n // 10
+    assert np.array_equal(_bits(rgb), _bits(expected))

@@ -152,3 +152,38 @@ def test_tqdm_progress_bar(client, capsys):
         c.evaluate(GGX, wo=unit_vectors(np.random.default_rng(1), 200, 0.0), wi=[0, 0, 1], progress=True)
         assert c.last_info.chunks == 4
     assert "200/200" in capsys.readouterr().err
+
+
+def test_wait_until_serving(client):
+    client.wait_until_serving(timeout=30)  # the fixture's server is SERVING: returns at once
+
+
+def test_wait_until_serving_gives_up_on_a_dead_address():
+    import socket
+    import time
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        with glint.Client(f"127.0.0.1:{s.getsockname()[1]}") as c:
+            start = time.monotonic()
+            e = _expect_error(lambda: c.wait_until_serving(timeout=1.5), grpc.StatusCode.DEADLINE_EXCEEDED,
+                              "not SERVING after 1.5 s", "UNAVAILABLE")
+            assert time.monotonic() - start < 10, e
+
+
+def test_an_exception_in_progress_cancels_the_stream(server_address):
+    """A callback that raises (as KeyboardInterrupt would) ends the stream at once; the error
+    reaches the caller unchanged and the client stays usable."""
+    wi = unit_vectors(np.random.default_rng(2), 500, 0.0)
+    calls = []
+
+    def stop(done, total):
+        calls.append(done)
+        raise RuntimeError("stop here")
+
+    with glint.Client(server_address, max_chunk_queries=50) as c:
+        with pytest.raises(RuntimeError, match="stop here"):
+            c.evaluate(GGX, wo=[0, 0, 1], wi=wi, progress=stop)
+        assert calls == [50]
+        rgb = c.evaluate(GGX, wo=[0, 0, 1], wi=wi)
+        assert c.last_info.chunks == 10 and rgb.shape == (500, 3)

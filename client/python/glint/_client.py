@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import threading
+import time
 from typing import Any, Callable, Iterator, Optional, Union
 
 import grpc
@@ -129,6 +130,37 @@ class Client:
 
     def __repr__(self) -> str:
         return f"glint.Client({self.address!r})"
+
+    # -- health ---------------------------------------------------------------------------------
+
+    def wait_until_serving(self, timeout: float = 60.0) -> None:
+        """Polls ``grpc.health.v1.Health/Check`` until the server reports SERVING (it does once
+        its kernels are compiled and warm). Raises :class:`glint.Error` (``DEADLINE_EXCEEDED``,
+        saying what the last attempt saw) when it does not within ``timeout`` seconds, or
+        ``UNIMPLEMENTED`` at once for a server without the health service."""
+        from grpc_health.v1 import health_pb2, health_pb2_grpc
+
+        health = health_pb2_grpc.HealthStub(self._channel)
+        end = time.monotonic() + timeout
+        last = "no health check attempted"
+        while True:
+            left = end - time.monotonic()
+            if left <= 0:
+                break
+            try:
+                # Fail fast (no wait_for_ready) so a refused connection reports its reason; the
+                # loop does the waiting.
+                reply = health.Check(health_pb2.HealthCheckRequest(service=""), timeout=min(left, 1.0))
+                if reply.status == health_pb2.HealthCheckResponse.SERVING:
+                    return
+                last = "health status " + health_pb2.HealthCheckResponse.ServingStatus.Name(reply.status)
+            except grpc.RpcError as e:
+                error = Error.from_rpc_error(e)
+                if error.code == grpc.StatusCode.UNIMPLEMENTED:
+                    raise Error(error.code, f"server does not implement grpc.health.v1.Health ({error})") from None
+                last = str(error)
+            time.sleep(0.1)
+        raise Error(grpc.StatusCode.DEADLINE_EXCEEDED, f"{self.address} not SERVING after {timeout:g} s: {last}")
 
     # -- capabilities -----------------------------------------------------------------------
 
@@ -306,6 +338,9 @@ class Client:
                 bar.update(first + n, count, n)
         except grpc.RpcError as e:
             raise Error.from_rpc_error(e) from None
+        except BaseException:
+            call.cancel()  # e.g. KeyboardInterrupt: the server stops at once, not at the end
+            raise
         if received != chunks:
             raise Error(
                 grpc.StatusCode.DATA_LOSS, f"stream ended after {received} of {chunks} chunk results"

@@ -107,8 +107,9 @@ class GlintClient {
   // Evaluates `request` and fills `radiance` with 3 floats (RGB) per query, in query order.
   // A batch within max_batch and max_chunk_bytes (and half the server's message limit) goes
   // unary; a larger one is split with SliceQueries and sent over EvaluateStream, the first
-  // chunk carrying material, lights, precision and seed. The result is bit-identical either way
-  // (the server's determinism contract). `progress` is called as results arrive.
+  // chunk carrying every setting (material, lights, precision, seed, area method). The result is
+  // bit-identical either way (the server's determinism contract). `progress` is called as results
+  // arrive.
   grpc::Status Evaluate(const glint::v1::EvaluateRequest &request, std::vector<float> *radiance,
                         ProgressFn progress = {}, EvaluateInfo *info = nullptr);
 

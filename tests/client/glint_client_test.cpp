@@ -50,9 +50,10 @@ class FakeGlint final : public glint::v1::GlintService::Service {
   std::atomic<int> unary_calls{0};
   std::atomic<int> stream_calls{0};
   std::mutex mu;
-  std::vector<uint32_t> chunk_counts;   // queries per received chunk
-  std::vector<size_t> chunk_bytes;      // serialized size per received chunk
-  std::vector<std::string> violations;  // protocol rules the client broke
+  std::vector<uint32_t> chunk_counts;    // queries per received chunk
+  std::vector<size_t> chunk_bytes;       // serialized size per received chunk
+  std::vector<std::string> violations;   // protocol rules the client broke
+  EvaluateRequest first_chunk_settings;  // the first chunk's request without its queries
 
   grpc::Status GetCapabilities(grpc::ServerContext *, const glint::v1::GetCapabilitiesRequest *,
                                glint::v1::Capabilities *caps) override {
@@ -104,7 +105,12 @@ class FakeGlint final : public glint::v1::GlintService::Service {
         return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
                             "queries.wo[" + std::to_string(first_query) + "] is not unit length");
       }
-      if (expected_index == 0) settings = chunk.request();
+      if (expected_index == 0) {
+        settings = chunk.request();
+        std::lock_guard<std::mutex> lock(mu);
+        first_chunk_settings = settings;
+        first_chunk_settings.clear_queries();
+      }
       EvaluateChunkResult result;
       result.set_chunk_index(chunk.chunk_index());
       result.set_first_query(first_query + (wrong_first_query && expected_index > 0 ? 1 : 0));
@@ -345,6 +351,27 @@ TEST(GlintClient, OverMaxBatchStreamsInOrderedChunksAndMatchesUnary) {
   EXPECT_EQ(big.service.unary_calls, 1);
   EXPECT_TRUE(BitEqual(streamed, unary));
   EXPECT_TRUE(BitEqual(streamed, Expected(request)));
+}
+
+// Every setting of the request reaches the server in the first chunk: a streamed batch must be
+// evaluated exactly as the unary call would (area method and samples included).
+TEST(GlintClient, FirstChunkCarriesEverySetting) {
+  FakeServer server;
+  server.service.max_batch = 100;
+  EvaluateRequest request = MakeRequest(250);
+  request.add_lights()->mutable_polygon()->add_radiance(1.0f);
+  request.set_precision(glint::v1::FP64);
+  request.set_seed(99);
+  request.set_area_method(glint::v1::MONTE_CARLO);
+  request.set_area_samples(32);
+  GlintClient client(server.address());
+  std::vector<float> rgb;
+  EvaluateInfo info;
+  ASSERT_TRUE(client.Evaluate(request, &rgb, {}, &info).ok());
+  ASSERT_TRUE(info.streamed);
+  EvaluateRequest expected = request;
+  expected.clear_queries();
+  EXPECT_EQ(server.service.first_chunk_settings.DebugString(), expected.DebugString());
 }
 
 TEST(GlintClient, ChunksStayUnderTheByteBudget) {

@@ -1,0 +1,1 @@
+"""Generated wire-contract stubs (regenerate_stubs.sh); do not edit."""

@@ -7,6 +7,7 @@ PACKAGES=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers clinfo
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler grpc-proto
   libopenexr-dev libpng-dev libgtest-dev
+  libboost-math1.74-dev  # chi-square quantiles of the sampling tests (tests/service/sample_test.cpp)
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

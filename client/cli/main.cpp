@@ -14,6 +14,7 @@
 #include <string_view>
 #include <vector>
 
+#include "client/cli/sample_command.h"
 #include "client/lib/glint_client.h"
 #include "client/lib/query_io.h"
 #include "client/preview/image_io.h"
@@ -36,6 +37,7 @@ commands:
   info      print the server's capabilities; exit 0 only when it reports SERVING
   eval      evaluate a CSV of shading queries; write radiance as CSV, NPY or EXR
   preview   render a sphere or plane preview of a material under lights (EXR + PNG)
+  sample    importance-sample a material's BRDF: K directions, pdf and weight per query (CSV)
 
 Run 'glint <command> --help' for the options of a command.
 )";
@@ -489,6 +491,7 @@ int main(int argc, char **argv) {
     return kExitUsage;
   }
   const std::string name = argv[1];
+  if (name == "sample") return glint::client::RunSampleCommand(argc - 2, argv + 2);
   if (name == "--help" || name == "-h" || name == "help") {
     std::fputs(kUsage, stdout);
     return kExitOk;

@@ -455,6 +455,58 @@ TEST(SampleFrame, WorldSpaceInAndOut) {
   EXPECT_NEAR(mean, fine[0], 4.5 * se + std::fabs(fine[0] - coarse[0]));
 }
 
+// The pitfalls of the models' own stability tests, through the sample pass (fp32 and fp64 host
+// path): grazing and normal views, alpha 1e-4 and 1, microroughness 1e-5 and 1, density 1e-3
+// and 1e15, uv 1e7, zero and huge footprints. Every output is finite, pdf and weights are
+// non-negative, a sample without a direction is all zeros, and directions are unit vectors.
+TEST(SampleStability, ExtremesFiniteAndNonNegative) {
+  std::vector<Case> cases;
+  for (float alpha : {1e-4f, 1.0f}) {
+    cases.push_back({"smooth ggx", Smooth(v1::GGX, alpha, alpha), {}});
+    cases.push_back({"smooth beckmann", Smooth(v1::BECKMANN, alpha, 1.0f), {}});
+    cases.push_back({"chermain", Chermain(alpha, 20.0f), {}});
+    for (double density : {1e-3, 1e15})
+      for (float micro : {1e-5f, 1.0f})
+        cases.push_back({"kemppinen", Kemppinen(v1::GGX, alpha, density, micro), {}});
+    cases.push_back({"kemppinen beckmann", Kemppinen(v1::BECKMANN, alpha, 1e6, 0.02f), {}});
+  }
+  for (const Case &base : cases) {
+    for (double theta : {0.0, 60.0, 89.99}) {
+      for (int shape = 0; shape < 3; ++shape) {
+        Case c = base;
+        c.wo = WoAt(theta, 33);
+        const float f = shape == 0 ? 0.0f : shape == 1 ? 1e-3f : 1e3f;
+        c.footprint[0] = f;
+        c.footprint[3] = f;
+        if (shape == 2) c.uv[0] = c.uv[1] = 1e7f;
+        for (v1::Precision precision : {v1::FP32, v1::FP64}) {
+          SCOPED_TRACE(c.name + " alpha " + std::to_string(c.material.alpha_x()) + " theta " +
+                       std::to_string(theta) + " shape " + std::to_string(shape));
+          const SampleResponse r = HostSamples(MakeRequest(c, 64, precision));
+          ASSERT_EQ(r.pdf_size(), 64);
+          for (int k = 0; k < 64; ++k) {
+            const float p = r.pdf(k);
+            ASSERT_TRUE(std::isfinite(p) && p >= 0.0f) << "pdf " << p;
+            double len2 = 0;
+            for (int ch = 0; ch < 3; ++ch) {
+              const float w = r.weight(3 * k + ch), d = r.wi(3 * k + ch);
+              ASSERT_TRUE(std::isfinite(w) && w >= 0.0f) << "weight " << w;
+              ASSERT_TRUE(std::isfinite(d));
+              len2 += double(d) * d;
+              if (p == 0.0f) {
+                ASSERT_EQ(w, 0.0f);
+              }
+            }
+            if (p > 0.0f) {
+              ASSERT_NEAR(len2, 1.0, 1e-5);
+            }
+          }
+        }
+      }
+    }
+  }
+}
+
 // ------------------------------------------------------------- refusals
 
 void ExpectRefused(const SampleRequest &r, const std::string &needle) {

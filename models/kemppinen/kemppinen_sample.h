@@ -2,8 +2,8 @@
  * Algorithm 2), with a pdf that is exact so the weight f cos_i / pdf is an
  * unbiased estimate of the albedo (kernels/sample.h).
  *
- * A mixture of two strategies, each chosen with probability 1/2
- * (GLINT_KEMPPINEN_SAMPLE_SMOOTH):
+ * A one-sample mixture of two strategies, the smooth one with probability q in
+ * [1/2, 0.95] (kemppinen_sample_smooth_fraction, from the query's footprint):
  *  - smooth: the base NDF's strategy (kernels/sample.h: GGX visible normals,
  *    Beckmann D cos). It covers the compensation part of D_star (Eq. 9-11),
  *    which K25 chooses not to sample ("only significant if the Gaussians are
@@ -29,7 +29,7 @@
  *      p_U(x) = sum_l w_l res_a^-2 [ 1/2 sum_j (w_j / W) N(x; g_j, sigma_j)
  *                                    + 1/2 res_a^2 ]   (cell of x, W = sum w_j > 0)
  *    and in solid angle p_h(h) = p_U(T(h)) |J_T(h)|, p_wi = p_h / (4 wo.h).
- * The pdf returned is the mixture's, 1/2 p_smooth + 1/2 p_glint, evaluated for
+ * The pdf returned is the mixture's, q p_smooth + (1 - q) p_glint, evaluated for
  * every sample whichever strategy drew it (the one-sample MIS balance form,
  * Veach 1997 Sec. 9.2.4), so the weight is f cos_i / pdf exactly.
  * Colours enter the facet choice through the mean of the facet's colour. */
@@ -39,8 +39,34 @@
 #include "kernels/sample.h"
 #include "models/kemppinen/kemppinen_eval.h"
 
-/* Probability of the smooth strategy. */
-#define GLINT_KEMPPINEN_SAMPLE_SMOOTH 0.5f
+/* Bounds of q, the probability of the smooth strategy. q >= 1/2 bounds the
+ * weight by twice the smooth sampler's (a defensive mixture, Hesterberg 1995),
+ * so the second moment is at most twice the smooth lobe's wherever the glints
+ * do not help; q <= 0.95 keeps sampling the glints where they are resolved. */
+#define GLINT_KEMPPINEN_SAMPLE_SMOOTH_MIN 0.5f
+#define GLINT_KEMPPINEN_SAMPLE_SMOOTH_MAX 0.95f
+
+/* q, a function of the query only (so sampling and the pdf agree): the
+ * expected number of facets under one pixel filter and one facet lobe,
+ *   N = K_P (4 pi sqrt(det Sigma_s)) (4 pi sigma_ax sigma_ay)
+ * (the effective areas 1 / integral of N^2 of the two Gaussians; facets are
+ * uniform with density K_P per unit uv x U area), with the lobe at the pole.
+ * N << 1: isolated glints, q = 1/2; N >> 1: D_star is close to D (Eq. 2), the
+ * smooth lobe is the better proposal, q -> N / (1 + N) up to the bound. */
+GLINT_FN real kemppinen_sample_smooth_fraction(SmoothMaterial m, KemppinenParams p,
+                                               KemppinenFootprint fp) {
+  real3 pole = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0));
+  real Dn = ndf_D(m.ndf, pole, m.alpha_x, m.alpha_y);
+  KemppinenAngular a =
+      kemppinen_angular(p, kemppinen_to_disk(m.ndf, pole, m.alpha_x, m.alpha_y, Dn));
+  real det = fmax(fp.sxx * fp.syy - fp.sxy * fp.sxy, GLINT_R(0.0));
+  real n =
+      p.density * (GLINT_R(4.0) * GLINT_PI * sqrt(det)) * (GLINT_R(4.0) * GLINT_PI * a.sx * a.sy);
+  /* N / (1 + N) as 1 / (1 + 1 / N): N = inf gives 1, N = 0 gives 0. */
+  real q = GLINT_R(1.0) / (GLINT_R(1.0) + GLINT_R(1.0) / n);
+  return clamp(q, GLINT_R(GLINT_KEMPPINEN_SAMPLE_SMOOTH_MIN),
+               GLINT_R(GLINT_KEMPPINEN_SAMPLE_SMOOTH_MAX));
+}
 
 /* T^-1 (kemppinen_to_disk inverted): a point of the unit square to the unit
  * half-vector h; valid only inside the disk of radius 1/2 about (1/2, 1/2)
@@ -202,13 +228,13 @@ GLINT_FN BrdfSample kemppinen_sample(EvalSpec spec, KernelInputs in, uint i, uin
   KemppinenFootprint fp = kemppinen_footprint(p, (real)in.uv[2 * i], (real)in.uv[2 * i + 1],
                                               footprint, in.seed_lo, in.seed_hi);
   uint key = sample_key(spec, in, i, k, 1);
-  real3 h = sample_u(key, 12u) < GLINT_R(GLINT_KEMPPINEN_SAMPLE_SMOOTH)
+  real q = kemppinen_sample_smooth_fraction(m, p, fp);
+  real3 h = sample_u(key, 12u) < q
                 ? smooth_sample_half_vector(m, sp.wo, sample_u(key, 0u), sample_u(key, 1u))
                 : kemppinen_glint_half_vector(m, p, fp, key);
   if (!(r3_dot(sp.wo, h) > GLINT_R(0.0)) || !(h.z > GLINT_R(0.0))) return sample_none();
   BrdfSample b;
   b.wi = sample_reflect(sp.wo, h);
-  real q = GLINT_R(GLINT_KEMPPINEN_SAMPLE_SMOOTH);
   b.pdf = q * smooth_sample_pdf(m, sp.wo, b.wi) +
           (GLINT_R(1.0) - q) * kemppinen_glint_pdf(m, p, fp, sp.wo, b.wi);
   real3 one = make_real3(GLINT_R(1.0), GLINT_R(1.0), GLINT_R(1.0));

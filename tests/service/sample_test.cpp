@@ -150,7 +150,7 @@ class PdfFunction {
     const kd::real3 wi = kd::make_real3(w.x, w.y, w.z);
     const double smooth = kd::smooth_sample_pdf(m_, wo_, wi);
     if (c_.material.model() != v1::KEMPPINEN) return smooth;
-    const double q = GLINT_KEMPPINEN_SAMPLE_SMOOTH;
+    const double q = kd::kemppinen_sample_smooth_fraction(m_, p_, fp_);
     return q * smooth + (1.0 - q) * kd::kemppinen_glint_pdf(m_, p_, fp_, wo_, wi);
   }
 

@@ -12,6 +12,7 @@ PACKAGES=(
   python3-venv libb64-0d  # KServe tests: tritonclient venv; perf_analyzer's libb64
   libcpp-httplib-dev  # glintd --metrics-listen (Prometheus /metrics)
   openssl             # tests: certificates for TLS / mutual TLS made at test time
+  libboost-math1.74-dev  # chi-square quantiles of the sampling tests (tests/service/sample_test.cpp)
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -82,6 +82,9 @@ Status MakeArguments(cl_context ctx, const EvalPlan &plan, const glint::v1::Quer
   return Status::Ok();
 }
 
+// Arguments in GLINT_KERNEL_ARGS (kernels/kernel_args.h); a sample pass's K follows them.
+constexpr cl_uint kKernelArgCount = 24;
+
 // The one place where kernel arguments are bound: GLINT_KERNEL_ARGS order.
 Status BindKernelArguments(cl_kernel kernel, const KernelArguments &a, cl_mem dummy,
                            bool accumulate) {
@@ -155,6 +158,9 @@ Status DeviceEngine::Create(const DeviceEngineOptions &options,
     for (const ModelPass &pass : model->passes)
       if (!engine->sources_.count(pass.kernel_file))
         engine->sources_[pass.kernel_file] = ExpandKernelSource(pass.kernel_file);
+  for (const Model *model : Models())
+    if (model->sample.kernel_file)
+      engine->sources_[model->sample.kernel_file] = ExpandKernelSource(model->sample.kernel_file);
   cl_context ctx = engine->runtime_->context();
   for (int t = 0; t < 2; ++t) {
     cl_int err = CL_SUCCESS;
@@ -265,6 +271,46 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const glint::v1:
   }
   s = ReadBackAndFinish(queue.queue.get(), args.out.get(), size_t(n) * 3 * sizeof(float));
   return s;
+}
+
+// The sample pass: the standard arguments (an output of kSampleFloats per sample) plus
+// samples_per_query after `out` (kernels/sample.h GLINT_SAMPLE_KERNEL_ARGS), one sample per
+// work-item.
+Status DeviceEngine::Sample(int worker, const EvalPlan &plan, const glint::v1::QueryBatch &q,
+                            uint32_t samples_per_query, float *out) {
+  Queue &queue = *queues_.at(size_t(worker));
+  if (plan.spec.fp64 && !runtime_->info().fp64) return Fp64Unavailable(runtime_->info());
+  const Model *model = FindModel(plan.spec.model);
+  if (!model || !model->sample.kernel_file)
+    return Status::Internal("no sample pass for model id " + std::to_string(plan.spec.model));
+  const size_t samples = size_t(q.count()) * samples_per_query;
+  if (samples == 0) return Status::Ok();
+  KernelArguments args;
+  auto table = model_tables_.find(model->id);
+  Status s = MakeArguments(
+      runtime_->context(), plan, q, ltc_tables_[plan.spec.ndf == GLINT_NDF_BECKMANN ? 1 : 0].get(),
+      table == model_tables_.end() ? nullptr : table->second.get(), out, &args);
+  if (!s.ok()) return s;
+  cl_int err = CL_SUCCESS;
+  args.out.reset(clCreateBuffer(runtime_->context(), CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR,
+                                samples * kSampleFloats * sizeof(float), out, &err));
+  if (err != CL_SUCCESS)
+    return Status::Internal("clCreateBuffer (samples) failed: " + ClErrorName(err));
+  const ModelPass pass = {
+      model->sample.kernel_file, model->sample.entry, 1, nullptr, nullptr, nullptr};
+  cl_kernel kernel = nullptr;
+  s = KernelFor(queue, pass, plan.spec, &kernel);
+  if (!s.ok()) return s;
+  s = BindKernelArguments(kernel, args, queue.dummy.get(), false);
+  if (!s.ok()) return s;
+  const cl_uint k = samples_per_query;
+  GLINT_CL_CHECK(clSetKernelArg(kernel, kKernelArgCount, sizeof(k), &k));
+  const size_t local = options_.local_size;
+  const size_t global = (samples + local - 1) / local * local;
+  GLINT_CL_CHECK(clEnqueueNDRangeKernel(queue.queue.get(), kernel, 1, nullptr, &global, &local, 0,
+                                        nullptr, nullptr));
+  return ReadBackAndFinish(queue.queue.get(), args.out.get(),
+                           samples * kSampleFloats * sizeof(float));
 }
 
 Status DeviceEngine::Warm(const KernelSpec &spec) {

@@ -45,6 +45,11 @@ class DeviceEngine {
   Status Evaluate(int worker, const EvalPlan &plan, const glint::v1::QueryBatch &queries,
                   float *out_rgb);
 
+  // Runs the model's sample pass (server/model.h ModelSampler): writes kSampleFloats (7) floats
+  // per sample, samples_per_query per query, to `out` (server/sample.h checks the request).
+  Status Sample(int worker, const EvalPlan &plan, const glint::v1::QueryBatch &queries,
+                uint32_t samples_per_query, float *out);
+
   // Builds the kernels for `spec` and runs them once on every queue at the
   // production local size (PoCL compiles per local size at first enqueue).
   Status Warm(const KernelSpec &spec);

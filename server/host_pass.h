@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cfloat>
+#include <cstddef>
 #include <cstdint>
 
 namespace glint {
@@ -42,18 +43,18 @@ float SaturateToFloat(Real x) {
 // Writes (or with `accumulate`, adds) 3 floats per query to `out`.
 using HostPassFn = void (*)(const HostInputs &in, float *out, bool accumulate);
 
-// The loop: query_fn(spec, inputs, i) -> real3 for every query, stored in float
-// and summed in float like the device's kernel_store.
-template <class Spec, class Inputs, class QueryFn>
-void RunHostPass(const HostInputs &h, QueryFn query_fn, float *out, bool accumulate) {
-  Spec spec;
+// The EvalSpec and KernelInputs of the kernel headers (in the host's precision namespace) from
+// the precision-independent HostInputs.
+template <class Spec, class Inputs>
+void FillKernelInputs(const HostInputs &h, Spec *spec_out, Inputs *in_out) {
+  Spec &spec = *spec_out;
   spec.ndf = h.ndf;
   spec.fresnel = h.fresnel;
   spec.probe = h.probe;
   spec.has_frame = h.has_frame;
   spec.has_directional = h.has_directional;
   spec.has_point = h.has_point;
-  Inputs in;
+  Inputs &in = *in_out;
   in.n = h.n;
   in.uv = h.uv;
   in.footprint = h.footprint;
@@ -76,6 +77,15 @@ void RunHostPass(const HostInputs &h, QueryFn query_fn, float *out, bool accumul
   in.area_samples = h.area_samples;
   in.seed_lo = h.seed_lo;
   in.seed_hi = h.seed_hi;
+}
+
+// The loop: query_fn(spec, inputs, i) -> real3 for every query, stored in float
+// and summed in float like the device's kernel_store.
+template <class Spec, class Inputs, class QueryFn>
+void RunHostPass(const HostInputs &h, QueryFn query_fn, float *out, bool accumulate) {
+  Spec spec;
+  Inputs in;
+  FillKernelInputs(h, &spec, &in);
   for (uint32_t i = 0; i < h.n; ++i) {
     const auto L = query_fn(spec, in, i);
     float *o = out + 3 * size_t(i);
@@ -83,6 +93,33 @@ void RunHostPass(const HostInputs &h, QueryFn query_fn, float *out, bool accumul
     o[0] = accumulate ? SaturateToFloat(o[0] + r) : r;
     o[1] = accumulate ? SaturateToFloat(o[1] + g) : g;
     o[2] = accumulate ? SaturateToFloat(o[2] + b) : b;
+  }
+}
+
+// A model's sample pass on the host (the Sample RPC, kernels/sample.h): writes
+// GLINT_SAMPLE_FLOATS (7: wi, pdf, weight) per sample, sample k of query i at
+// i * samples_per_query + k, saturated like the device's sample_store.
+using SampleHostFn = void (*)(const HostInputs &in, uint32_t samples_per_query, float *out);
+constexpr size_t kSampleFloats = 7;  // = GLINT_SAMPLE_FLOATS (kernels/sample.h)
+
+template <class Spec, class Inputs, class SampleFn>
+void RunHostSample(const HostInputs &h, SampleFn sample_fn, uint32_t samples_per_query,
+                   float *out) {
+  Spec spec;
+  Inputs in;
+  FillKernelInputs(h, &spec, &in);
+  for (uint32_t i = 0; i < h.n; ++i) {
+    for (uint32_t k = 0; k < samples_per_query; ++k) {
+      const auto b = sample_fn(spec, in, i, k);
+      float *o = out + kSampleFloats * (size_t(i) * samples_per_query + k);
+      o[0] = float(b.wi.x);
+      o[1] = float(b.wi.y);
+      o[2] = float(b.wi.z);
+      o[3] = SaturateToFloat(b.pdf);
+      o[4] = SaturateToFloat(b.weight.x);
+      o[5] = SaturateToFloat(b.weight.y);
+      o[6] = SaturateToFloat(b.weight.z);
+    }
   }
 }
 
@@ -112,4 +149,20 @@ void RunHostPass(const HostInputs &h, QueryFn query_fn, float *out, bool accumul
   namespace glint {                                                  \
   void name##F32(const HostInputs &in, float *out, bool accumulate); \
   void name##F64(const HostInputs &in, float *out, bool accumulate); \
+  }
+
+// A model's sample pass on the host (server/model.h ModelSampler), like GLINT_DEFINE_HOST_PASS:
+// defines glint::<name>F32 or glint::<name>F64 running `sample_fn` (kernels/sample.h).
+#define GLINT_DEFINE_HOST_SAMPLE(name, sample_fn)                                              \
+  static_assert(GLINT_SAMPLE_FLOATS == glint::kSampleFloats);                                  \
+  namespace glint {                                                                            \
+  void GLINT_HOST_SYMBOL(name)(const HostInputs &in, uint32_t samples_per_query, float *out) { \
+    RunHostSample<GLINT_HOST_NAMESPACE::EvalSpec, GLINT_HOST_NAMESPACE::KernelInputs>(         \
+        in, GLINT_HOST_NAMESPACE::sample_fn, samples_per_query, out);                          \
+  }                                                                                            \
+  }
+#define GLINT_DECLARE_HOST_SAMPLE(name)                                         \
+  namespace glint {                                                             \
+  void name##F32(const HostInputs &in, uint32_t samples_per_query, float *out); \
+  void name##F64(const HostInputs &in, uint32_t samples_per_query, float *out); \
   }

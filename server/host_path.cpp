@@ -7,11 +7,10 @@
 
 namespace glint {
 
-void HostEvaluate(const EvalPlan &plan, const glint::v1::QueryBatch &q, float *out_rgb) {
-  const Model *model = FindModel(plan.spec.model);
-  std::memset(out_rgb, 0, size_t(q.count()) * 3 * sizeof(float));
-  if (!model) return;  // validation refuses unknown models before a plan exists
+namespace {
 
+HostInputs MakeHostInputs(const EvalPlan &plan, const glint::v1::QueryBatch &q,
+                          const Model *model) {
   HostInputs in;
   in.ndf = plan.spec.ndf;
   in.fresnel = plan.spec.fresnel;
@@ -42,13 +41,32 @@ void HostEvaluate(const EvalPlan &plan, const glint::v1::QueryBatch &q, float *o
   in.area_samples = plan.area_samples;
   in.seed_lo = plan.seed_lo;
   in.seed_hi = plan.seed_hi;
+  return in;
+}
 
+}  // namespace
+
+void HostEvaluate(const EvalPlan &plan, const glint::v1::QueryBatch &q, float *out_rgb) {
+  const Model *model = FindModel(plan.spec.model);
+  std::memset(out_rgb, 0, size_t(q.count()) * 3 * sizeof(float));
+  if (!model) return;  // validation refuses unknown models before a plan exists
+
+  const HostInputs in = MakeHostInputs(plan, q, model);
   bool accumulate = false;
   for (const ModelPass &pass : model->passes) {
     if (pass.needed && !pass.needed(plan)) continue;
     (plan.spec.fp64 ? pass.host_f64 : pass.host_f32)(in, out_rgb, accumulate);
     accumulate = true;
   }
+}
+
+void HostSample(const EvalPlan &plan, const glint::v1::QueryBatch &q, uint32_t samples_per_query,
+                float *out) {
+  const Model *model = FindModel(plan.spec.model);
+  std::memset(out, 0, size_t(q.count()) * samples_per_query * kSampleFloats * sizeof(float));
+  if (!model || !model->sample.kernel_file) return;  // refused by server/sample.cpp
+  const HostInputs in = MakeHostInputs(plan, q, model);
+  (plan.spec.fp64 ? model->sample.host_f64 : model->sample.host_f32)(in, samples_per_query, out);
 }
 
 }  // namespace glint

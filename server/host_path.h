@@ -12,4 +12,9 @@ namespace glint {
 // plan.spec.fp64, float otherwise, like the device kernel.
 void HostEvaluate(const EvalPlan &plan, const glint::v1::QueryBatch &queries, float *out_rgb);
 
+// The model's sample pass (server/model.h ModelSampler): kSampleFloats per sample, sample k of
+// query i at i * samples_per_query + k; zeros for a model without one.
+void HostSample(const EvalPlan &plan, const glint::v1::QueryBatch &queries,
+                uint32_t samples_per_query, float *out);
+
 }  // namespace glint

@@ -32,6 +32,18 @@ struct ModelPass {
   HostPassFn host_f32, host_f64;  // the same pass on the host (--device host, tests)
 };
 
+// A model's optional importance sampling (the Sample RPC, server/sample.h): an OpenCL entry
+// taking GLINT_SAMPLE_KERNEL_ARGS (kernels/sample.h), one sample per work-item, and the host
+// functions that compute the same. A model without one (kernel_file nullptr) is refused with
+// `unsupported_reason`.
+struct ModelSampler {
+  const char *kernel_file = nullptr;  // e.g. "models/smooth/smooth_sample.cl"
+  const char *entry = nullptr;
+  SampleHostFn host_f32 = nullptr, host_f64 = nullptr;
+  // Why the model cannot be sampled, for the refusal (models without a sampler).
+  const char *unsupported_reason = nullptr;
+};
+
 struct Model {
   glint::v1::Model id;  // proto enum value (also the kernel spec's model)
   const char *name;     // as in the proto, e.g. "BINOMIAL"
@@ -65,6 +77,9 @@ struct Model {
   void (*example)(glint::v1::Material *m, glint::v1::QueryBatch *one_query) = nullptr;
   // Kernel variants compiled and run before the server reports SERVING.
   std::vector<KernelSpec> (*warm_specs)() = nullptr;
+
+  // Importance sampling, optional (docs/architecture.md "Adding a model", step 6).
+  ModelSampler sample = {};
 };
 
 }  // namespace glint

@@ -39,6 +39,10 @@ class GlintServiceImpl final : public glint::v1::GlintService::CallbackService {
   grpc::ServerUnaryReactor *GetCapabilities(grpc::CallbackServerContext *ctx,
                                             const glint::v1::GetCapabilitiesRequest *request,
                                             glint::v1::Capabilities *response) override;
+  // Importance sampling (server/sample_service.cpp, server/sample.h).
+  grpc::ServerUnaryReactor *Sample(grpc::CallbackServerContext *ctx,
+                                   const glint::v1::SampleRequest *request,
+                                   glint::v1::SampleResponse *response) override;
 
   // Validates `queries` against `settings` (already validated) and evaluates
   // them on `worker`'s queue, filling response->radiance. `kernel`, if given, receives

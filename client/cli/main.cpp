@@ -18,6 +18,7 @@
 #include "client/cli/load.h"
 #include "client/cli/preview_command.h"
 #include "client/cli/render_command.h"
+#include "client/cli/sample_command.h"
 #include "client/lib/glint_client.h"
 #include "client/lib/query_io.h"
 #include "client/preview/image_io.h"
@@ -40,6 +41,7 @@ commands:
             batch of materials with a contact sheet
   render    shade a renderer's G-buffer EXR (P, N, uv, ...) with a material: beauty EXR
   load      load-test a server: throughput and latency percentiles per concurrency level
+  sample    importance-sample a material's BRDF: K directions, pdf and weight per query (CSV)
 
 Run 'glint <command> --help' for the options of a command.
 )";
@@ -228,6 +230,7 @@ int main(int argc, char **argv) {
   }
   const std::string name = argv[1];
   if (name == "load") return glint::cli::RunLoad(argc - 2, argv + 2);
+  if (name == "sample") return glint::client::RunSampleCommand(argc - 2, argv + 2);
   if (name == "--help" || name == "-h" || name == "help") {
     std::fputs(kUsage, stdout);
     return kExitOk;

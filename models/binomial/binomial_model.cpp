@@ -124,6 +124,9 @@ const Model kBinomialModel = {
     .pack_params = PackBinomialParams,
     .example = BinomialExample,
     .warm_specs = BinomialWarmSpecs,
+    .sample = {.unsupported_reason =
+                   "its glints are a count of reflecting facets per light (Kneiphof & Klein "
+                   "2024), not a normal distribution that directions could be drawn from"},
 };
 
 }  // namespace glint

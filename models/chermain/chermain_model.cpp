@@ -10,6 +10,7 @@
 #include "server/host_pass.h"
 #include "server/model.h"
 
+GLINT_DECLARE_HOST_SAMPLE(ChermainSample)
 GLINT_DECLARE_HOST_PASS(Chermain)
 
 namespace glint {
@@ -144,6 +145,8 @@ const Model kChermainModel = {
     .pack_params = PackChermainParams,
     .example = ChermainExample,
     .warm_specs = ChermainWarmSpecs,
+    .sample = {"models/chermain/chermain_sample.cl", "glint_chermain_sample", ChermainSampleF32,
+               ChermainSampleF64},
 };
 
 }  // namespace glint

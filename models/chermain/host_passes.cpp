@@ -6,6 +6,8 @@
 
 namespace glint::GLINT_HOST_NAMESPACE {
 #include "models/chermain/chermain_eval.h"
+#include "models/chermain/chermain_sample.h"
 }  // namespace glint::GLINT_HOST_NAMESPACE
 
 GLINT_DEFINE_HOST_PASS(Chermain, chermain_query)
+GLINT_DEFINE_HOST_SAMPLE(ChermainSample, chermain_sample)

@@ -6,7 +6,9 @@
 
 namespace glint::GLINT_HOST_NAMESPACE {
 #include "models/kemppinen/kemppinen_polygons.h"
+#include "models/kemppinen/kemppinen_sample.h"
 }  // namespace glint::GLINT_HOST_NAMESPACE
 
 GLINT_DEFINE_HOST_PASS(KemppinenLights, kemppinen_query)
 GLINT_DEFINE_HOST_PASS(KemppinenPolygons, kemppinen_polygons_query)
+GLINT_DEFINE_HOST_SAMPLE(KemppinenSample, kemppinen_sample)

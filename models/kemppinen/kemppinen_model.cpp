@@ -11,6 +11,7 @@
 #include "server/host_pass.h"
 #include "server/model.h"
 
+GLINT_DECLARE_HOST_SAMPLE(KemppinenSample)
 GLINT_DECLARE_HOST_PASS(KemppinenLights)
 GLINT_DECLARE_HOST_PASS(KemppinenPolygons)
 
@@ -145,6 +146,8 @@ const Model kKemppinenModel = {
     .pack_params = PackKemppinenParams,
     .example = KemppinenExample,
     .warm_specs = KemppinenWarmSpecs,
+    .sample = {"models/kemppinen/kemppinen_sample.cl", "glint_kemppinen_sample", KemppinenSampleF32,
+               KemppinenSampleF64},
 };
 
 }  // namespace glint

@@ -5,6 +5,7 @@
 #include "server/host_pass.h"
 #include "server/model.h"
 
+GLINT_DECLARE_HOST_SAMPLE(SmoothSample)
 GLINT_DECLARE_HOST_PASS(SmoothLights)
 GLINT_DECLARE_HOST_PASS(SmoothPolygons)
 
@@ -52,6 +53,8 @@ const Model kSmoothModel = {
                {"models/smooth/smooth_area.cl", "glint_smooth_area", 1, HasPolygons,
                 SmoothPolygonsF32, SmoothPolygonsF64}},
     .warm_specs = SmoothWarmSpecs,
+    .sample = {"models/smooth/smooth_sample.cl", "glint_smooth_sample", SmoothSampleF32,
+               SmoothSampleF64},
 };
 
 }  // namespace glint

@@ -244,6 +244,18 @@ TEST_F(Security, TokensGuardEveryRpcButHealthAndAreReloadedOnSighup) {
   // KServe v2: ServerLive is open like health, everything else needs the token.
   EXPECT_EQ(CallKServe(address, ""), C({grpc::StatusCode::OK, grpc::StatusCode::UNAUTHENTICATED}));
   EXPECT_EQ(CallKServe(address, "Bearer alpha-token-123"), C(2, grpc::StatusCode::OK));
+  // Sample: refused before anything else without a token; with one, the empty request reaches
+  // validation (INVALID_ARGUMENT), so the token check let it through.
+  for (const auto &[authorization, code] :
+       {std::pair{std::string(), grpc::StatusCode::UNAUTHENTICATED},
+        std::pair{std::string("Bearer alpha-token-123"), grpc::StatusCode::INVALID_ARGUMENT}}) {
+    auto stub = glint::v1::GlintService::NewStub(
+        glint::client::MakeChannel(address, 1 << 20, ChannelSecurity{}));
+    grpc::ClientContext c;
+    if (!authorization.empty()) c.AddMetadata("authorization", authorization);
+    glint::v1::SampleResponse response;
+    EXPECT_EQ(stub->Sample(&c, {}, &response).error_code(), code) << authorization;
+  }
 
   // SIGHUP: the new file replaces the old tokens.
   Write(F("tokens"), "gamma-token-789\n");

@@ -1,0 +1,86 @@
+#include "server/sample.h"
+
+#include <string>
+#include <vector>
+
+#include "server/eval_plan.h"
+#include "server/host_path.h"
+#include "server/model_table.h"
+
+namespace glint {
+
+Status ValidateSampleRequest(const glint::v1::SampleRequest &r, const ValidationLimits &limits,
+                             glint::v1::EvaluateRequest *settings) {
+  settings->Clear();
+  *settings->mutable_material() = r.material();
+  settings->set_precision(r.precision());
+  settings->set_seed(r.seed());
+  Status s = ValidateSettings(*settings, limits);
+  if (!s.ok()) return s;
+  const Model *model = FindModel(r.material().model());
+  if (!model) return Status::InvalidArgument("material.model: unknown");
+  if (!model->sample.kernel_file) {
+    return Status::InvalidArgument(
+        std::string("material.model: ") + model->name + " cannot be sampled: " +
+        (model->sample.unsupported_reason ? model->sample.unsupported_reason
+                                          : "the model has no sample pass") +
+        "; expected a model with an NDF (SMOOTH, KEMPPINEN, CHERMAIN)");
+  }
+  const uint32_t k = r.samples_per_query();
+  if (k < 1 || k > kMaxSamplesPerQuery) {
+    return Status::InvalidArgument("samples_per_query: " + std::to_string(k) + "; expected 1 to " +
+                                   std::to_string(kMaxSamplesPerQuery));
+  }
+  const glint::v1::QueryBatch &q = r.queries();
+  const uint64_t total = uint64_t(q.count()) * k;
+  if (total > limits.max_batch) {
+    return Status::InvalidArgument(
+        "samples_per_query: " + std::to_string(q.count()) + " queries x " + std::to_string(k) +
+        " samples = " + std::to_string(total) + " samples; expected at most " +
+        std::to_string(limits.max_batch) + " per call (send fewer queries per call)");
+  }
+  if (!q.wi().empty()) {
+    return Status::InvalidArgument(
+        "queries.wi: set; a sample request's incident directions are its output, expected none");
+  }
+  // No wi: the batch is not a probe batch, which ValidateQueries accepts only with lights;
+  // sampling needs none, so it is checked as a lit batch (the light checks only concern probes).
+  s = ValidateQueries(q, /*has_lights=*/true, limits);
+  if (s.ok()) s = ValidateQueriesForModel(q, *settings);
+  return s;
+}
+
+Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleRequest &request,
+                 const ValidationLimits &limits, glint::v1::SampleResponse *response) {
+  glint::v1::EvaluateRequest settings;
+  Status s = ValidateSampleRequest(request, limits, &settings);
+  if (!s.ok()) return s;
+  const glint::v1::QueryBatch &q = request.queries();
+  const uint32_t k = request.samples_per_query();
+  const size_t samples = size_t(q.count()) * k;
+  const EvalPlan plan = MakeEvalPlan(settings, q);
+  std::vector<float> raw(samples * kSampleFloats);
+  if (engine) {
+    s = engine->Sample(worker, plan, q, k, raw.data());
+    if (!s.ok()) return s;
+  } else {
+    HostSample(plan, q, k, raw.data());
+  }
+  response->set_count(q.count());
+  response->set_samples_per_query(k);
+  auto *wi = response->mutable_wi();
+  auto *pdf = response->mutable_pdf();
+  auto *weight = response->mutable_weight();
+  wi->Resize(int(3 * samples), 0.0f);
+  pdf->Resize(int(samples), 0.0f);
+  weight->Resize(int(3 * samples), 0.0f);
+  for (size_t j = 0; j < samples; ++j) {
+    const float *o = raw.data() + kSampleFloats * j;
+    for (int c = 0; c < 3; ++c) wi->Set(int(3 * j) + c, o[c]);
+    pdf->Set(int(j), o[3]);
+    for (int c = 0; c < 3; ++c) weight->Set(int(3 * j) + c, o[4 + c]);
+  }
+  return Status::Ok();
+}
+
+}  // namespace glint

@@ -1,0 +1,30 @@
+// The Sample RPC without gRPC: checks a glint.v1.SampleRequest and runs the material model's
+// sample pass (server/model.h ModelSampler) on the device engine or the host path. The service
+// handler (server/sample_service.cpp) and the tests call these.
+#pragma once
+
+#include <cstdint>
+
+#include "glint/v1/glint.pb.h"
+#include "server/device_engine.h"
+#include "server/status.h"
+#include "server/validation.h"
+
+namespace glint {
+
+// At most this many samples per query (SampleRequest.samples_per_query).
+constexpr uint32_t kMaxSamplesPerQuery = 65536;
+
+// Checks everything a sample request carries: the material (as Evaluate does, plus: the model
+// has a sampler), samples_per_query in [1, kMaxSamplesPerQuery], count * K <= max_batch, the
+// queries (as Evaluate's, no `wi`, the model's own needs). On success `settings` holds the
+// request as an EvaluateRequest without queries (for MakeEvalPlan).
+Status ValidateSampleRequest(const glint::v1::SampleRequest &request,
+                             const ValidationLimits &limits, glint::v1::EvaluateRequest *settings);
+
+// Validates and samples: fills response's wi, pdf and weight (not its stats). `engine` null:
+// the host path. `worker` is the engine queue to run on.
+Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleRequest &request,
+                 const ValidationLimits &limits, glint::v1::SampleResponse *response);
+
+}  // namespace glint

@@ -1,0 +1,48 @@
+// The Sample RPC's handler: like Evaluate, the work (validation included) runs on a scheduler
+// worker and the RPC is finished from there; server/sample.h does the work.
+#include <chrono>
+#include <sstream>
+
+#include "server/auth.h"
+#include "server/sample.h"
+#include "server/service.h"
+
+namespace glint {
+
+grpc::ServerUnaryReactor *GlintServiceImpl::Sample(grpc::CallbackServerContext *ctx,
+                                                   const glint::v1::SampleRequest *request,
+                                                   glint::v1::SampleResponse *response) {
+  using Clock = std::chrono::steady_clock;
+  grpc::ServerUnaryReactor *reactor = ctx->DefaultReactor();
+  if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
+    reactor->Finish(denied);
+    return reactor;
+  }
+  const auto received = Clock::now();
+  bool queued = scheduler_->TrySubmit([this, reactor, request, response, received](int worker) {
+    const auto start = Clock::now();
+    Status st = RunSample(engine_, worker, *request, options_.limits, response);
+    const auto ms = [](Clock::time_point a, Clock::time_point b) {
+      return std::chrono::duration<double, std::milli>(b - a).count();
+    };
+    response->mutable_stats()->set_queue_ms(ms(received, start));
+    response->mutable_stats()->set_compute_ms(ms(start, Clock::now()));
+    response->mutable_stats()->set_device(DeviceName());
+    std::ostringstream line;
+    line << "Sample n=" << request->queries().count() << " k=" << request->samples_per_query()
+         << " queue_ms=" << response->stats().queue_ms()
+         << " compute_ms=" << response->stats().compute_ms()
+         << (st.ok() ? " ok" : " refused: " + st.message());
+    LogLine(line.str());
+    if (!st.ok()) response->Clear();
+    return [reactor, st] { reactor->Finish(ToGrpcStatus(st)); };
+  });
+  if (!queued) {
+    Status busy = OverloadStatus(*scheduler_);
+    LogLine("Sample n=" + std::to_string(request->queries().count()) + " " + busy.message());
+    reactor->Finish(ToGrpcStatus(busy));
+  }
+  return reactor;
+}
+
+}  // namespace glint

@@ -7,6 +7,7 @@ PACKAGES=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers clinfo
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler grpc-proto
   libopenexr-dev libpng-dev libgtest-dev
+  libssl-dev
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "server/model_table.h"
+#include "server/normal_map_store.h"
 #include "server/service.h"
 
 namespace {
@@ -27,6 +28,8 @@ struct Flags {
   int max_message_mb = 64;
   bool quiet = false;
   bool list_devices = false;
+  int normal_map_budget_mb = 1024;
+  int normal_map_max_upload_mb = 256;
 };
 
 const char kUsage[] =
@@ -44,7 +47,10 @@ const char kUsage[] =
     "  --max-message-mb N   gRPC message size limit, both directions (default 64)\n"
     "  --port-file PATH     write the bound port here once SERVING\n"
     "  --list-devices       print the OpenCL devices and exit\n"
-    "  --quiet              no per-request log lines\n";
+    "  --quiet              no per-request log lines\n"
+    "  --normal-map-budget-mb N    memory for uploaded normal maps; least recently used maps\n"
+    "                       are evicted beyond it (default 1024)\n"
+    "  --normal-map-max-upload-mb N  largest normal-map file accepted (default 256)\n";
 
 std::string DefaultCacheDir() {
   if (const char *d = std::getenv("GLINT_CACHE_DIR")) return d;
@@ -90,6 +96,10 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->max_pending = int(number("--max-pending", 1, 1 << 16));
     else if (a == "--max-message-mb")
       f->max_message_mb = int(number("--max-message-mb", 1, 1024));
+    else if (a == "--normal-map-budget-mb")
+      f->normal_map_budget_mb = int(number("--normal-map-budget-mb", 1, 1 << 20));
+    else if (a == "--normal-map-max-upload-mb")
+      f->normal_map_max_upload_mb = int(number("--normal-map-max-upload-mb", 1, 1 << 16));
     else if (a == "--list-devices")
       f->list_devices = true;
     else if (a == "--quiet")
@@ -144,6 +154,12 @@ int main(int argc, char **argv) {
   options.limits.max_batch = flags.max_batch;
   options.max_message_bytes = uint64_t(flags.max_message_mb) << 20;
   options.log_requests = !flags.quiet;
+  {
+    glint::NormalMapLimits nm = glint::NormalMaps().limits();
+    nm.budget_bytes = uint64_t(flags.normal_map_budget_mb) << 20;
+    nm.max_upload_bytes = uint64_t(flags.normal_map_max_upload_mb) << 20;
+    glint::NormalMaps().Configure(nm);
+  }
   if (flags.device != "host") {
     glint::DeviceEngineOptions eo;
     eo.device = flags.device;

@@ -7,6 +7,7 @@
 #include "server/eval_plan.h"
 #include "server/host_path.h"
 #include "server/model_table.h"
+#include "server/normal_map_store.h"
 
 namespace glint {
 namespace {
@@ -37,6 +38,8 @@ grpc::Status ToGrpcStatus(const Status &s) {
       return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, s.message());
     case Status::Code::kInternal:
       return grpc::Status(grpc::StatusCode::INTERNAL, s.message());
+    case Status::Code::kNotFound:
+      return grpc::Status(grpc::StatusCode::NOT_FOUND, s.message());
   }
   return grpc::Status(grpc::StatusCode::UNKNOWN, s.message());
 }
@@ -232,6 +235,10 @@ grpc::ServerUnaryReactor *GlintServiceImpl::GetCapabilities(
   c->set_max_lights(options_.limits.max_lights);
   c->set_max_pending_requests(uint32_t(scheduler_->max_pending()));
   c->set_unit_vector_tolerance(options_.limits.unit_tolerance);
+  const NormalMapLimits nm = NormalMaps().limits();
+  c->set_max_normal_map_upload_bytes(nm.max_upload_bytes);
+  c->set_max_normal_map_texels(nm.max_texels);
+  c->set_normal_map_budget_bytes(nm.budget_bytes);
   auto *reactor = ctx->DefaultReactor();
   reactor->Finish(grpc::Status::OK);
   return reactor;

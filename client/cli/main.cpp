@@ -14,6 +14,7 @@
 #include <string_view>
 #include <vector>
 
+#include "client/cli/normal_map_commands.h"
 #include "client/lib/glint_client.h"
 #include "client/lib/query_io.h"
 #include "client/preview/image_io.h"
@@ -36,6 +37,7 @@ commands:
   info      print the server's capabilities; exit 0 only when it reports SERVING
   eval      evaluate a CSV of shading queries; write radiance as CSV, NPY or EXR
   preview   render a sphere or plane preview of a material under lights (EXR + PNG)
+  upload    upload a normal map (EXR / PNG) and print its digest
 
 Run 'glint <command> --help' for the options of a command.
 )";
@@ -78,6 +80,8 @@ order). Batches larger than the server's limits are streamed in chunks automatic
   --width W           .exr only: image width; rows follow query order, the tail is black
                       (default: all queries in one row)
   --half              .exr only: store half floats instead of float32
+  --normal-map FILE   NORMAL_MAP model: use FILE (EXR / PNG) as material.normal_map.digest,
+                      uploading it when the server does not hold it
 
 A progress bar is drawn on stderr when it is a terminal; a one-line summary goes to stdout.
 )";
@@ -106,6 +110,8 @@ IMG.exr (linear radiance) and IMG.png next to it (tone-mapped sRGB) and prints b
   --samples N         reference: quadrature nodes per dimension per triangle; mc: samples
                       per query and light (default 64)
   --half              store half floats in the EXR instead of float32
+  --normal-map FILE   NORMAL_MAP model: use FILE (EXR / PNG) as material.normal_map.digest,
+                      uploading it when the server does not hold it
 )";
 
 // A command-line mistake: printed with the command's usage, exit 2.
@@ -356,6 +362,8 @@ int RunEval(const Options &options) {
   glint::v1::EvaluateRequest request;
   FillSettings(options, &request);
   *request.mutable_material() = glint::client::ReadMaterialJson(material_path);
+  if (options.Has("normal-map"))
+    glint::cli::AttachNormalMap(server, options.Required("normal-map"), request.mutable_material());
   if (options.Has("lights")) {
     for (auto &light : glint::client::ReadLightsJson(options.Required("lights"))) {
       *request.add_lights() = std::move(light);
@@ -433,6 +441,8 @@ int RunPreview(const Options &options) {
   glint::v1::EvaluateRequest request;
   FillSettings(options, &request);
   *request.mutable_material() = glint::client::ReadMaterialJson(material_path);
+  if (options.Has("normal-map"))
+    glint::cli::AttachNormalMap(server, options.Required("normal-map"), request.mutable_material());
   for (auto &light : glint::client::ReadLightsJson(lights_path)) {
     *request.add_lights() = std::move(light);
   }
@@ -474,13 +484,13 @@ int main(int argc, char **argv) {
       {"eval",
        kEvalUsage,
        {"server", "material", "lights", "queries", "out", "precision", "seed", "width",
-        "area-method", "samples"},
+        "area-method", "samples", "normal-map"},
        {"half"},
        RunEval},
       {"preview",
        kPreviewUsage,
        {"server", "material", "lights", "out", "scene", "size", "exposure", "precision", "seed",
-        "area-method", "samples"},
+        "area-method", "samples", "normal-map"},
        {"half"},
        RunPreview},
   };
@@ -489,6 +499,7 @@ int main(int argc, char **argv) {
     return kExitUsage;
   }
   const std::string name = argv[1];
+  if (name == "upload") return glint::cli::RunUpload(argc - 2, argv + 2);
   if (name == "--help" || name == "-h" || name == "help") {
     std::fputs(kUsage, stdout);
     return kExitOk;

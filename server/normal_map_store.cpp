@@ -77,6 +77,12 @@ Status NormalMapStore::Upload(const std::string &filename, const std::string &by
   DecodedNormalMap map;
   Status s = DecodeNormalMap(filename, bytes, limits.max_texels, &map);
   if (!s.ok()) return s;
+  return Insert(filename, map, info);
+}
+
+Status NormalMapStore::Insert(const std::string &filename, const DecodedNormalMap &map,
+                              glint::v1::NormalMapInfo *info) {
+  const NormalMapLimits limits = this->limits();
   const std::string digest = NormalMapDigest(map);
   {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "glint/v1/glint.pb.h"
+#include "server/normal_map_decode.h"
 #include "server/status.h"
 
 namespace glint {
@@ -41,6 +42,9 @@ class NormalMapStore {
   // refreshes it (info->already_present). Bad files: INVALID_ARGUMENT; a map larger than the
   // whole budget: RESOURCE_EXHAUSTED. Nothing is stored on failure.
   Status Upload(const std::string &filename, const std::string &bytes,
+                glint::v1::NormalMapInfo *info);
+  // Upload after decoding: stores already decoded normals (generated maps, warm-up, tests).
+  Status Insert(const std::string &filename, const DecodedNormalMap &map,
                 glint::v1::NormalMapInfo *info);
 
   // The model table of `digest` at `subdivision` (1 or 4; 4 is built on first use and kept

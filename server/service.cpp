@@ -78,7 +78,9 @@ Status GlintServiceImpl::RunBatch(int worker, const glint::v1::EvaluateRequest &
       ValidateQueries(queries, settings.lights_size() > 0, options_.limits, first_query, streamed);
   if (s.ok()) s = ValidateQueriesForModel(queries, settings, first_query);
   if (!s.ok()) return s;
-  const EvalPlan plan = MakeEvalPlan(settings, queries);
+  EvalPlan plan = MakeEvalPlan(settings, queries);
+  s = ResolveRequestTable(settings.material(), &plan);
+  if (!s.ok()) return s;
   if (kernel) *kernel = plan.spec.Describe();
   const auto start = Clock::now();
   response->set_count(queries.count());

@@ -38,6 +38,7 @@ commands:
   eval      evaluate a CSV of shading queries; write radiance as CSV, NPY or EXR
   preview   render a sphere or plane preview of a material under lights (EXR + PNG)
   upload    upload a normal map (EXR / PNG) and print its digest
+  normal-map  generate a normal map: bumpy, flakes, brushed or scratches
 
 Run 'glint <command> --help' for the options of a command.
 )";
@@ -500,6 +501,7 @@ int main(int argc, char **argv) {
   }
   const std::string name = argv[1];
   if (name == "upload") return glint::cli::RunUpload(argc - 2, argv + 2);
+  if (name == "normal-map") return glint::cli::RunNormalMap(argc - 2, argv + 2);
   if (name == "--help" || name == "-h" || name == "help") {
     std::fputs(kUsage, stdout);
     return kExitOk;

@@ -7,7 +7,9 @@
 #include <stdexcept>
 
 #include "client/lib/glint_client.h"
+#include "client/preview/image_io.h"
 #include "server/normal_map_decode.h"
+#include "tools/normal_map/normal_map_gen.h"
 
 namespace glint::cli {
 namespace {
@@ -55,7 +57,85 @@ std::string EnsureUploaded(client::GlintClient &client, const std::string &path,
   return digest;
 }
 
+constexpr const char *kNormalMapUsage =
+    R"(usage: glint normal-map bumpy|flakes|brushed|scratches --size N --out FILE.exr
+                        [--seed S] [--roughness R]
+
+Generates a periodic N x N tangent-space normal map of one of the material families of Yan et al.
+2014 and writes it as a float RGB OpenEXR (R, G, B = x, y, z of the unit normal), ready for
+glint upload or --normal-map. Deterministic: the same arguments give the same file.
+
+  bumpy      isotropic Gaussian-spectrum heightfield, random phase (N a power of two)
+  flakes     Poisson-disk Voronoi cells, each with one Beckmann-distributed normal
+  brushed    anisotropic spectrum: long along u, short along v (N a power of two)
+  scratches  grooves of random direction, length and depth, plus dents
+  --size N       texels per side, 4 to 8192 (default 512)
+  --seed S       random seed (default 1)
+  --roughness R  RMS slope of bumpy / brushed / scratches, Beckmann alpha of flakes
+                 (default 0.2)
+)";
+
 }  // namespace
+
+int RunNormalMap(int argc, char **argv) {
+  normal_map_gen::Options o;
+  std::string out;
+  for (int i = 0; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+      return argv[++i];
+    };
+    try {
+      if (a == "--help" || a == "-h") {
+        std::fputs(kNormalMapUsage, stdout);
+        return 0;
+      } else if (a == "--size") {
+        o.size = uint32_t(std::stoul(value()));
+      } else if (a == "--seed") {
+        o.seed = std::stoull(value());
+      } else if (a == "--roughness") {
+        o.roughness = std::stod(value());
+      } else if (a == "--out") {
+        out = value();
+      } else if (a.rfind("--", 0) != 0 && o.kind.empty()) {
+        o.kind = a;
+      } else {
+        throw std::invalid_argument("unexpected argument '" + a + "'");
+      }
+    } catch (const std::exception &e) {
+      std::fprintf(stderr, "glint normal-map: %s\n\n%s", e.what(), kNormalMapUsage);
+      return 2;
+    }
+  }
+  if (o.kind.empty() || out.empty() || out.size() < 4 || out.substr(out.size() - 4) != ".exr" ||
+      !(o.roughness > 0.0 && o.roughness <= 10.0)) {
+    std::fprintf(stderr, "glint normal-map: %s\n\n%s",
+                 o.kind.empty() ? "missing the kind (bumpy, flakes, brushed, scratches)"
+                 : out.empty()  ? "missing --out FILE.exr"
+                 : !(o.roughness > 0.0 && o.roughness <= 10.0) ? "--roughness: expected (0, 10]"
+                                                               : "--out: expected a .exr file",
+                 kNormalMapUsage);
+    return 2;
+  }
+  DecodedNormalMap map;
+  std::string error;
+  if (!normal_map_gen::Generate(o, &map, &error)) {
+    std::fprintf(stderr, "glint normal-map: %s\n", error.c_str());
+    return 2;
+  }
+  try {
+    client::WriteExrRgb(out, int(map.width), int(map.height), map.xyz, false);
+  } catch (const std::exception &e) {
+    std::fprintf(stderr, "glint: %s\n", e.what());
+    return 1;
+  }
+  std::printf("%s\n", out.c_str());
+  std::fprintf(stderr, "glint normal-map: %s %ux%u seed %llu -> %s (%s)\n", o.kind.c_str(),
+               map.width, map.height, static_cast<unsigned long long>(o.seed), out.c_str(),
+               NormalMapDigest(map).c_str());
+  return 0;
+}
 
 int RunUpload(int argc, char **argv) {
   std::string server, file;

@@ -88,7 +88,9 @@ Status NormalMapRequestTable(const Material &m, std::shared_ptr<const std::vecto
   return NormalMaps().Table(m.normal_map().digest(), Subdivision(m), table);
 }
 
-// Warm-up and examples use a flat 1 x 1 map, stored in the process's store like an upload.
+// DeviceEngine::Warm's example: a flat 1 x 1 map, stored in the process's store like an upload.
+// The model has no warm_specs: its kernel is built on the first request (then cached on disk),
+// so glintd's start-up time does not grow with it.
 void NormalMapExample(Material *m, glint::v1::QueryBatch *one_query) {
   DecodedNormalMap flat;
   flat.width = flat.height = 1;
@@ -98,14 +100,6 @@ void NormalMapExample(Material *m, glint::v1::QueryBatch *one_query) {
   m->mutable_normal_map()->set_digest(info.digest());
   for (float v : {0.5f, 0.5f}) one_query->add_uv(v);
   for (float v : {1e-3f, 0.0f, 0.0f, 1e-3f}) one_query->add_footprint(v);
-}
-
-std::vector<KernelSpec> NormalMapWarmSpecs() {
-  KernelSpec glints;  // the glint preview: a world frame and a sun
-  glints.model = glint::v1::NORMAL_MAP;
-  glints.has_frame = true;
-  glints.has_directional = true;
-  return {glints};
 }
 
 }  // namespace
@@ -122,7 +116,6 @@ const Model kNormalMapModel = {
     .validate_queries = ValidateNormalMapQueries,
     .pack_params = PackNormalMapParams,
     .example = NormalMapExample,
-    .warm_specs = NormalMapWarmSpecs,
     .uses_ndf = false,
     .request_table = NormalMapRequestTable,
 };

@@ -207,11 +207,12 @@ bool Generate(const Options &o, DecodedNormalMap *out, std::string *error) {
       return false;
     }
     const double n = o.size;
-    // bumpy: features ~ n / 32 texels across (spectrum width 32/ (2 pi) cycles per map... per
-    // axis); brushed: 64x longer along u than along v.
+    // Spectrum widths in cycles per map, so that features have a fixed size in texels
+    // (correlation length ~ n / (2 pi b)): bumpy ~4 texels; brushed ~64 texels along u and
+    // ~2 along v.
     const std::vector<double> h = o.kind == "bumpy"
-                                      ? SpectrumHeights(o.size, n / 64.0, n / 64.0, rng)
-                                      : SpectrumHeights(o.size, n / 1024.0 + 0.5, n / 16.0, rng);
+                                      ? SpectrumHeights(o.size, n / 24.0, n / 24.0, rng)
+                                      : SpectrumHeights(o.size, n / 400.0 + 0.5, n / 12.0, rng);
     HeightsToNormals(o.size, h, o.roughness, out);
     return true;
   }

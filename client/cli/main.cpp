@@ -303,6 +303,11 @@ int RunInfo(const Options &options) {
   std::printf("max pending      %u requests (beyond: RESOURCE_EXHAUSTED)\n",
               caps.max_pending_requests());
   std::printf("unit tolerance   %g\n", caps.unit_vector_tolerance());
+  if (caps.normal_map_budget_bytes() > 0)
+    std::printf("normal maps      uploads <= %s, <= %llu texels, budget %s (LRU)\n",
+                Bytes(caps.max_normal_map_upload_bytes()).c_str(),
+                static_cast<unsigned long long>(caps.max_normal_map_texels()),
+                Bytes(caps.normal_map_budget_bytes()).c_str());
   return kExitOk;
 }
 

@@ -78,7 +78,7 @@ TEST(NormalMapDecode, RefusesBadFilesNamingTheFileAndTheProblem) {
   EXPECT_NE(s.message().find("z < 0"), std::string::npos) << s.message();
 }
 
-TEST(NormalMapStore, SameNormalsAreStoredOnceWhateverTheFileFormat) {
+TEST(NormalMapStore, SameNormalsAreStoredOnceDifferentNormalsApart) {
   NormalMapStore store;
   // A float EXR and a 16-bit PNG of the same normals decode differently (PNG quantises), so
   // use normals a 16-bit PNG represents exactly: (0, 0, 1) -> c = (32768, 32768, 65535) is not

@@ -8,7 +8,8 @@
   X(kSmoothModel)            \
   X(kBinomialModel)          \
   X(kChermainModel)          \
-  X(kKemppinenModel)
+  X(kKemppinenModel)         \
+  X(kNormalMapModel)
 
 namespace glint {
 

@@ -13,6 +13,7 @@ PACKAGES=(
   libcpp-httplib-dev  # glintd --metrics-listen (Prometheus /metrics)
   openssl             # tests: certificates for TLS / mutual TLS made at test time
   libboost-math1.74-dev  # chi-square quantiles of the sampling tests (tests/service/sample_test.cpp)
+  libssl-dev
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -61,4 +61,12 @@ class RefusedBidiReactor final : public grpc::ServerBidiReactor<Request, Respons
   void OnDone() override { delete this; }
 };
 
+// A client-streaming reactor that only answers `status` (a refused upload).
+template <typename Request>
+class RefusedReadReactor final : public grpc::ServerReadReactor<Request> {
+ public:
+  explicit RefusedReadReactor(const grpc::Status &status) { this->Finish(status); }
+  void OnDone() override { delete this; }
+};
+
 }  // namespace glint

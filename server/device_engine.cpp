@@ -251,9 +251,16 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const glint::v1:
 
   KernelArguments args;
   auto table = model_tables_.find(model->id);
-  Status s = MakeArguments(
-      runtime_->context(), plan, q, ltc_tables_[plan.spec.ndf == GLINT_NDF_BECKMANN ? 1 : 0].get(),
-      table == model_tables_.end() ? nullptr : table->second.get(), out_rgb, &args);
+  cl_mem model_table = table == model_tables_.end() ? nullptr : table->second.get();
+  ClBuffer request_table;  // held until the kernels have run (ReadBackAndFinish)
+  if (plan.request_table) {
+    Status t = RequestTableBufferFor(plan, &request_table);
+    if (!t.ok()) return t;
+    model_table = request_table.get();
+  }
+  Status s = MakeArguments(runtime_->context(), plan, q,
+                           ltc_tables_[plan.spec.ndf == GLINT_NDF_BECKMANN ? 1 : 0].get(),
+                           model_table, out_rgb, &args);
   if (!s.ok()) return s;
   for (size_t k = 0; k < passes.size(); ++k) {
     cl_kernel kernel = nullptr;
@@ -365,7 +372,8 @@ Status DeviceEngine::Warm(const KernelSpec &spec) {
   }
   if (model->example) model->example(m, q);
   r.set_precision(spec.fp64 ? glint::v1::FP64 : glint::v1::FP32);
-  const EvalPlan plan = MakeEvalPlan(r, *q);
+  EvalPlan plan = MakeEvalPlan(r, *q);
+  if (Status t = ResolveRequestTable(*m, &plan); !t.ok()) return t;
   if (!(plan.spec == spec))
     return Status::Internal("Warm: the example request of " + spec.Describe() + " plans as " +
                             plan.spec.Describe());

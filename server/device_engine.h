@@ -10,6 +10,7 @@
 
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -66,6 +67,15 @@ class DeviceEngine {
   ClBuffer ltc_tables_[2];                      // GGX, Beckmann (read-only, shared by queues)
   std::map<int, ClBuffer> model_tables_;        // Model::table by model id (read-only, shared)
   std::vector<std::unique_ptr<Queue>> queues_;
+  // Model::request_table buffers by EvalPlan::request_table_key (server/device_engine_tables.cpp):
+  // each distinct table is wrapped once and dropped when the table itself has died.
+  struct RequestTableBuffer {
+    std::weak_ptr<const std::vector<float>> table;
+    ClBuffer buffer;
+  };
+  std::mutex request_tables_mutex_;
+  std::map<std::string, RequestTableBuffer> request_tables_;
+  Status RequestTableBufferFor(const EvalPlan &plan, ClBuffer *out);
 };
 
 }  // namespace glint

@@ -132,4 +132,10 @@ EvalPlan MakeEvalPlan(const glint::v1::EvaluateRequest &settings,
   return plan;
 }
 
+Status ResolveRequestTable(const glint::v1::Material &material, EvalPlan *plan) {
+  const Model *model = FindModel(material.model());
+  if (!model || !model->request_table) return Status::Ok();
+  return model->request_table(material, &plan->request_table, &plan->request_table_key);
+}
+
 }  // namespace glint

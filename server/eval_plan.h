@@ -5,11 +5,13 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "glint/v1/glint.pb.h"
 #include "kernels/layout.h"
+#include "server/status.h"
 
 namespace glint {
 
@@ -48,6 +50,10 @@ struct EvalPlan {
   int area_samples = 64;  // REFERENCE nodes per dimension per triangle; MONTE_CARLO samples
   // The request seed, as the two 32-bit halves the kernels hash (kernels/rng.h).
   uint32_t seed_lo = 0, seed_hi = 0;
+  // Model::request_table (ResolveRequestTable): bound as `model_table` instead of the static
+  // table; the key names its content for the device engine's buffer cache.
+  std::shared_ptr<const std::vector<float>> request_table;
+  std::string request_table_key;
 };
 
 // The LTC table (GLINT_LTC_GRID^2 x GLINT_LTC_ENTRY floats, tools/ltc/README.md) for a
@@ -59,5 +65,9 @@ constexpr size_t kLtcTableFloats = GLINT_LTC_GRID * GLINT_LTC_GRID * GLINT_LTC_E
 // differ from request.queries (stream chunks reuse the first chunk's settings).
 EvalPlan MakeEvalPlan(const glint::v1::EvaluateRequest &settings,
                       const glint::v1::QueryBatch &queries);
+
+// Fills plan->request_table from the material's model (Model::request_table), if it has the
+// hook: NOT_FOUND when a resource the material names is missing. Call after MakeEvalPlan.
+Status ResolveRequestTable(const glint::v1::Material &material, EvalPlan *plan);
 
 }  // namespace glint

@@ -37,6 +37,7 @@ HostInputs MakeHostInputs(const EvalPlan &plan, const glint::v1::QueryBatch &q,
   in.ltc_table = LtcTable(plan.spec.ndf);
   size_t table_floats = 0;
   in.model_table = model->table ? model->table(&table_floats) : nullptr;
+  if (plan.request_table) in.model_table = plan.request_table->data();
   in.area_method = plan.area_method;
   in.area_samples = plan.area_samples;
   in.seed_lo = plan.seed_lo;

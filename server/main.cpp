@@ -13,6 +13,7 @@
 
 #include "server/kserve_service.h"
 #include "server/model_table.h"
+#include "server/normal_map_store.h"
 #include "server/ops.h"
 #include "server/service.h"
 
@@ -31,7 +32,9 @@ struct Flags {
   bool list_devices = false;
   std::vector<std::string> models;      // --model NAME=MATERIAL.json[,LIGHTS.json]
   std::vector<std::string> model_dirs;  // --model-dir DIR
-  glint::OpsFlags ops;  // metrics, TLS, tokens (server/ops.h)
+  glint::OpsFlags ops;                  // metrics, TLS, tokens (server/ops.h)
+  int normal_map_budget_mb = 1024;
+  int normal_map_max_upload_mb = 256;
 };
 
 const char kUsage[] =
@@ -53,7 +56,10 @@ const char kUsage[] =
     "                       Protocol (inference.GRPCInferenceService); repeatable\n"
     "  --model-dir DIR      serve every DIR/NAME.json preset (material + optional \"lights\")\n"
     "  --list-devices       print the OpenCL devices and exit\n"
-    "  --quiet              no per-request log lines\n";
+    "  --quiet              no per-request log lines\n"
+    "  --normal-map-budget-mb N    memory for uploaded normal maps; least recently used maps\n"
+    "                       are evicted beyond it (default 1024)\n"
+    "  --normal-map-max-upload-mb N  largest normal-map file accepted (default 256)\n";
 
 std::string DefaultCacheDir() {
   if (const char *d = std::getenv("GLINT_CACHE_DIR")) return d;
@@ -103,6 +109,10 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->models.push_back(value("--model"));
     else if (a == "--model-dir")
       f->model_dirs.push_back(value("--model-dir"));
+    else if (a == "--normal-map-budget-mb")
+      f->normal_map_budget_mb = int(number("--normal-map-budget-mb", 1, 1 << 20));
+    else if (a == "--normal-map-max-upload-mb")
+      f->normal_map_max_upload_mb = int(number("--normal-map-max-upload-mb", 1, 1 << 16));
     else if (a == "--list-devices")
       f->list_devices = true;
     else if (a == "--quiet")
@@ -159,6 +169,12 @@ int main(int argc, char **argv) {
   options.limits.max_batch = flags.max_batch;
   options.max_message_bytes = uint64_t(flags.max_message_mb) << 20;
   options.log_requests = !flags.quiet;
+  {
+    glint::NormalMapLimits nm = glint::NormalMaps().limits();
+    nm.budget_bytes = uint64_t(flags.normal_map_budget_mb) << 20;
+    nm.max_upload_bytes = uint64_t(flags.normal_map_max_upload_mb) << 20;
+    glint::NormalMaps().Configure(nm);
+  }
   if (flags.device != "host") {
     glint::DeviceEngineOptions eo;
     eo.device = flags.device;

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -80,6 +81,18 @@ struct Model {
 
   // Importance sampling, optional (docs/architecture.md "Adding a model", step 6).
   ModelSampler sample = {};
+  // False for a model with its own NDF (NORMAL_MAP): material.ndf, alpha_x and alpha_y are
+  // then neither required nor checked.
+  bool uses_ndf = true;
+
+  // Per-request data its kernels read as `in.model_table` instead of the static `table`, e.g.
+  // the uploaded normal map a NORMAL_MAP material names (docs/architecture.md "Model tables").
+  // Returns the table and a key naming its content (the device engine uploads each distinct
+  // key once and keeps the buffer while the table lives), or a refusal: NOT_FOUND naming a
+  // missing resource, INVALID_ARGUMENT. Called once per request (or stream settings).
+  Status (*request_table)(const glint::v1::Material &m,
+                          std::shared_ptr<const std::vector<float>> *table,
+                          std::string *key) = nullptr;
 };
 
 }  // namespace glint

@@ -7,6 +7,7 @@
 #include "server/eval_plan.h"
 #include "server/host_path.h"
 #include "server/model_table.h"
+#include "server/normal_map_store.h"
 
 namespace glint {
 namespace {
@@ -37,6 +38,8 @@ grpc::Status ToGrpcStatus(const Status &s) {
       return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION, s.message());
     case Status::Code::kInternal:
       return grpc::Status(grpc::StatusCode::INTERNAL, s.message());
+    case Status::Code::kNotFound:
+      return grpc::Status(grpc::StatusCode::NOT_FOUND, s.message());
   }
   return grpc::Status(grpc::StatusCode::UNKNOWN, s.message());
 }
@@ -75,7 +78,9 @@ Status GlintServiceImpl::RunBatch(int worker, const glint::v1::EvaluateRequest &
       ValidateQueries(queries, settings.lights_size() > 0, options_.limits, first_query, streamed);
   if (s.ok()) s = ValidateQueriesForModel(queries, settings, first_query);
   if (!s.ok()) return s;
-  const EvalPlan plan = MakeEvalPlan(settings, queries);
+  EvalPlan plan = MakeEvalPlan(settings, queries);
+  s = ResolveRequestTable(settings.material(), &plan);
+  if (!s.ok()) return s;
   if (kernel) *kernel = plan.spec.Describe();
   const auto start = Clock::now();
   response->set_count(queries.count());
@@ -251,6 +256,10 @@ grpc::ServerUnaryReactor *GlintServiceImpl::GetCapabilities(
   c->set_max_lights(options_.limits.max_lights);
   c->set_max_pending_requests(uint32_t(scheduler_->max_pending()));
   c->set_unit_vector_tolerance(options_.limits.unit_tolerance);
+  const NormalMapLimits nm = NormalMaps().limits();
+  c->set_max_normal_map_upload_bytes(nm.max_upload_bytes);
+  c->set_max_normal_map_texels(nm.max_texels);
+  c->set_normal_map_budget_bytes(nm.budget_bytes);
   auto *reactor = ctx->DefaultReactor();
   reactor->Finish(grpc::Status::OK);
   return reactor;

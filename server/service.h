@@ -43,6 +43,15 @@ class GlintServiceImpl final : public glint::v1::GlintService::CallbackService {
   grpc::ServerUnaryReactor *Sample(grpc::CallbackServerContext *ctx,
                                    const glint::v1::SampleRequest *request,
                                    glint::v1::SampleResponse *response) override;
+  // Normal-map resources (server/normal_map_rpc.cpp, the store in server/normal_map_store.h).
+  grpc::ServerReadReactor<glint::v1::NormalMapChunk> *UploadNormalMap(
+      grpc::CallbackServerContext *ctx, glint::v1::NormalMapInfo *response) override;
+  grpc::ServerUnaryReactor *ListNormalMaps(grpc::CallbackServerContext *ctx,
+                                           const glint::v1::ListNormalMapsRequest *request,
+                                           glint::v1::ListNormalMapsResponse *response) override;
+  grpc::ServerUnaryReactor *DeleteNormalMap(grpc::CallbackServerContext *ctx,
+                                            const glint::v1::DeleteNormalMapRequest *request,
+                                            glint::v1::DeleteNormalMapResponse *response) override;
 
   // Validates `queries` against `settings` (already validated) and evaluates
   // them on `worker`'s queue, filling response->radiance. `kernel`, if given, receives

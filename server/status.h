@@ -9,7 +9,14 @@ namespace glint {
 
 class Status {
  public:
-  enum class Code { kOk, kInvalidArgument, kResourceExhausted, kFailedPrecondition, kInternal };
+  enum class Code {
+    kOk,
+    kInvalidArgument,
+    kResourceExhausted,
+    kFailedPrecondition,
+    kInternal,
+    kNotFound
+  };
 
   Status() = default;
   static Status Ok() { return Status(); }
@@ -23,6 +30,7 @@ class Status {
     return Status(Code::kFailedPrecondition, std::move(m));
   }
   static Status Internal(std::string m) { return Status(Code::kInternal, std::move(m)); }
+  static Status NotFound(std::string m) { return Status(Code::kNotFound, std::move(m)); }
 
   bool ok() const { return code_ == Code::kOk; }
   Code code() const { return code_; }

@@ -64,6 +64,32 @@ Status CheckUnit(const float *v, const std::string &field, double tol) {
   return Status::Ok();
 }
 
+Status CheckNdfAndRoughness(const glint::v1::Material &m) {
+  if (m.ndf() != glint::v1::GGX && m.ndf() != glint::v1::BECKMANN) {
+    return Status::InvalidArgument(
+        "material.ndf: " +
+        (m.ndf() == 0 ? std::string("unset") : "unknown value " + std::to_string(m.ndf())) +
+        "; expected GGX or BECKMANN");
+  }
+  // Roughness below 1e-4 is refused rather than clamped (issue 8). Such a lobe is a mirror to
+  // within float precision, and the kernels break down there: the GGX peak f cos_i ~ 1 / (4 pi
+  // alpha^2) exceeds the float output at alpha ~ 1e-20 (+Inf for wo = wi = n), alpha_x alpha_y
+  // underflows in fp32 at ~1e-23 (NaN for a directional light, MONTE_CARLO and REFERENCE), and
+  // the LTC, D_PR and D_H tables end at 1e-4 (data/ltc/ltc_table.h grid_alpha; Lecocq clamps
+  // there). Compared in float: 1e-4f, the value a client sends for 1e-4, is accepted.
+  for (auto [value, name] :
+       {std::pair{m.alpha_x(), "material.alpha_x"}, std::pair{m.alpha_y(), "material.alpha_y"}}) {
+    if (!(value >= 1e-4f && value <= 1.0f)) {
+      std::ostringstream o;
+      o << name << ": " << value
+        << "; expected a roughness in [1e-4, 1] (smaller is a mirror the kernels do not "
+           "resolve)";
+      return Status::InvalidArgument(o.str());
+    }
+  }
+  return Status::Ok();
+}
+
 Status CheckMaterial(const glint::v1::Material &m) {
   using glint::v1::Material;
   const Model *model = FindModel(m.model());
@@ -94,27 +120,10 @@ Status CheckMaterial(const glint::v1::Material &m) {
     Status s = model->validate_params(m);
     if (!s.ok()) return s;
   }
-  if (m.ndf() != glint::v1::GGX && m.ndf() != glint::v1::BECKMANN) {
-    return Status::InvalidArgument(
-        "material.ndf: " +
-        (m.ndf() == 0 ? std::string("unset") : "unknown value " + std::to_string(m.ndf())) +
-        "; expected GGX or BECKMANN");
-  }
-  // Roughness below 1e-4 is refused rather than clamped (issue 8). Such a lobe is a mirror to
-  // within float precision, and the kernels break down there: the GGX peak f cos_i ~ 1 / (4 pi
-  // alpha^2) exceeds the float output at alpha ~ 1e-20 (+Inf for wo = wi = n), alpha_x alpha_y
-  // underflows in fp32 at ~1e-23 (NaN for a directional light, MONTE_CARLO and REFERENCE), and
-  // the LTC, D_PR and D_H tables end at 1e-4 (data/ltc/ltc_table.h grid_alpha; Lecocq clamps
-  // there). Compared in float: 1e-4f, the value a client sends for 1e-4, is accepted.
-  for (auto [value, name] :
-       {std::pair{m.alpha_x(), "material.alpha_x"}, std::pair{m.alpha_y(), "material.alpha_y"}}) {
-    if (!(value >= 1e-4f && value <= 1.0f)) {
-      std::ostringstream o;
-      o << name << ": " << value
-        << "; expected a roughness in [1e-4, 1] (smaller is a mirror the kernels do not "
-           "resolve)";
-      return Status::InvalidArgument(o.str());
-    }
+  // A model with its own NDF (NORMAL_MAP: the map's P-NDF) ignores ndf and alpha.
+  if (model->uses_ndf) {
+    Status s = CheckNdfAndRoughness(m);
+    if (!s.ok()) return s;
   }
   switch (m.fresnel_case()) {
     case Material::kSchlick:

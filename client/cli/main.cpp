@@ -16,6 +16,7 @@
 
 #include "client/cli/cli_common.h"
 #include "client/cli/load.h"
+#include "client/cli/normal_map_commands.h"
 #include "client/cli/preview_command.h"
 #include "client/cli/render_command.h"
 #include "client/cli/sample_command.h"
@@ -42,6 +43,8 @@ commands:
   render    shade a renderer's G-buffer EXR (P, N, uv, ...) with a material: beauty EXR
   load      load-test a server: throughput and latency percentiles per concurrency level
   sample    importance-sample a material's BRDF: K directions, pdf and weight per query (CSV)
+  upload    upload a normal map (EXR / PNG) and print its digest
+  normal-map  generate a normal map: bumpy, flakes, brushed or scratches
 
 Run 'glint <command> --help' for the options of a command.
 )";
@@ -84,6 +87,8 @@ order). Batches larger than the server's limits are streamed in chunks automatic
   --width W           .exr only: image width; rows follow query order, the tail is black
                       (default: all queries in one row)
   --half              .exr only: store half floats instead of float32
+  --normal-map FILE   NORMAL_MAP model: use FILE (EXR / PNG) as material.normal_map.digest,
+                      uploading it when the server does not hold it
 
 A progress bar is drawn on stderr when it is a terminal; a one-line summary goes to stdout.
 )";
@@ -138,6 +143,11 @@ int RunInfo(const Options &options) {
   std::printf("max pending      %u requests (beyond: RESOURCE_EXHAUSTED)\n",
               caps.max_pending_requests());
   std::printf("unit tolerance   %g\n", caps.unit_vector_tolerance());
+  if (caps.normal_map_budget_bytes() > 0)
+    std::printf("normal maps      uploads <= %s, <= %llu texels, budget %s (LRU)\n",
+                Bytes(caps.max_normal_map_upload_bytes()).c_str(),
+                static_cast<unsigned long long>(caps.max_normal_map_texels()),
+                Bytes(caps.normal_map_budget_bytes()).c_str());
   return kExitOk;
 }
 
@@ -163,6 +173,9 @@ int RunEval(const Options &options) {
   glint::v1::EvaluateRequest request;
   FillSettings(options, &request);
   *request.mutable_material() = glint::client::ReadMaterialJson(material_path);
+  if (options.Has("normal-map"))
+    glint::cli::AttachNormalMap(server, ConnectionOptions(options), options.Required("normal-map"),
+                                request.mutable_material());
   if (options.Has("lights")) {
     for (auto &light : glint::client::ReadLightsJson(options.Required("lights"))) {
       *request.add_lights() = std::move(light);
@@ -218,7 +231,7 @@ int main(int argc, char **argv) {
       {"eval",
        kEvalUsage,
        {"server", "material", "lights", "queries", "out", "precision", "seed", "width",
-        "area-method", "samples"},
+        "area-method", "samples", "normal-map"},
        {"half"},
        RunEval},
       {"preview", kPreviewUsage, kPreviewOptions, {"half"}, RunPreview},
@@ -230,6 +243,8 @@ int main(int argc, char **argv) {
   }
   const std::string name = argv[1];
   if (name == "load") return glint::cli::RunLoad(argc - 2, argv + 2);
+  if (name == "upload") return glint::cli::RunUpload(argc - 2, argv + 2);
+  if (name == "normal-map") return glint::cli::RunNormalMap(argc - 2, argv + 2);
   if (name == "sample") return glint::client::RunSampleCommand(argc - 2, argv + 2);
   if (name == "--help" || name == "-h" || name == "help") {
     std::fputs(kUsage, stdout);

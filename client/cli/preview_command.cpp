@@ -18,6 +18,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "client/cli/normal_map_commands.h"
 #include "client/lib/evaluate_series.h"
 #include "client/lib/query_io.h"
 #include "client/preview/contact_sheet.h"
@@ -62,11 +63,14 @@ a PNG of all previews on a grid, each labelled with its STEM. Prints the through
   --samples N         reference: quadrature nodes per dimension per triangle; mc: samples
                       per query and light (default 64)
   --half              store half floats in the EXR instead of float32
+  --normal-map FILE   NORMAL_MAP materials: use FILE (EXR / PNG) as material.normal_map.digest,
+                      uploading it when the server does not hold it
 )";
 
 const std::vector<std::string> kPreviewOptions = {
-    "server",   "material",  "materials", "lights",      "out",     "scene",         "size",
-    "exposure", "precision", "seed",      "area-method", "samples", "contact-sheet", "gbuffer-out"};
+    "server",      "material", "materials",     "lights",      "out",
+    "scene",       "size",     "exposure",      "precision",   "seed",
+    "area-method", "samples",  "contact-sheet", "gbuffer-out", "normal-map"};
 
 namespace {
 
@@ -121,6 +125,9 @@ int RunSingle(const Options &options) {
   glint::v1::EvaluateRequest request;
   FillSettings(options, &request);
   *request.mutable_material() = glint::client::ReadMaterialJson(material_path);
+  if (options.Has("normal-map"))
+    AttachNormalMap(s.server, ConnectionOptions(options), options.Required("normal-map"),
+                    request.mutable_material());
   for (auto &light : glint::client::ReadLightsJson(s.lights_path)) {
     *request.add_lights() = std::move(light);
   }
@@ -242,6 +249,10 @@ int RunBatch(const Options &options) {
     stems.push_back(stem);
     settings.push_back(base);
     *settings.back().mutable_material() = glint::client::ReadMaterialJson(path);
+    // Only the batch's NORMAL_MAP materials take the map; the others would refuse its field.
+    if (options.Has("normal-map") && settings.back().material().model() == glint::v1::NORMAL_MAP)
+      AttachNormalMap(s.server, ConnectionOptions(options), options.Required("normal-map"),
+                      settings.back().mutable_material());
   }
   // The outputs are written while the stream runs: a missing directory must fail up front,
   // not after every material has been evaluated.

@@ -113,6 +113,13 @@ class GlintClient {
   grpc::Status Evaluate(const glint::v1::EvaluateRequest &request, std::vector<float> *radiance,
                         ProgressFn progress = {}, EvaluateInfo *info = nullptr);
 
+  // Normal-map resources (client/lib/normal_map_client.cpp). UploadNormalMap sends one file's
+  // bytes in chunks of at most 1 MiB; `filename`'s extension tells the server its format.
+  grpc::Status UploadNormalMap(const std::string &filename, const std::string &bytes,
+                               glint::v1::NormalMapInfo *info);
+  grpc::Status ListNormalMaps(glint::v1::ListNormalMapsResponse *maps);
+  grpc::Status DeleteNormalMap(const std::string &digest);
+
  private:
   grpc::Status CachedCapabilities(glint::v1::Capabilities *capabilities,
                                   std::chrono::system_clock::time_point deadline);

@@ -124,7 +124,8 @@ TEST_F(ServiceTest, CapabilitiesDescribeDeviceAndLimits) {
   EXPECT_EQ(caps.max_batch(), kMaxBatch);
   EXPECT_EQ(caps.max_message_bytes(), 64ull << 20);
   const std::vector<std::string> models(caps.models().begin(), caps.models().end());
-  EXPECT_EQ(models, (std::vector<std::string>{"SMOOTH", "BINOMIAL", "CHERMAIN", "KEMPPINEN"}));
+  EXPECT_EQ(models, (std::vector<std::string>{"SMOOTH", "BINOMIAL", "CHERMAIN", "KEMPPINEN",
+                                              "NORMAL_MAP"}));
 }
 
 TEST_F(ServiceTest, UnaryReturnsFiniteRadiancePerQuery) {

@@ -33,6 +33,7 @@
 #include "server/device_engine.h"
 #include "server/eval_plan.h"
 #include "server/host_path.h"
+#include "server/normal_map_store.h"
 #include "server/validation.h"
 
 // Last: the kernels' LTC lookup in double (compat.h defines the macro GLINT_R(x)).
@@ -90,9 +91,14 @@ Kinds DeviceKinds(v1::Model model, int request) {
   if (model == v1::BINOMIAL) return Kinds{v1::BECKMANN, 0, false, false};
   if (model == v1::CHERMAIN) return Kinds{v1::BECKMANN, 1, true, false};  // Beckmann only
   if (model == v1::KEMPPINEN) return Kinds{v1::GGX, 0, true, request % 4 == 3};
+  if (model == v1::NORMAL_MAP) return Kinds{v1::GGX, 0, true, request % 4 == 3};
   const bool probe = request % 4 == 3;  // a quarter of the smooth requests are BRDF probes
   return probe ? Kinds{v1::BECKMANN, 1, true, true} : Kinds{v1::GGX, 2, true, false};
 }
+
+// The NORMAL_MAP model's map in the sweep: 16 x 16 bumps with normals up to 60 degrees from z,
+// in the process's normal-map store (SetUpTestSuite).
+std::string sweep_normal_map_digest;
 
 class RequestSampler {
  public:
@@ -205,6 +211,19 @@ class RequestSampler {
       c->set_dictionary_size(sizes[Int(0, 3)]);
       for (int i = 3 * Int(0, 8); i > 0; --i) c->add_colors(float(Chance(0.2) ? 0.0 : U(0.0, 1.0)));
     }
+    if (model == v1::NORMAL_MAP) {  // ranges of models/normal_map/normal_map_model.cpp
+      auto *p = m->mutable_normal_map();
+      p->set_digest(sweep_normal_map_digest);
+      double x = U(0.0, 1.0);
+      p->set_intrinsic_roughness(float(x < 0.2   ? 0.0
+                                       : x < 0.3 ? 1e-4
+                                       : x < 0.4 ? 0.5
+                                                 : LogU(1e-4, 0.5)));
+      x = U(0.0, 1.0);
+      p->set_cutoff_sigma(float(x < 0.2 ? 0.0 : x < 0.3 ? 2.0 : x < 0.4 ? 10.0 : U(2.0, 10.0)));
+      const uint32_t subdivisions[] = {0, 1, 4};
+      p->set_subdivision(subdivisions[Int(0, 2)]);
+    }
     if (model == v1::KEMPPINEN) {  // ranges of models/kemppinen/kemppinen_model.cpp
       auto *p = m->mutable_kemppinen();
       double x = U(0.0, 1.0);
@@ -306,7 +325,7 @@ class RequestSampler {
     int n_dir = device ? Int(1, 2) : Int(0, 2);
     int n_point = device ? Int(1, 2) : Int(0, 2);
     int n_poly = device ? Int(1, 2) : Int(0, 2);
-    if (model == v1::CHERMAIN) {  // refused by the model (no area lights in the paper)
+    if (model == v1::CHERMAIN || model == v1::NORMAL_MAP) {  // refused: no area lights
       n_poly = 0;
       if (n_dir + n_point == 0) n_dir = 1;
     }
@@ -466,6 +485,19 @@ class StabilitySweep : public ::testing::Test {
     o.workers = 1;
     Status s = DeviceEngine::Create(o, &engine_);
     ASSERT_TRUE(s.ok()) << s.message();
+    DecodedNormalMap bumps;
+    bumps.width = bumps.height = 16;
+    for (int j = 0; j < 16; ++j)
+      for (int i = 0; i < 16; ++i) {
+        const double sx = 0.6 * std::sin(2 * kPi * (i + 0.5 * j) / 16.0);
+        const double sy = 0.6 * std::cos(2 * kPi * (2 * j - i) / 16.0);
+        const double len = std::sqrt(sx * sx + sy * sy + 1.0);
+        for (double c : {sx / len, sy / len, 1.0 / len}) bumps.xyz.push_back(float(c));
+      }
+    v1::NormalMapInfo info;
+    s = NormalMaps().Insert("sweep bumps", bumps, &info);
+    ASSERT_TRUE(s.ok()) << s.message();
+    sweep_normal_map_digest = info.digest();
   }
   static void TearDownTestSuite() { engine_.reset(); }
   static std::unique_ptr<DeviceEngine> engine_;
@@ -487,11 +519,13 @@ TEST_F(StabilitySweep, EveryAcceptedRequestGivesFiniteNonNegativeOutput) {
   // GLINT_SWEEP_DUMP=FILE: every failing query as a one-query request, one JSON per line.
   const char *dump_path = std::getenv("GLINT_SWEEP_DUMP");
   std::FILE *dump = dump_path ? std::fopen(dump_path, "w") : nullptr;
-  for (v1::Model model : {v1::SMOOTH, v1::BINOMIAL, v1::CHERMAIN, v1::KEMPPINEN})
+  for (v1::Model model : {v1::SMOOTH, v1::BINOMIAL, v1::CHERMAIN, v1::KEMPPINEN, v1::NORMAL_MAP})
     for (v1::AreaMethod method :
          {v1::LTC, v1::LECOCQ, v1::LECOCQ_PEARSON, v1::MONTE_CARLO, v1::REFERENCE})
       for (bool fp64 : {false, true})
         for (bool device : {true, false}) {
+          // NORMAL_MAP refuses polygon lights: the area method changes nothing.
+          if (model == v1::NORMAL_MAP && method != v1::LTC) continue;
           const auto config_start = std::chrono::steady_clock::now();
           RequestSampler sampler(1000003u * uint64_t(model) + 10007u * uint64_t(method) +
                                  101u * fp64 + device);
@@ -531,6 +565,7 @@ TEST_F(StabilitySweep, EveryAcceptedRequestGivesFiniteNonNegativeOutput) {
             }
             ++accepted;
             EvalPlan plan = MakeEvalPlan(settings, q);
+            ASSERT_TRUE(ResolveRequestTable(settings.material(), &plan).ok());
             std::vector<float> out(3 * q.count(), -1.0f);
             if (device) {
               Status s = engine_->Evaluate(0, plan, q, out.data());

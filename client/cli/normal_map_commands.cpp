@@ -1,0 +1,194 @@
+#include "client/cli/normal_map_commands.h"
+
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "client/lib/glint_client.h"
+#include "client/preview/image_io.h"
+#include "server/normal_map_decode.h"
+#include "tools/normal_map/normal_map_gen.h"
+
+namespace glint::cli {
+namespace {
+
+constexpr const char *kUploadUsage = R"(usage: glint upload --server ADDR FILE [--tls-ca PEM]
+                    [--tls-cert PEM --tls-key PEM] [--token-file FILE]
+
+Uploads a normal map (OpenEXR float RGB or 8/16-bit RGB PNG tangent-space normals) to glintd
+and prints its digest, sha256:<hex>, for material JSON {"normal_map": {"digest": ...}}. The
+server stores a map once however often it is uploaded.
+)";
+
+std::string ReadWholeFile(const std::string &path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot read " + path);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Checks the file with the server's decoder (so a bad file is reported before any upload) and
+// returns its digest; uploads it when the server does not list that digest.
+std::string EnsureUploaded(client::GlintClient &client, const std::string &path, bool *uploaded) {
+  const std::string bytes = ReadWholeFile(path);
+  glint::v1::Capabilities caps;
+  if (grpc::Status st = client.GetCapabilities(&caps); !st.ok())
+    throw std::runtime_error("GetCapabilities: " + client::FormatStatus(st));
+  DecodedNormalMap map;
+  const uint64_t max_texels = caps.max_normal_map_texels() ? caps.max_normal_map_texels() : ~0ull;
+  Status s = DecodeNormalMap(path, bytes, max_texels, &map);
+  if (!s.ok()) throw std::runtime_error(s.message());
+  const std::string digest = NormalMapDigest(map);
+  glint::v1::ListNormalMapsResponse list;
+  if (grpc::Status st = client.ListNormalMaps(&list); !st.ok())
+    throw std::runtime_error("ListNormalMaps: " + client::FormatStatus(st));
+  *uploaded = false;
+  for (const auto &m : list.maps())
+    if (m.digest() == digest) return digest;
+  glint::v1::NormalMapInfo info;
+  if (grpc::Status st = client.UploadNormalMap(path, bytes, &info); !st.ok())
+    throw std::runtime_error("UploadNormalMap " + path + ": " + client::FormatStatus(st));
+  if (info.digest() != digest)
+    throw std::runtime_error("UploadNormalMap " + path + ": the server computed " + info.digest() +
+                             ", the client " + digest);
+  *uploaded = true;
+  return digest;
+}
+
+constexpr const char *kNormalMapUsage =
+    R"(usage: glint normal-map bumpy|flakes|brushed|scratches --size N --out FILE.exr
+                        [--seed S] [--roughness R]
+
+Generates a periodic N x N tangent-space normal map of one of the material families of Yan et al.
+2014 and writes it as a float RGB OpenEXR (R, G, B = x, y, z of the unit normal), ready for
+glint upload or --normal-map. Deterministic: the same arguments give the same file.
+
+  bumpy      isotropic Gaussian-spectrum heightfield, random phase (N a power of two)
+  flakes     Poisson-disk Voronoi cells, each with one Beckmann-distributed normal
+  brushed    anisotropic spectrum: long along u, short along v (N a power of two)
+  scratches  grooves of random direction, length and depth, plus dents
+  --size N       texels per side, 4 to 8192 (default 512)
+  --seed S       random seed (default 1)
+  --roughness R  RMS slope of bumpy / brushed / scratches, Beckmann alpha of flakes
+                 (default 0.2)
+)";
+
+}  // namespace
+
+int RunNormalMap(int argc, char **argv) {
+  normal_map_gen::Options o;
+  std::string out;
+  for (int i = 0; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+      return argv[++i];
+    };
+    try {
+      if (a == "--help" || a == "-h") {
+        std::fputs(kNormalMapUsage, stdout);
+        return 0;
+      } else if (a == "--size") {
+        o.size = uint32_t(std::stoul(value()));
+      } else if (a == "--seed") {
+        o.seed = std::stoull(value());
+      } else if (a == "--roughness") {
+        o.roughness = std::stod(value());
+      } else if (a == "--out") {
+        out = value();
+      } else if (a.rfind("--", 0) != 0 && o.kind.empty()) {
+        o.kind = a;
+      } else {
+        throw std::invalid_argument("unexpected argument '" + a + "'");
+      }
+    } catch (const std::exception &e) {
+      std::fprintf(stderr, "glint normal-map: %s\n\n%s", e.what(), kNormalMapUsage);
+      return 2;
+    }
+  }
+  if (o.kind.empty() || out.empty() || out.size() < 4 || out.substr(out.size() - 4) != ".exr" ||
+      !(o.roughness > 0.0 && o.roughness <= 10.0)) {
+    std::fprintf(stderr, "glint normal-map: %s\n\n%s",
+                 o.kind.empty() ? "missing the kind (bumpy, flakes, brushed, scratches)"
+                 : out.empty()  ? "missing --out FILE.exr"
+                 : !(o.roughness > 0.0 && o.roughness <= 10.0) ? "--roughness: expected (0, 10]"
+                                                               : "--out: expected a .exr file",
+                 kNormalMapUsage);
+    return 2;
+  }
+  DecodedNormalMap map;
+  std::string error;
+  if (!normal_map_gen::Generate(o, &map, &error)) {
+    std::fprintf(stderr, "glint normal-map: %s\n", error.c_str());
+    return 2;
+  }
+  try {
+    client::WriteExrRgb(out, int(map.width), int(map.height), map.xyz, false);
+  } catch (const std::exception &e) {
+    std::fprintf(stderr, "glint: %s\n", e.what());
+    return 1;
+  }
+  std::printf("%s\n", out.c_str());
+  std::fprintf(stderr, "glint normal-map: %s %ux%u seed %llu -> %s (%s)\n", o.kind.c_str(),
+               map.width, map.height, static_cast<unsigned long long>(o.seed), out.c_str(),
+               NormalMapDigest(map).c_str());
+  return 0;
+}
+
+int RunUpload(int argc, char **argv) {
+  std::string server, file;
+  std::map<std::string, std::string> security;  // --tls-ca, --tls-cert, --tls-key, --token-file
+  for (int i = 0; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      std::fputs(kUploadUsage, stdout);
+      return 0;
+    }
+    if (a == "--server" && i + 1 < argc) {
+      server = argv[++i];
+    } else if (a.rfind("--server=", 0) == 0) {
+      server = a.substr(9);
+    } else if ((a == "--tls-ca" || a == "--tls-cert" || a == "--tls-key" || a == "--token-file") &&
+               i + 1 < argc) {
+      security[a.substr(2)] = argv[++i];
+    } else if (a.rfind("--", 0) != 0 && file.empty()) {
+      file = a;
+    } else {
+      std::fprintf(stderr, "glint upload: unexpected argument '%s'\n\n%s", a.c_str(), kUploadUsage);
+      return 2;
+    }
+  }
+  if (server.empty() || file.empty()) {
+    std::fprintf(stderr, "glint upload: %s\n\n%s",
+                 server.empty() ? "missing --server" : "missing FILE", kUploadUsage);
+    return 2;
+  }
+  try {
+    client::ClientOptions options;
+    options.security = client::LoadChannelSecurity(security["tls-ca"], security["tls-cert"],
+                                                   security["tls-key"], security["token-file"]);
+    client::GlintClient client(server, options);
+    bool uploaded = false;
+    const std::string digest = EnsureUploaded(client, file, &uploaded);
+    std::printf("%s\n", digest.c_str());
+    std::fprintf(stderr, "glint upload: %s %s\n", file.c_str(),
+                 uploaded ? "uploaded" : "already held by the server");
+    return 0;
+  } catch (const std::exception &e) {
+    std::fprintf(stderr, "glint: %s\n", e.what());
+    return 1;
+  }
+}
+
+void AttachNormalMap(const std::string &server, const client::ClientOptions &options,
+                     const std::string &path, glint::v1::Material *material) {
+  client::GlintClient client(server, options);
+  bool uploaded = false;
+  material->mutable_normal_map()->set_digest(EnsureUploaded(client, path, &uploaded));
+}
+
+}  // namespace glint::cli

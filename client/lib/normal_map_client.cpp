@@ -1,0 +1,48 @@
+// GlintClient's normal-map resource calls (glint.v1.GlintService UploadNormalMap, ListNormalMaps,
+// DeleteNormalMap).
+#include <algorithm>
+
+#include "client/lib/glint_client.h"
+
+namespace glint::client {
+
+grpc::Status GlintClient::UploadNormalMap(const std::string &filename, const std::string &bytes,
+                                          glint::v1::NormalMapInfo *info) {
+  constexpr size_t kChunk = size_t{1} << 20;
+  grpc::ClientContext context;
+  PrepareContext(&context);
+  std::unique_ptr<grpc::ClientWriter<glint::v1::NormalMapChunk>> writer =
+      stub_->UploadNormalMap(&context, info);
+  size_t offset = 0;
+  do {
+    glint::v1::NormalMapChunk chunk;
+    if (offset == 0) chunk.set_filename(filename);
+    const size_t n = std::min(kChunk, bytes.size() - offset);
+    chunk.set_data(bytes.data() + offset, n);
+    offset += n;
+    // A failed write means the server has finished the call (e.g. refused an oversize file):
+    // Finish() below carries its status.
+    if (!writer->Write(chunk)) break;
+  } while (offset < bytes.size());
+  writer->WritesDone();
+  return writer->Finish();
+}
+
+grpc::Status GlintClient::ListNormalMaps(glint::v1::ListNormalMapsResponse *maps) {
+  grpc::ClientContext context;
+  PrepareContext(&context);
+  context.set_deadline(std::chrono::system_clock::now() + options_.rpc_timeout);
+  return stub_->ListNormalMaps(&context, glint::v1::ListNormalMapsRequest(), maps);
+}
+
+grpc::Status GlintClient::DeleteNormalMap(const std::string &digest) {
+  grpc::ClientContext context;
+  PrepareContext(&context);
+  context.set_deadline(std::chrono::system_clock::now() + options_.rpc_timeout);
+  glint::v1::DeleteNormalMapRequest request;
+  request.set_digest(digest);
+  glint::v1::DeleteNormalMapResponse response;
+  return stub_->DeleteNormalMap(&context, request, &response);
+}
+
+}  // namespace glint::client

@@ -1,0 +1,149 @@
+// Normal maps as resources over gRPC, end to end: glintd (host path: no kernel build) with a
+// small budget and upload limit, the CLI's `glint normal-map` and `glint upload`, and the client
+// library's upload / list / delete; NOT_FOUND naming the digest, re-upload, eviction, refusals.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "client/lib/glint_client.h"
+#include "glintd_process.h"
+#include "server/normal_map_decode.h"
+
+namespace glint {
+namespace {
+
+using glint::test::Glintd;
+using glint::test::ReadFile;
+using glint::test::Spawn;
+using glint::test::TempDir;
+
+// Runs the CLI; returns its exit code, stdout in *out.
+int RunGlint(const TempDir &dir, const std::vector<std::string> &args, std::string *out) {
+  std::vector<std::string> argv = {GLINT_CLI_PATH};
+  argv.insert(argv.end(), args.begin(), args.end());
+  const std::string o = dir.File("cli.out"), e = dir.File("cli.err");
+  const pid_t pid = Spawn(argv, o, e);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  *out = ReadFile(o);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+v1::EvaluateRequest Request(const std::string &digest) {
+  v1::EvaluateRequest r;
+  auto *m = r.mutable_material();
+  m->set_model(v1::NORMAL_MAP);
+  for (float f : {1.0f, 1.0f, 1.0f}) m->mutable_schlick()->add_f0(f);
+  m->mutable_normal_map()->set_digest(digest);
+  m->mutable_normal_map()->set_intrinsic_roughness(0.05f);
+  auto *q = r.mutable_queries();
+  q->set_count(16);
+  for (int i = 0; i < 16; ++i) {
+    const float x = 0.1f * float(i % 4);
+    for (float v : {x, 0.0f, 1.0f}) q->add_wo(v / std::sqrt(1.0f + x * x));
+    for (float v : {0.0f, 0.0f, 1.0f}) q->add_wi(v);
+    q->add_uv(0.0625f * float(i));
+    q->add_uv(0.3f);
+    for (float f : {0.02f, 0.0f, 0.0f, 0.02f}) q->add_footprint(f);
+  }
+  return r;
+}
+
+class NormalMapService : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::string error;
+    server_ = Glintd::Start(
+        GLINTD_PATH, dir_, "nm",
+        {"--device", "host", "--normal-map-budget-mb", "1", "--normal-map-max-upload-mb", "1"},
+        &error);
+    ASSERT_TRUE(server_) << error;
+    client_ = std::make_unique<client::GlintClient>(server_->address());
+  }
+  // glint normal-map KIND --size N --seed S --out FILE; returns FILE.
+  std::string Generate(const std::string &kind, int size, int seed) {
+    const std::string file =
+        dir_.File(kind + std::to_string(size) + "_" + std::to_string(seed) + ".exr");
+    std::string out;
+    EXPECT_EQ(RunGlint(dir_,
+                       {"normal-map", kind, "--size", std::to_string(size), "--seed",
+                        std::to_string(seed), "--out", file},
+                       &out),
+              0);
+    return file;
+  }
+  TempDir dir_{"glint_nm_service"};
+  std::unique_ptr<Glintd> server_;
+  std::unique_ptr<client::GlintClient> client_;
+};
+
+TEST_F(NormalMapService, UploadListEvaluateDeleteNotFoundReupload) {
+  v1::Capabilities caps;
+  ASSERT_TRUE(client_->GetCapabilities(&caps).ok());
+  EXPECT_EQ(caps.max_normal_map_upload_bytes(), 1u << 20);
+  EXPECT_EQ(caps.normal_map_budget_bytes(), 1u << 20);
+  EXPECT_GT(caps.max_normal_map_texels(), 0u);
+
+  const std::string file = Generate("bumpy", 64, 5);
+  std::string out;
+  ASSERT_EQ(RunGlint(dir_, {"upload", "--server", server_->address(), file}, &out), 0);
+  DecodedNormalMap map;
+  ASSERT_TRUE(DecodeNormalMap(file, ReadFile(file), 1u << 20, &map).ok());
+  const std::string digest = NormalMapDigest(map);
+  EXPECT_EQ(out, digest + "\n");
+
+  v1::NormalMapInfo info;
+  ASSERT_TRUE(client_->UploadNormalMap("again.exr", ReadFile(file), &info).ok());
+  EXPECT_TRUE(info.already_present());
+  EXPECT_EQ(info.digest(), digest);
+  EXPECT_EQ(info.width(), 64u);
+  v1::ListNormalMapsResponse list;
+  ASSERT_TRUE(client_->ListNormalMaps(&list).ok());
+  ASSERT_EQ(list.maps_size(), 1);
+
+  std::vector<float> rgb;
+  grpc::Status s = client_->Evaluate(Request(digest), &rgb);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  double sum = 0;
+  for (float v : rgb) sum += v;
+  EXPECT_GT(sum, 0.0);
+
+  ASSERT_TRUE(client_->DeleteNormalMap(digest).ok());
+  EXPECT_EQ(client_->DeleteNormalMap(digest).error_code(), grpc::StatusCode::NOT_FOUND);
+  s = client_->Evaluate(Request(digest), &rgb);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_NE(s.error_message().find(digest), std::string::npos) << s.error_message();
+  ASSERT_TRUE(client_->UploadNormalMap("back.exr", ReadFile(file), &info).ok());
+  EXPECT_FALSE(info.already_present());
+  std::vector<float> again;
+  ASSERT_TRUE(client_->Evaluate(Request(digest), &again).ok());
+  EXPECT_EQ(again, rgb);
+}
+
+TEST_F(NormalMapService, EvictsUnderTheBudgetAndRefusesBadUploads) {
+  // Two 256 x 256 maps need 2 x 0.85 MiB of tables: the budget of 1 MiB holds one.
+  v1::NormalMapInfo a, b;
+  ASSERT_TRUE(client_->UploadNormalMap("a.exr", ReadFile(Generate("flakes", 256, 1)), &a).ok());
+  ASSERT_TRUE(client_->UploadNormalMap("b.exr", ReadFile(Generate("flakes", 256, 2)), &b).ok());
+  std::vector<float> rgb;
+  EXPECT_EQ(client_->Evaluate(Request(a.digest()), &rgb).error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_TRUE(client_->Evaluate(Request(b.digest()), &rgb).ok());
+
+  v1::NormalMapInfo info;
+  grpc::Status s = client_->UploadNormalMap("big.png", std::string(1536 * 1024, 'x'), &info);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("max_normal_map_upload_bytes"), std::string::npos)
+      << s.error_message();
+  const std::string exr = ReadFile(Generate("scratches", 32, 3));
+  s = client_->UploadNormalMap("cut.exr", exr.substr(0, exr.size() / 2), &info);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("cut.exr"), std::string::npos) << s.error_message();
+  v1::ListNormalMapsResponse list;
+  ASSERT_TRUE(client_->ListNormalMaps(&list).ok());
+  ASSERT_EQ(list.maps_size(), 1);
+  EXPECT_EQ(list.maps(0).digest(), b.digest());
+}
+
+}  // namespace
+}  // namespace glint

@@ -1,0 +1,100 @@
+// The normal-map resource RPCs of GlintServiceImpl: UploadNormalMap (client-streamed chunks of
+// one file), ListNormalMaps, DeleteNormalMap, on the process's NormalMapStore.
+#include <sstream>
+#include <thread>
+
+#include "server/auth.h"
+#include "server/normal_map_store.h"
+#include "server/service.h"
+
+namespace glint {
+namespace {
+
+// Collects the chunks (refusing early once the file is over the size limit), then decodes and
+// stores on a thread of its own: decoding a large map takes a while and must not hold a gRPC
+// callback thread.
+class UploadReactor : public grpc::ServerReadReactor<glint::v1::NormalMapChunk> {
+ public:
+  UploadReactor(GlintServiceImpl *service, glint::v1::NormalMapInfo *response)
+      : service_(service), response_(response), max_bytes_(NormalMaps().limits().max_upload_bytes) {
+    StartRead(&chunk_);
+  }
+
+  void OnReadDone(bool ok) override {
+    if (ok) {
+      if (filename_.empty()) filename_ = chunk_.filename();
+      if (bytes_.size() + chunk_.data().size() > max_bytes_) {
+        return Done(Status::InvalidArgument(
+            "normal map " + Name() + ": over " + std::to_string(max_bytes_) +
+            " bytes; the server accepts at most that (Capabilities.max_normal_map_upload_bytes)"));
+      }
+      bytes_ += chunk_.data();
+      StartRead(&chunk_);
+      return;
+    }
+    std::thread([this] {
+      Status s = NormalMaps().Upload(Name(), bytes_, response_);
+      Done(s);
+    }).detach();
+  }
+
+  void OnDone() override { delete this; }
+
+ private:
+  std::string Name() const { return filename_.empty() ? std::string("(unnamed)") : filename_; }
+  void Done(const Status &s) {
+    std::ostringstream line;
+    line << "UploadNormalMap " << Name() << " bytes=" << bytes_.size() << " "
+         << (s.ok() ? response_->digest() + (response_->already_present() ? " (already held)" : "")
+                    : "refused: " + s.message());
+    service_->LogLine(line.str());
+    if (!s.ok()) response_->Clear();
+    Finish(ToGrpcStatus(s));
+  }
+
+  GlintServiceImpl *service_;
+  glint::v1::NormalMapInfo *response_;
+  uint64_t max_bytes_;
+  glint::v1::NormalMapChunk chunk_;
+  std::string filename_, bytes_;
+};
+
+}  // namespace
+
+grpc::ServerReadReactor<glint::v1::NormalMapChunk> *GlintServiceImpl::UploadNormalMap(
+    grpc::CallbackServerContext *ctx, glint::v1::NormalMapInfo *response) {
+  if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok())
+    return new RefusedReadReactor<glint::v1::NormalMapChunk>(denied);
+  return new UploadReactor(this, response);
+}
+
+grpc::ServerUnaryReactor *GlintServiceImpl::ListNormalMaps(
+    grpc::CallbackServerContext *ctx, const glint::v1::ListNormalMapsRequest *,
+    glint::v1::ListNormalMapsResponse *response) {
+  if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
+    auto *refused = ctx->DefaultReactor();
+    refused->Finish(denied);
+    return refused;
+  }
+  NormalMaps().List(response);
+  auto *reactor = ctx->DefaultReactor();
+  reactor->Finish(grpc::Status::OK);
+  return reactor;
+}
+
+grpc::ServerUnaryReactor *GlintServiceImpl::DeleteNormalMap(
+    grpc::CallbackServerContext *ctx, const glint::v1::DeleteNormalMapRequest *request,
+    glint::v1::DeleteNormalMapResponse *) {
+  if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
+    auto *refused = ctx->DefaultReactor();
+    refused->Finish(denied);
+    return refused;
+  }
+  Status s = NormalMaps().Delete(request->digest());
+  LogLine("DeleteNormalMap " + request->digest() + (s.ok() ? " ok" : " refused: " + s.message()));
+  auto *reactor = ctx->DefaultReactor();
+  reactor->Finish(ToGrpcStatus(s));
+  return reactor;
+}
+
+}  // namespace glint

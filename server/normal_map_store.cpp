@@ -1,0 +1,197 @@
+#include "server/normal_map_store.h"
+
+#include "models/normal_map/normal_map_params.h"
+#include "models/normal_map/normal_map_table.h"
+#include "server/normal_map_decode.h"
+
+namespace glint {
+namespace {
+
+uint64_t TableBytes(const NormalMapTable &t) {
+  return t ? t->size() * sizeof(float) : 0;
+}
+
+std::string MiB(uint64_t bytes) {
+  return std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB";
+}
+
+}  // namespace
+
+bool IsNormalMapDigest(const std::string &d) {
+  if (d.size() != 7 + 64 || d.compare(0, 7, "sha256:") != 0) return false;
+  for (size_t k = 7; k < d.size(); ++k)
+    if (!((d[k] >= '0' && d[k] <= '9') || (d[k] >= 'a' && d[k] <= 'f'))) return false;
+  return true;
+}
+
+NormalMapStore &NormalMaps() {
+  static NormalMapStore store;
+  return store;
+}
+
+NormalMapLimits NormalMapStore::limits() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return limits_;
+}
+
+void NormalMapStore::Configure(const NormalMapLimits &limits) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  limits_ = limits;
+  EvictLocked("");
+}
+
+uint64_t NormalMapStore::bytes() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return bytes_;
+}
+
+void NormalMapStore::TouchLocked(Entry &e) {
+  lru_.splice(lru_.begin(), lru_, e.lru);
+}
+
+void NormalMapStore::EvictLocked(const std::string &keep) {
+  auto it = lru_.end();
+  while (bytes_ > limits_.budget_bytes && it != lru_.begin()) {
+    --it;
+    if (*it == keep) continue;
+    auto m = maps_.find(*it);
+    bytes_ -= m->second.info.bytes();
+    maps_.erase(m);
+    it = lru_.erase(it);
+  }
+}
+
+Status NormalMapStore::Upload(const std::string &filename, const std::string &bytes,
+                              glint::v1::NormalMapInfo *info) {
+  const NormalMapLimits limits = this->limits();
+  if (bytes.size() > limits.max_upload_bytes)
+    return Status::InvalidArgument("normal map " + filename + ": " + std::to_string(bytes.size()) +
+                                   " bytes; the server accepts at most " +
+                                   std::to_string(limits.max_upload_bytes) +
+                                   " (Capabilities.max_normal_map_upload_bytes)");
+  if (bytes.empty())
+    return Status::InvalidArgument("normal map " + filename +
+                                   ": empty upload; expected the bytes "
+                                   "of an .exr or .png file");
+  // Decoding and preprocessing run outside the lock: uploads do not block requests.
+  DecodedNormalMap map;
+  Status s = DecodeNormalMap(filename, bytes, limits.max_texels, &map);
+  if (!s.ok()) return s;
+  return Insert(filename, map, info);
+}
+
+Status NormalMapStore::Insert(const std::string &filename, const DecodedNormalMap &map,
+                              glint::v1::NormalMapInfo *info) {
+  const NormalMapLimits limits = this->limits();
+  const std::string digest = NormalMapDigest(map);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (auto it = maps_.find(digest); it != maps_.end()) {
+      TouchLocked(it->second);
+      *info = it->second.info;
+      info->set_already_present(true);
+      return Status::Ok();
+    }
+  }
+  std::vector<float> st(size_t(map.width) * map.height * 2);
+  for (size_t t = 0; t < st.size() / 2; ++t) {
+    st[2 * t] = map.xyz[3 * t];
+    st[2 * t + 1] = map.xyz[3 * t + 1];
+  }
+  auto table =
+      std::make_shared<const std::vector<float>>(BuildNormalMapTable(map.width, map.height, st, 1));
+  const uint64_t need = TableBytes(table);
+  if (need > limits.budget_bytes)
+    return Status::ResourceExhausted("normal map " + filename + ": needs " + MiB(need) +
+                                     " on the server, more than its whole budget of " +
+                                     MiB(limits.budget_bytes) + " (--normal-map-budget-mb)");
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (auto it = maps_.find(digest); it != maps_.end()) {  // a concurrent upload of the same map
+    TouchLocked(it->second);
+    *info = it->second.info;
+    info->set_already_present(true);
+    return Status::Ok();
+  }
+  Entry &e = maps_[digest];
+  e.info.set_digest(digest);
+  e.info.set_width(map.width);
+  e.info.set_height(map.height);
+  e.info.set_bytes(need);
+  e.info.set_filename(filename);
+  e.tables[0] = std::move(table);
+  lru_.push_front(digest);
+  e.lru = lru_.begin();
+  bytes_ += need;
+  *info = e.info;
+  EvictLocked(digest);
+  return Status::Ok();
+}
+
+Status NormalMapStore::Table(const std::string &digest, int subdivision, NormalMapTable *out) {
+  const int slot = subdivision == 4 ? 1 : 0;
+  NormalMapTable base;
+  uint32_t w = 0, h = 0;
+  uint64_t max_texels = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = maps_.find(digest);
+    if (it == maps_.end())
+      return Status::NotFound("material.normal_map.digest: " + digest +
+                              " is not held by this server (never uploaded, deleted or evicted); "
+                              "upload the map again (UploadNormalMap, glint upload)");
+    TouchLocked(it->second);
+    if (it->second.tables[slot]) {
+      *out = it->second.tables[slot];
+      return Status::Ok();
+    }
+    base = it->second.tables[0];
+    w = it->second.info.width();
+    h = it->second.info.height();
+    max_texels = limits_.max_texels;
+  }
+  if (uint64_t(w) * h * 16 > max_texels || 4ull * w > GLINT_NM_MAX_SIDE ||
+      4ull * h > GLINT_NM_MAX_SIDE)
+    return Status::InvalidArgument(
+        "material.normal_map.subdivision: 4 turns the " + std::to_string(w) + "x" +
+        std::to_string(h) + " map into " + std::to_string(uint64_t(w) * h * 16) +
+        " sub-texels, over the server's limit of " + std::to_string(max_texels) +
+        " (Capabilities.max_normal_map_texels); expected subdivision 1 for this map");
+  std::vector<float> st(base->begin() + GLINT_NM_HEADER_FLOATS,
+                        base->begin() + GLINT_NM_HEADER_FLOATS + ptrdiff_t(w) * h * 2);
+  auto table = std::make_shared<const std::vector<float>>(BuildNormalMapTable(w, h, st, 4));
+  if (TableBytes(base) + TableBytes(table) > limits().budget_bytes)
+    return Status::ResourceExhausted("material.normal_map.subdivision: 4 needs " +
+                                     MiB(TableBytes(table)) + " more on the server for " + digest +
+                                     ", over its budget of " + MiB(limits().budget_bytes) +
+                                     " (--normal-map-budget-mb); expected subdivision 1 here");
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = maps_.find(digest);
+  if (it != maps_.end() && !it->second.tables[slot]) {  // still held: keep the new table
+    it->second.tables[slot] = table;
+    it->second.info.set_bytes(it->second.info.bytes() + TableBytes(table));
+    bytes_ += TableBytes(table);
+    EvictLocked(digest);
+  } else if (it != maps_.end()) {
+    table = it->second.tables[slot];
+  }
+  *out = table;
+  return Status::Ok();
+}
+
+void NormalMapStore::List(glint::v1::ListNormalMapsResponse *out) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (const std::string &d : lru_) *out->add_maps() = maps_.at(d).info;
+}
+
+Status NormalMapStore::Delete(const std::string &digest) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = maps_.find(digest);
+  if (it == maps_.end())
+    return Status::NotFound("digest: " + digest + " is not held by this server");
+  bytes_ -= it->second.info.bytes();
+  lru_.erase(it->second.lru);
+  maps_.erase(it);
+  return Status::Ok();
+}
+
+}  // namespace glint

@@ -1,0 +1,81 @@
+// Normal maps as server resources (issue 11): content-addressed by the SHA-256 of the decoded
+// normals (server/normal_map_decode.h), preprocessed once per map and subdivision into the
+// NORMAL_MAP model's table (models/normal_map/normal_map_table.h), held under a memory budget
+// with least-recently-used eviction. Requests name a map by digest; a missing one is NOT_FOUND
+// naming the digest, so a client uploads it again (to whichever replica answered).
+//
+// Thread-safe. Tables are handed out as shared_ptr: an evicted or deleted map stays alive for
+// the requests already holding it.
+#pragma once
+
+#include <cstdint>
+#include <list>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "glint/v1/glint.pb.h"
+#include "server/normal_map_decode.h"
+#include "server/status.h"
+
+namespace glint {
+
+struct NormalMapLimits {
+  uint64_t budget_bytes = uint64_t{1024} << 20;     // glintd --normal-map-budget-mb
+  uint64_t max_upload_bytes = uint64_t{256} << 20;  // one file
+  uint64_t max_texels = uint64_t{4096} * 4096;      // width x height (x16 with subdivision 4)
+};
+
+using NormalMapTable = std::shared_ptr<const std::vector<float>>;
+
+class NormalMapStore {
+ public:
+  explicit NormalMapStore(NormalMapLimits limits = {}) : limits_(limits) {}
+
+  NormalMapLimits limits() const;
+  // Changes the limits (glintd's flags); evicts down to the new budget.
+  void Configure(const NormalMapLimits &limits);
+
+  // Decodes, hashes and preprocesses (subdivision 1) one file. Storing an existing digest only
+  // refreshes it (info->already_present). Bad files: INVALID_ARGUMENT; a map larger than the
+  // whole budget: RESOURCE_EXHAUSTED. Nothing is stored on failure.
+  Status Upload(const std::string &filename, const std::string &bytes,
+                glint::v1::NormalMapInfo *info);
+  // Upload after decoding: stores already decoded normals (generated maps, warm-up, tests).
+  Status Insert(const std::string &filename, const DecodedNormalMap &map,
+                glint::v1::NormalMapInfo *info);
+
+  // The model table of `digest` at `subdivision` (1 or 4; 4 is built on first use and kept
+  // under the budget). NOT_FOUND naming the digest when the store does not hold it.
+  Status Table(const std::string &digest, int subdivision, NormalMapTable *out);
+
+  void List(glint::v1::ListNormalMapsResponse *out) const;
+  Status Delete(const std::string &digest);
+  uint64_t bytes() const;
+
+ private:
+  struct Entry {
+    glint::v1::NormalMapInfo info;  // bytes = the sum of its tables
+    NormalMapTable tables[2];       // subdivision 1, 4
+    std::list<std::string>::iterator lru;
+  };
+  // Drops least recently used maps (never `keep`) until the total fits the budget.
+  void EvictLocked(const std::string &keep);
+  void TouchLocked(Entry &e);
+
+  mutable std::mutex mutex_;
+  NormalMapLimits limits_;
+  std::map<std::string, Entry> maps_;
+  std::list<std::string> lru_;  // most recent first
+  uint64_t bytes_ = 0;
+};
+
+// The process's store (glintd configures it from its flags; the NORMAL_MAP model reads it).
+NormalMapStore &NormalMaps();
+
+// "sha256:" followed by 64 lowercase hex digits.
+bool IsNormalMapDigest(const std::string &digest);
+
+}  // namespace glint

@@ -14,6 +14,7 @@ class Model(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
     BINOMIAL: _ClassVar[Model]
     KEMPPINEN: _ClassVar[Model]
     CHERMAIN: _ClassVar[Model]
+    NORMAL_MAP: _ClassVar[Model]
 
 class Ndf(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
     __slots__ = ()
@@ -46,6 +47,7 @@ SMOOTH: Model
 BINOMIAL: Model
 KEMPPINEN: Model
 CHERMAIN: Model
+NORMAL_MAP: Model
 NDF_UNSPECIFIED: Ndf
 GGX: Ndf
 BECKMANN: Ndf
@@ -128,8 +130,20 @@ class KemppinenParams(_message.Message):
     colors: _containers.RepeatedScalarFieldContainer[float]
     def __init__(self, density: _Optional[float] = ..., microroughness: _Optional[float] = ..., filter_size: _Optional[float] = ..., neighbors: _Optional[int] = ..., anisotropy: _Optional[float] = ..., colors: _Optional[_Iterable[float]] = ...) -> None: ...
 
+class NormalMapParams(_message.Message):
+    __slots__ = ("digest", "intrinsic_roughness", "cutoff_sigma", "subdivision")
+    DIGEST_FIELD_NUMBER: _ClassVar[int]
+    INTRINSIC_ROUGHNESS_FIELD_NUMBER: _ClassVar[int]
+    CUTOFF_SIGMA_FIELD_NUMBER: _ClassVar[int]
+    SUBDIVISION_FIELD_NUMBER: _ClassVar[int]
+    digest: str
+    intrinsic_roughness: float
+    cutoff_sigma: float
+    subdivision: int
+    def __init__(self, digest: _Optional[str] = ..., intrinsic_roughness: _Optional[float] = ..., cutoff_sigma: _Optional[float] = ..., subdivision: _Optional[int] = ...) -> None: ...
+
 class Material(_message.Message):
-    __slots__ = ("model", "ndf", "alpha_x", "alpha_y", "schlick", "conductor", "dielectric", "binomial", "kemppinen", "chermain")
+    __slots__ = ("model", "ndf", "alpha_x", "alpha_y", "schlick", "conductor", "dielectric", "binomial", "kemppinen", "chermain", "normal_map")
     MODEL_FIELD_NUMBER: _ClassVar[int]
     NDF_FIELD_NUMBER: _ClassVar[int]
     ALPHA_X_FIELD_NUMBER: _ClassVar[int]
@@ -140,6 +154,7 @@ class Material(_message.Message):
     BINOMIAL_FIELD_NUMBER: _ClassVar[int]
     KEMPPINEN_FIELD_NUMBER: _ClassVar[int]
     CHERMAIN_FIELD_NUMBER: _ClassVar[int]
+    NORMAL_MAP_FIELD_NUMBER: _ClassVar[int]
     model: Model
     ndf: Ndf
     alpha_x: float
@@ -150,7 +165,8 @@ class Material(_message.Message):
     binomial: BinomialParams
     kemppinen: KemppinenParams
     chermain: ChermainParams
-    def __init__(self, model: _Optional[_Union[Model, str]] = ..., ndf: _Optional[_Union[Ndf, str]] = ..., alpha_x: _Optional[float] = ..., alpha_y: _Optional[float] = ..., schlick: _Optional[_Union[SchlickFresnel, _Mapping]] = ..., conductor: _Optional[_Union[ConductorFresnel, _Mapping]] = ..., dielectric: _Optional[_Union[DielectricFresnel, _Mapping]] = ..., binomial: _Optional[_Union[BinomialParams, _Mapping]] = ..., kemppinen: _Optional[_Union[KemppinenParams, _Mapping]] = ..., chermain: _Optional[_Union[ChermainParams, _Mapping]] = ...) -> None: ...
+    normal_map: NormalMapParams
+    def __init__(self, model: _Optional[_Union[Model, str]] = ..., ndf: _Optional[_Union[Ndf, str]] = ..., alpha_x: _Optional[float] = ..., alpha_y: _Optional[float] = ..., schlick: _Optional[_Union[SchlickFresnel, _Mapping]] = ..., conductor: _Optional[_Union[ConductorFresnel, _Mapping]] = ..., dielectric: _Optional[_Union[DielectricFresnel, _Mapping]] = ..., binomial: _Optional[_Union[BinomialParams, _Mapping]] = ..., kemppinen: _Optional[_Union[KemppinenParams, _Mapping]] = ..., chermain: _Optional[_Union[ChermainParams, _Mapping]] = ..., normal_map: _Optional[_Union[NormalMapParams, _Mapping]] = ...) -> None: ...
 
 class DirectionalLight(_message.Message):
     __slots__ = ("direction", "irradiance", "cone_half_angle_deg")
@@ -279,7 +295,7 @@ class GetCapabilitiesRequest(_message.Message):
     def __init__(self) -> None: ...
 
 class Capabilities(_message.Message):
-    __slots__ = ("server_version", "device_name", "device_vendor", "device_opencl_version", "driver_version", "platform_name", "compute_units", "fp64", "models", "ndfs", "fresnel_kinds", "light_kinds", "max_batch", "max_message_bytes", "max_lights", "max_pending_requests", "unit_vector_tolerance")
+    __slots__ = ("server_version", "device_name", "device_vendor", "device_opencl_version", "driver_version", "platform_name", "compute_units", "fp64", "models", "ndfs", "fresnel_kinds", "light_kinds", "max_batch", "max_message_bytes", "max_lights", "max_pending_requests", "unit_vector_tolerance", "max_normal_map_upload_bytes", "max_normal_map_texels", "normal_map_budget_bytes")
     SERVER_VERSION_FIELD_NUMBER: _ClassVar[int]
     DEVICE_NAME_FIELD_NUMBER: _ClassVar[int]
     DEVICE_VENDOR_FIELD_NUMBER: _ClassVar[int]
@@ -297,6 +313,9 @@ class Capabilities(_message.Message):
     MAX_LIGHTS_FIELD_NUMBER: _ClassVar[int]
     MAX_PENDING_REQUESTS_FIELD_NUMBER: _ClassVar[int]
     UNIT_VECTOR_TOLERANCE_FIELD_NUMBER: _ClassVar[int]
+    MAX_NORMAL_MAP_UPLOAD_BYTES_FIELD_NUMBER: _ClassVar[int]
+    MAX_NORMAL_MAP_TEXELS_FIELD_NUMBER: _ClassVar[int]
+    NORMAL_MAP_BUDGET_BYTES_FIELD_NUMBER: _ClassVar[int]
     server_version: str
     device_name: str
     device_vendor: str
@@ -314,4 +333,81 @@ class Capabilities(_message.Message):
     max_lights: int
     max_pending_requests: int
     unit_vector_tolerance: float
-    def __init__(self, server_version: _Optional[str] = ..., device_name: _Optional[str] = ..., device_vendor: _Optional[str] = ..., device_opencl_version: _Optional[str] = ..., driver_version: _Optional[str] = ..., platform_name: _Optional[str] = ..., compute_units: _Optional[int] = ..., fp64: bool = ..., models: _Optional[_Iterable[str]] = ..., ndfs: _Optional[_Iterable[str]] = ..., fresnel_kinds: _Optional[_Iterable[str]] = ..., light_kinds: _Optional[_Iterable[str]] = ..., max_batch: _Optional[int] = ..., max_message_bytes: _Optional[int] = ..., max_lights: _Optional[int] = ..., max_pending_requests: _Optional[int] = ..., unit_vector_tolerance: _Optional[float] = ...) -> None: ...
+    max_normal_map_upload_bytes: int
+    max_normal_map_texels: int
+    normal_map_budget_bytes: int
+    def __init__(self, server_version: _Optional[str] = ..., device_name: _Optional[str] = ..., device_vendor: _Optional[str] = ..., device_opencl_version: _Optional[str] = ..., driver_version: _Optional[str] = ..., platform_name: _Optional[str] = ..., compute_units: _Optional[int] = ..., fp64: bool = ..., models: _Optional[_Iterable[str]] = ..., ndfs: _Optional[_Iterable[str]] = ..., fresnel_kinds: _Optional[_Iterable[str]] = ..., light_kinds: _Optional[_Iterable[str]] = ..., max_batch: _Optional[int] = ..., max_message_bytes: _Optional[int] = ..., max_lights: _Optional[int] = ..., max_pending_requests: _Optional[int] = ..., unit_vector_tolerance: _Optional[float] = ..., max_normal_map_upload_bytes: _Optional[int] = ..., max_normal_map_texels: _Optional[int] = ..., normal_map_budget_bytes: _Optional[int] = ...) -> None: ...
+
+class SampleRequest(_message.Message):
+    __slots__ = ("material", "queries", "samples_per_query", "seed", "precision")
+    MATERIAL_FIELD_NUMBER: _ClassVar[int]
+    QUERIES_FIELD_NUMBER: _ClassVar[int]
+    SAMPLES_PER_QUERY_FIELD_NUMBER: _ClassVar[int]
+    SEED_FIELD_NUMBER: _ClassVar[int]
+    PRECISION_FIELD_NUMBER: _ClassVar[int]
+    material: Material
+    queries: QueryBatch
+    samples_per_query: int
+    seed: int
+    precision: Precision
+    def __init__(self, material: _Optional[_Union[Material, _Mapping]] = ..., queries: _Optional[_Union[QueryBatch, _Mapping]] = ..., samples_per_query: _Optional[int] = ..., seed: _Optional[int] = ..., precision: _Optional[_Union[Precision, str]] = ...) -> None: ...
+
+class SampleResponse(_message.Message):
+    __slots__ = ("count", "samples_per_query", "wi", "pdf", "weight", "stats")
+    COUNT_FIELD_NUMBER: _ClassVar[int]
+    SAMPLES_PER_QUERY_FIELD_NUMBER: _ClassVar[int]
+    WI_FIELD_NUMBER: _ClassVar[int]
+    PDF_FIELD_NUMBER: _ClassVar[int]
+    WEIGHT_FIELD_NUMBER: _ClassVar[int]
+    STATS_FIELD_NUMBER: _ClassVar[int]
+    count: int
+    samples_per_query: int
+    wi: _containers.RepeatedScalarFieldContainer[float]
+    pdf: _containers.RepeatedScalarFieldContainer[float]
+    weight: _containers.RepeatedScalarFieldContainer[float]
+    stats: EvaluateStats
+    def __init__(self, count: _Optional[int] = ..., samples_per_query: _Optional[int] = ..., wi: _Optional[_Iterable[float]] = ..., pdf: _Optional[_Iterable[float]] = ..., weight: _Optional[_Iterable[float]] = ..., stats: _Optional[_Union[EvaluateStats, _Mapping]] = ...) -> None: ...
+
+class NormalMapChunk(_message.Message):
+    __slots__ = ("filename", "data")
+    FILENAME_FIELD_NUMBER: _ClassVar[int]
+    DATA_FIELD_NUMBER: _ClassVar[int]
+    filename: str
+    data: bytes
+    def __init__(self, filename: _Optional[str] = ..., data: _Optional[bytes] = ...) -> None: ...
+
+class NormalMapInfo(_message.Message):
+    __slots__ = ("digest", "width", "height", "bytes", "already_present", "filename")
+    DIGEST_FIELD_NUMBER: _ClassVar[int]
+    WIDTH_FIELD_NUMBER: _ClassVar[int]
+    HEIGHT_FIELD_NUMBER: _ClassVar[int]
+    BYTES_FIELD_NUMBER: _ClassVar[int]
+    ALREADY_PRESENT_FIELD_NUMBER: _ClassVar[int]
+    FILENAME_FIELD_NUMBER: _ClassVar[int]
+    digest: str
+    width: int
+    height: int
+    bytes: int
+    already_present: bool
+    filename: str
+    def __init__(self, digest: _Optional[str] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., bytes: _Optional[int] = ..., already_present: bool = ..., filename: _Optional[str] = ...) -> None: ...
+
+class ListNormalMapsRequest(_message.Message):
+    __slots__ = ()
+    def __init__(self) -> None: ...
+
+class ListNormalMapsResponse(_message.Message):
+    __slots__ = ("maps",)
+    MAPS_FIELD_NUMBER: _ClassVar[int]
+    maps: _containers.RepeatedCompositeFieldContainer[NormalMapInfo]
+    def __init__(self, maps: _Optional[_Iterable[_Union[NormalMapInfo, _Mapping]]] = ...) -> None: ...
+
+class DeleteNormalMapRequest(_message.Message):
+    __slots__ = ("digest",)
+    DIGEST_FIELD_NUMBER: _ClassVar[int]
+    digest: str
+    def __init__(self, digest: _Optional[str] = ...) -> None: ...
+
+class DeleteNormalMapResponse(_message.Message):
+    __slots__ = ()
+    def __init__(self) -> None: ...

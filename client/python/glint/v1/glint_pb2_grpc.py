@@ -49,6 +49,26 @@ class GlintServiceStub(object):
                 request_serializer=glint_dot_v1_dot_glint__pb2.GetCapabilitiesRequest.SerializeToString,
                 response_deserializer=glint_dot_v1_dot_glint__pb2.Capabilities.FromString,
                 _registered_method=True)
+        self.Sample = channel.unary_unary(
+                '/glint.v1.GlintService/Sample',
+                request_serializer=glint_dot_v1_dot_glint__pb2.SampleRequest.SerializeToString,
+                response_deserializer=glint_dot_v1_dot_glint__pb2.SampleResponse.FromString,
+                _registered_method=True)
+        self.UploadNormalMap = channel.stream_unary(
+                '/glint.v1.GlintService/UploadNormalMap',
+                request_serializer=glint_dot_v1_dot_glint__pb2.NormalMapChunk.SerializeToString,
+                response_deserializer=glint_dot_v1_dot_glint__pb2.NormalMapInfo.FromString,
+                _registered_method=True)
+        self.ListNormalMaps = channel.unary_unary(
+                '/glint.v1.GlintService/ListNormalMaps',
+                request_serializer=glint_dot_v1_dot_glint__pb2.ListNormalMapsRequest.SerializeToString,
+                response_deserializer=glint_dot_v1_dot_glint__pb2.ListNormalMapsResponse.FromString,
+                _registered_method=True)
+        self.DeleteNormalMap = channel.unary_unary(
+                '/glint.v1.GlintService/DeleteNormalMap',
+                request_serializer=glint_dot_v1_dot_glint__pb2.DeleteNormalMapRequest.SerializeToString,
+                response_deserializer=glint_dot_v1_dot_glint__pb2.DeleteNormalMapResponse.FromString,
+                _registered_method=True)
 
 
 class GlintServiceServicer(object):
@@ -73,6 +93,33 @@ class GlintServiceServicer(object):
         context.set_details('Method not implemented!')
         raise NotImplementedError('Method not implemented!')
 
+    def Sample(self, request, context):
+        """Importance sampling of the material's BRDF (SampleRequest says what each model samples).
+        """
+        context.set_code(grpc.StatusCode.UNIMPLEMENTED)
+        context.set_details('Method not implemented!')
+        raise NotImplementedError('Method not implemented!')
+
+    def UploadNormalMap(self, request_iterator, context):
+        """Normal maps as resources: upload (client-streamed chunks of one file),
+        list, delete. NOT_FOUND names the digest when the server lacks it.
+        """
+        context.set_code(grpc.StatusCode.UNIMPLEMENTED)
+        context.set_details('Method not implemented!')
+        raise NotImplementedError('Method not implemented!')
+
+    def ListNormalMaps(self, request, context):
+        """Missing associated documentation comment in .proto file."""
+        context.set_code(grpc.StatusCode.UNIMPLEMENTED)
+        context.set_details('Method not implemented!')
+        raise NotImplementedError('Method not implemented!')
+
+    def DeleteNormalMap(self, request, context):
+        """Missing associated documentation comment in .proto file."""
+        context.set_code(grpc.StatusCode.UNIMPLEMENTED)
+        context.set_details('Method not implemented!')
+        raise NotImplementedError('Method not implemented!')
+
 
 def add_GlintServiceServicer_to_server(servicer, server):
     rpc_method_handlers = {
@@ -90,6 +137,26 @@ def add_GlintServiceServicer_to_server(servicer, server):
                     servicer.GetCapabilities,
                     request_deserializer=glint_dot_v1_dot_glint__pb2.GetCapabilitiesRequest.FromString,
                     response_serializer=glint_dot_v1_dot_glint__pb2.Capabilities.SerializeToString,
+            ),
+            'Sample': grpc.unary_unary_rpc_method_handler(
+                    servicer.Sample,
+                    request_deserializer=glint_dot_v1_dot_glint__pb2.SampleRequest.FromString,
+                    response_serializer=glint_dot_v1_dot_glint__pb2.SampleResponse.SerializeToString,
+            ),
+            'UploadNormalMap': grpc.stream_unary_rpc_method_handler(
+                    servicer.UploadNormalMap,
+                    request_deserializer=glint_dot_v1_dot_glint__pb2.NormalMapChunk.FromString,
+                    response_serializer=glint_dot_v1_dot_glint__pb2.NormalMapInfo.SerializeToString,
+            ),
+            'ListNormalMaps': grpc.unary_unary_rpc_method_handler(
+                    servicer.ListNormalMaps,
+                    request_deserializer=glint_dot_v1_dot_glint__pb2.ListNormalMapsRequest.FromString,
+                    response_serializer=glint_dot_v1_dot_glint__pb2.ListNormalMapsResponse.SerializeToString,
+            ),
+            'DeleteNormalMap': grpc.unary_unary_rpc_method_handler(
+                    servicer.DeleteNormalMap,
+                    request_deserializer=glint_dot_v1_dot_glint__pb2.DeleteNormalMapRequest.FromString,
+                    response_serializer=glint_dot_v1_dot_glint__pb2.DeleteNormalMapResponse.SerializeToString,
             ),
     }
     generic_handler = grpc.method_handlers_generic_handler(
@@ -173,6 +240,114 @@ class GlintService(object):
             '/glint.v1.GlintService/GetCapabilities',
             glint_dot_v1_dot_glint__pb2.GetCapabilitiesRequest.SerializeToString,
             glint_dot_v1_dot_glint__pb2.Capabilities.FromString,
+            options,
+            channel_credentials,
+            insecure,
+            call_credentials,
+            compression,
+            wait_for_ready,
+            timeout,
+            metadata,
+            _registered_method=True)
+
+    @staticmethod
+    def Sample(request,
+            target,
+            options=(),
+            channel_credentials=None,
+            call_credentials=None,
+            insecure=False,
+            compression=None,
+            wait_for_ready=None,
+            timeout=None,
+            metadata=None):
+        return grpc.experimental.unary_unary(
+            request,
+            target,
+            '/glint.v1.GlintService/Sample',
+            glint_dot_v1_dot_glint__pb2.SampleRequest.SerializeToString,
+            glint_dot_v1_dot_glint__pb2.SampleResponse.FromString,
+            options,
+            channel_credentials,
+            insecure,
+            call_credentials,
+            compression,
+            wait_for_ready,
+            timeout,
+            metadata,
+            _registered_method=True)
+
+    @staticmethod
+    def UploadNormalMap(request_iterator,
+            target,
+            options=(),
+            channel_credentials=None,
+            call_credentials=None,
+            insecure=False,
+            compression=None,
+            wait_for_ready=None,
+            timeout=None,
+            metadata=None):
+        return grpc.experimental.stream_unary(
+            request_iterator,
+            target,
+            '/glint.v1.GlintService/UploadNormalMap',
+            glint_dot_v1_dot_glint__pb2.NormalMapChunk.SerializeToString,
+            glint_dot_v1_dot_glint__pb2.NormalMapInfo.FromString,
+            options,
+            channel_credentials,
+            insecure,
+            call_credentials,
+            compression,
+            wait_for_ready,
+            timeout,
+            metadata,
+            _registered_method=True)
+
+    @staticmethod
+    def ListNormalMaps(request,
+            target,
+            options=(),
+            channel_credentials=None,
+            call_credentials=None,
+            insecure=False,
+            compression=None,
+            wait_for_ready=None,
+            timeout=None,
+            metadata=None):
+        return grpc.experimental.unary_unary(
+            request,
+            target,
+            '/glint.v1.GlintService/ListNormalMaps',
+            glint_dot_v1_dot_glint__pb2.ListNormalMapsRequest.SerializeToString,
+            glint_dot_v1_dot_glint__pb2.ListNormalMapsResponse.FromString,
+            options,
+            channel_credentials,
+            insecure,
+            call_credentials,
+            compression,
+            wait_for_ready,
+            timeout,
+            metadata,
+            _registered_method=True)
+
+    @staticmethod
+    def DeleteNormalMap(request,
+            target,
+            options=(),
+            channel_credentials=None,
+            call_credentials=None,
+            insecure=False,
+            compression=None,
+            wait_for_ready=None,
+            timeout=None,
+            metadata=None):
+        return grpc.experimental.unary_unary(
+            request,
+            target,
+            '/glint.v1.GlintService/DeleteNormalMap',
+            glint_dot_v1_dot_glint__pb2.DeleteNormalMapRequest.SerializeToString,
+            glint_dot_v1_dot_glint__pb2.DeleteNormalMapResponse.FromString,
             options,
             channel_credentials,
             insecure,

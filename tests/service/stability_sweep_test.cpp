@@ -306,10 +306,6 @@ class RequestSampler {
     int n_dir = device ? Int(1, 2) : Int(0, 2);
     int n_point = device ? Int(1, 2) : Int(0, 2);
     int n_poly = device ? Int(1, 2) : Int(0, 2);
-    if (model == v1::CHERMAIN) {  // refused by the model (no area lights in the paper)
-      n_poly = 0;
-      if (n_dir + n_point == 0) n_dir = 1;
-    }
     if (n_dir + n_point + n_poly == 0) n_poly = 1;
     for (int i = 0; i < n_dir; ++i) {
       auto *d = r->add_lights()->mutable_directional();

@@ -133,7 +133,7 @@ int main(int argc, char **argv) {
   m->set_model(glint::v1::CHERMAIN);
   m->mutable_chermain()->set_density_randomisation(2.0f);
   for (float ld : {20.0f, 30.0f})
-    for (uint32_t dict : {16u, 64u, 192u})
+    for (uint32_t dict : {16u, 64u, 192u, 512u})
       for (float gamma : {4.0f, 8.0f, 16.0f}) {
         if (ld != 20.0f && dict != 192u) continue;
         m->mutable_chermain()->set_log_density(ld);

@@ -47,9 +47,9 @@ Status ValidateChermainParams(const Material &m) {
     o << "material.chermain.max_anisotropy: " << c.max_anisotropy()
       << "; expected a ratio in [1, 16] (0 = 8)";
   } else if (!(c.dictionary_size() == 0 || c.dictionary_size() == 16 || c.dictionary_size() == 64 ||
-               c.dictionary_size() == 192)) {
+               c.dictionary_size() == 192 || c.dictionary_size() == 512)) {
     o << "material.chermain.dictionary_size: " << c.dictionary_size()
-      << "; expected 16, 64 or 192 (0 = 192)";
+      << "; expected 16, 64, 192 or 512 (0 = 192)";
   } else if (c.colors_size() % 3 != 0 || c.colors_size() > 3 * GLINT_CHERMAIN_MAX_COLORS) {
     o << "material.chermain.colors: " << c.colors_size()
       << " values; expected RGB triplets, at most " << GLINT_CHERMAIN_MAX_COLORS << " colours";

@@ -271,7 +271,7 @@ TEST_F(ChermainEngineTest, FiniteAndNonNegativeAtTheExtremesOnTheDevice) {
 TEST_F(ChermainEngineTest, DictionarySizeChangesThePattern) {
   v1::QueryBatch q = Queries(1000, true, 5);
   std::vector<std::vector<float>> outs;
-  for (uint32_t n : {16u, 64u, 192u}) {
+  for (uint32_t n : {16u, 64u, 192u, 512u}) {
     EvaluateRequest settings = Settings(false, false);
     settings.mutable_material()->mutable_chermain()->set_dictionary_size(n);
     ASSERT_TRUE(ValidateSettings(settings, {}).ok());
@@ -284,6 +284,7 @@ TEST_F(ChermainEngineTest, DictionarySizeChangesThePattern) {
     EXPECT_GT(agree, int(host.size()) * 99 / 100) << n;
   }
   EXPECT_NE(0, std::memcmp(outs[0].data(), outs[2].data(), outs[0].size() * sizeof(float)));
+  EXPECT_NE(0, std::memcmp(outs[2].data(), outs[3].data(), outs[2].size() * sizeof(float)));
 }
 
 }  // namespace

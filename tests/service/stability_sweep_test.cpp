@@ -201,8 +201,8 @@ class RequestSampler {
       c->set_density_randomisation(float(x < 0.2 ? 0.0 : x < 0.3 ? 10.0 : U(0.0, 10.0)));
       x = U(0.0, 1.0);
       c->set_max_anisotropy(float(x < 0.2 ? 0.0 : x < 0.3 ? 1.0 : x < 0.4 ? 16.0 : U(1.0, 16.0)));
-      const uint32_t sizes[] = {0, 16, 64, 192};
-      c->set_dictionary_size(sizes[Int(0, 3)]);
+      const uint32_t sizes[] = {0, 16, 64, 192, 512};
+      c->set_dictionary_size(sizes[Int(0, 4)]);
       for (int i = 3 * Int(0, 8); i > 0; --i) c->add_colors(float(Chance(0.2) ? 0.0 : U(0.0, 1.0)));
     }
     if (model == v1::KEMPPINEN) {  // ranges of models/kemppinen/kemppinen_model.cpp

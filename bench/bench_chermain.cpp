@@ -3,7 +3,8 @@
 // light. Queries: random uv in [0, 4]^2, random view, footprints of a random orientation with
 // minor axis 2^-15 .. 2^-9 uv (1 .. 64 level-0 cells) and anisotropy 1 .. 32 (log-uniform), so
 // the eccentricity clamp decides how many cells are visited. One directional light. Median of
-// --repeat runs. With --json, one JSON object per row on stdout instead of the table.
+// --repeat runs; then a quad light instead of the sun (the polygon pass). With --json, one JSON
+// object per row on stdout instead of the table.
 //
 //   cmake --build build --target bench_chermain && build/bench/bench_chermain [--queries N]
 //   [--repeat R] [--json]                                                  (defaults 200000, 3)
@@ -156,5 +157,43 @@ int main(int argc, char **argv) {
                       smooth_s / sec, mean / mean_smooth);
         }
       }
+
+  // A quad light (polygon pass, LTC) in place of the sun: the smooth model against CHERMAIN
+  // (chermain_polygons.h: the smooth integral times the glint ratio at one direction).
+  glint::v1::EvaluateRequest lit = MakeRequest(q);
+  lit.clear_lights();
+  auto *quad = lit.add_lights()->mutable_polygon();
+  for (float v : {-1.5f, -0.5f, 2.0f, -1.5f, 0.5f, 2.0f, -0.5f, 0.5f, 2.0f, -0.5f, -0.5f, 2.0f})
+    quad->add_vertices(v);
+  for (float v : {1.0f, 1.0f, 1.0f}) quad->add_radiance(v);
+  quad->set_two_sided(true);
+  double smooth_quad_s = 0;
+  if (!run(lit, &smooth, &smooth_quad_s)) return 1;
+  double mean_smooth_quad = 0;
+  for (float v : smooth) mean_smooth_quad += v;
+  mean_smooth_quad /= double(n);
+  auto *mq = lit.mutable_material();
+  mq->set_model(glint::v1::CHERMAIN);
+  mq->mutable_chermain()->set_density_randomisation(2.0f);
+  mq->mutable_chermain()->set_log_density(20.0f);
+  mq->mutable_chermain()->set_dictionary_size(192);
+  mq->mutable_chermain()->set_max_anisotropy(8.0f);
+  double quad_s = 0;
+  if (!run(lit, &glint, &quad_s)) return 1;
+  double mean_quad = 0;
+  for (float v : glint) mean_quad += v;
+  mean_quad /= double(n);
+  if (json) {
+    std::printf(
+        "{\"bench\": \"chermain\", \"light\": \"quad\", \"smooth_evals_per_s\": %.4g, "
+        "\"evals_per_s\": %.4g, \"ratio_to_smooth\": %.4g, \"mean_over_smooth\": %.4g}\n",
+        n / smooth_quad_s, n / quad_s, smooth_quad_s / quad_s, mean_quad / mean_smooth_quad);
+  } else {
+    std::printf(
+        "\nquad light (LTC) instead of the sun, ln(rho) 20, N = 192, max anisotropy 8: smooth "
+        "%.3f M evals/s, CHERMAIN %.3f M evals/s (ratio %.3f), mean L / smooth %.3f\n",
+        n / smooth_quad_s / 1e6, n / quad_s / 1e6, smooth_quad_s / quad_s,
+        mean_quad / mean_smooth_quad);
+  }
   return 0;
 }

@@ -69,7 +69,7 @@ json.dump({"model": "CHERMAIN", "ndf": "BECKMANN", "alpha_x": 0.5, "alpha_y": 0.
 EOF
 
 PREVIEWS="stone fabric carpaint sparkle_8 sparkle_14 sparkle_20 smooth"
-NAMES="$PREVIEWS brushed"
+NAMES="$PREVIEWS brushed rect_14"
 for n in $PREVIEWS; do
   "$BUILD_DIR/client/cli/glint" preview --server "$SERVER" --material "$OUT/materials/$n.json" \
     --lights examples/lights/sun.json --scene plane --size "$SIZE" --seed 1 \
@@ -98,6 +98,17 @@ EOF
   --out "$OUT/brushed.exr" >/dev/null
 echo "rendered $OUT/brushed.exr"
 
+# A polygon light (beyond the paper; models/chermain/chermain_polygons.h): the ln rho 14 example
+# under examples/lights/rect_small.json (LTC area method).
+cp "$OUT/materials/sparkle_14.json" "$OUT/materials/rect_14.json"
+"$BUILD_DIR/client/cli/glint" preview --server "$SERVER" --material "$OUT/materials/rect_14.json" \
+  --lights examples/lights/rect_small.json --scene plane --size "$SIZE" --seed 1 \
+  --out "$OUT/rect_14.exr" >/dev/null
+"$BUILD_DIR/client/cli/glint" preview --server "$SERVER" --material "$OUT/materials/smooth.json" \
+  --lights examples/lights/rect_small.json --scene plane --size "$SIZE" --seed 1 \
+  --out "$OUT/smooth_rect.exr" >/dev/null  # its reference (statistics only)
+echo "rendered $OUT/rect_14.{exr,png}"
+
 python3 - "$OUT" "$FIGURE" "$NAMES" <<'EOF'
 import json, sys
 import numpy as np
@@ -111,12 +122,14 @@ def to_png(img, stops):  # linear -> sRGB, 8 bits
     x = np.clip(img * 2.0 ** stops, 0, 1)
     x = np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
     return Image.fromarray((x * 255 + 0.5).astype(np.uint8), "RGB")
-ref = read(f"{out}/smooth.exr").mean(axis=2)
-mask = ref > 0
+refs = {n: read(f"{out}/smooth.exr").mean(axis=2) for n in names}
+refs["rect_14"] = read(f"{out}/smooth_rect.exr").mean(axis=2)  # same light
 rows, images = [], {}
 for n in names:
     img = read(f"{out}/{n}.exr")
     y = img.mean(axis=2)
+    ref = refs[n]
+    mask = ref > 0
     m = json.load(open(f"{out}/materials/{n}.json"))
     c = m.get("chermain", {})
     rows.append(dict(name=n, alpha=m["alpha_x"], ld=c.get("log_density"), beta=c.get("relative_area"),
@@ -151,7 +164,8 @@ label = {"stone": "Table 1 stone: alpha 1, ln rho 20, beta 0.01",
          "carpaint": "Table 1 2CV paint: alpha 0.1, ln rho 23, beta 0.3, 4 colours",
          "sparkle_8": "alpha 0.15, ln rho 8", "sparkle_14": "alpha 0.15, ln rho 14",
          "sparkle_20": "alpha 0.15, ln rho 20", "smooth": "SMOOTH Beckmann alpha 0.15 (reference)",
-         "brushed": "Table 1 brushed alu.: alpha (0.5, 0.1), ln rho 20.6, uv 1000:1, gamma 8"}
+         "brushed": "Table 1 brushed alu.: alpha (0.5, 0.1), ln rho 20.6, uv 1000:1, gamma 8",
+         "rect_14": "alpha 0.15, ln rho 14 under a rect light (polygon approx.)"}
 for k, (n, r) in enumerate(zip(names, rows)):
     x0 = pad + (k % cols) * (w + pad)
     y0 = (k // cols) * (h + top + foot)
@@ -160,7 +174,7 @@ for k, (n, r) in enumerate(zip(names, rows)):
     draw.text((x0 + 4, y0 + top + h + 3), f"lit {100 * r['lit']:.1f}%, mean/smooth {r['ratio']:.2f}",
               fill=(190, 190, 190), font=font(13))
 draw.text((8, sheet.height - 22), "CHERMAIN, Beckmann, Schlick f0 (0.95, 0.93, 0.88) (paint: 1), zeta 2 (paint: 0.01), "
-          "max anisotropy 4-8, N = 192; sun E = 1; scene plane; brushed -1.8 stops",
+          "max anisotropy 4-8, N = 192; sun E = 1 (last: rect L = 150); scene plane; brushed -1.8 stops",
           fill=(190, 190, 190), font=font(13))
 sheet.save(figure)
 print(f"contact sheet: {figure}")

@@ -24,7 +24,7 @@ ModelBenchCase MakeChermainCase() {
     for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
   };
   for (float ld : {20.0f, 30.0f})
-    for (uint32_t dict : {16u, 64u, 192u})
+    for (uint32_t dict : {16u, 64u, 192u, 512u})
       for (float gamma : {4.0f, 8.0f, 16.0f}) {
         if (ld != 20.0f && dict != 192u) continue;
         char name[64];

@@ -1,7 +1,8 @@
 // The Chermain et al. 2020 model's entry in the model table (server/model.h):
 // its parameter block (glint.v1.ChermainParams), its table (the dictionary,
-// data/chermain/), what it needs of lights and queries, and one pass (one
-// query per work-item: the footprint's cell loops).
+// data/chermain/), what it needs of queries, and two passes (one query per
+// work-item: the footprint's cell loops): probes and directional/point lights,
+// then polygon lights.
 #include <sstream>
 
 #include "data/chermain/chermain_dictionary.h"
@@ -12,6 +13,7 @@
 
 GLINT_DECLARE_HOST_SAMPLE(ChermainSample)
 GLINT_DECLARE_HOST_PASS(Chermain)
+GLINT_DECLARE_HOST_PASS(ChermainPolygons)
 
 namespace glint {
 namespace {
@@ -46,9 +48,9 @@ Status ValidateChermainParams(const Material &m) {
     o << "material.chermain.max_anisotropy: " << c.max_anisotropy()
       << "; expected a ratio in [1, 16] (0 = 8)";
   } else if (!(c.dictionary_size() == 0 || c.dictionary_size() == 16 || c.dictionary_size() == 64 ||
-               c.dictionary_size() == 192)) {
+               c.dictionary_size() == 192 || c.dictionary_size() == 512)) {
     o << "material.chermain.dictionary_size: " << c.dictionary_size()
-      << "; expected 16, 64 or 192 (0 = 192)";
+      << "; expected 16, 64, 192 or 512 (0 = 192)";
   } else if (c.colors_size() % 3 != 0 || c.colors_size() > 3 * GLINT_CHERMAIN_MAX_COLORS) {
     o << "material.chermain.colors: " << c.colors_size()
       << " values; expected RGB triplets, at most " << GLINT_CHERMAIN_MAX_COLORS << " colours";
@@ -65,18 +67,13 @@ Status ValidateChermainParams(const Material &m) {
   return Status::InvalidArgument(o.str());
 }
 
-// The paper leaves area lights to future work (Sec. 7.6); no smooth stand-in is offered,
-// because it would shade polygons without glints and silently change the material.
-Status ValidateChermainLight(const Material &, const glint::v1::Light &light,
-                             const std::string &field) {
-  if (light.has_polygon()) {
-    return Status::InvalidArgument(
-        field +
-        ".polygon: the CHERMAIN model does not integrate polygon lights (Chermain et al. 2020 "
-        "leave area lights to future work); expected directional or point lights, or BRDF "
-        "probes");
-  }
-  return Status::Ok();
+bool HasProbesOrPunctualLights(const EvalPlan &plan) {
+  // Also when nothing else runs, so a batch always gets its output written.
+  return plan.spec.probe || plan.n_directional > 0 || plan.n_point > 0 || plan.n_polygon == 0;
+}
+
+bool HasPolygons(const EvalPlan &plan) {
+  return plan.n_polygon > 0;
 }
 
 Status ValidateChermainQueries(const glint::v1::EvaluateRequest &, const glint::v1::QueryBatch &q,
@@ -136,10 +133,13 @@ const Model kChermainModel = {
     .id = glint::v1::CHERMAIN,
     .name = "CHERMAIN",
     .params_field = "chermain",
-    .passes = {{"models/chermain/chermain.cl", "glint_chermain", 1, nullptr, ChermainF32,
-                ChermainF64}},
+    .passes = {{"models/chermain/chermain.cl", "glint_chermain", 1, HasProbesOrPunctualLights,
+                ChermainF32, ChermainF64},
+               // Polygon lights (beyond the paper): chermain_polygons.h states the approximation.
+               {"models/chermain/chermain_area.cl", "glint_chermain_area", 1, HasPolygons,
+                ChermainPolygonsF32, ChermainPolygonsF64}},
     .validate_params = ValidateChermainParams,
-    .validate_light = ValidateChermainLight,
+    .validate_light = nullptr,
     .validate_queries = ValidateChermainQueries,
     .table = ChermainTable,
     .pack_params = PackChermainParams,

@@ -26,7 +26,7 @@
 /* The marginals shipped in data/chermain/ (a dictionary of size N uses the
  * first N: every marginal has its own random stream, so a smaller dictionary
  * is a prefix of a larger one). */
-#define GLINT_CHERMAIN_MAX_DICTIONARY 192
+#define GLINT_CHERMAIN_MAX_DICTIONARY 512
 #define GLINT_CHERMAIN_TABLE_FLOATS \
   (GLINT_CHERMAIN_MAX_DICTIONARY * GLINT_CHERMAIN_LEVELS * GLINT_CHERMAIN_BINS)
 

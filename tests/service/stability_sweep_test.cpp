@@ -207,8 +207,8 @@ class RequestSampler {
       c->set_density_randomisation(float(x < 0.2 ? 0.0 : x < 0.3 ? 10.0 : U(0.0, 10.0)));
       x = U(0.0, 1.0);
       c->set_max_anisotropy(float(x < 0.2 ? 0.0 : x < 0.3 ? 1.0 : x < 0.4 ? 16.0 : U(1.0, 16.0)));
-      const uint32_t sizes[] = {0, 16, 64, 192};
-      c->set_dictionary_size(sizes[Int(0, 3)]);
+      const uint32_t sizes[] = {0, 16, 64, 192, 512};
+      c->set_dictionary_size(sizes[Int(0, 4)]);
       for (int i = 3 * Int(0, 8); i > 0; --i) c->add_colors(float(Chance(0.2) ? 0.0 : U(0.0, 1.0)));
     }
     if (model == v1::NORMAL_MAP) {  // ranges of models/normal_map/normal_map_model.cpp
@@ -325,7 +325,7 @@ class RequestSampler {
     int n_dir = device ? Int(1, 2) : Int(0, 2);
     int n_point = device ? Int(1, 2) : Int(0, 2);
     int n_poly = device ? Int(1, 2) : Int(0, 2);
-    if (model == v1::CHERMAIN || model == v1::NORMAL_MAP) {  // refused: no area lights
+    if (model == v1::NORMAL_MAP) {  // refused: no area lights
       n_poly = 0;
       if (n_dir + n_point == 0) n_dir = 1;
     }

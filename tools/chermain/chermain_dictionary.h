@@ -28,7 +28,7 @@ namespace glint::chermain {
 
 struct DictionaryConfig {
   uint64_t seed = 20200601;
-  int marginals = 192;  // N
+  int marginals = 512;  // N
 };
 
 // GLINT_CHERMAIN_LEVELS x GLINT_CHERMAIN_BINS floats of marginal `m`

@@ -1,7 +1,7 @@
 // Writes the Chermain et al. 2020 dictionary (tools/chermain/chermain_dictionary.h)
 // as a C array of exact hexadecimal float literals:
 //   glint_generate_chermain_dictionary --out data/chermain/chermain_dictionary.inc
-// Options: --marginals N (default 192), --seed S (default 20200601), --threads T.
+// Options: --marginals N (default 512), --seed S (default 20200601), --threads T.
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>

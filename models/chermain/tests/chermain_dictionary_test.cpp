@@ -60,7 +60,10 @@ TEST(ChermainDictionary, RegeneratingReproducesTheDataBitForBit) {
   const std::vector<float> regenerated = glint::chermain::GenerateDictionary(config, 2);
   ASSERT_EQ(regenerated.size(), glint::chermain_data::kFloats);
   EXPECT_EQ(std::memcmp(regenerated.data(), dictionary(), regenerated.size() * sizeof(float)), 0);
-  // A smaller dictionary is a prefix of a larger one (one stream per marginal).
+  // A smaller dictionary is a prefix of a larger one (one stream per marginal): the first 192
+  // marginals are the dictionary shipped before the 512 one (its digest, data/chermain/README.md).
+  EXPECT_EQ(glint::chermain::DictionaryDigest(dictionary(), size_t(192) * kLevels * kBins),
+            0x2163317ec204fa75ull);
   config.marginals = 16;
   const std::vector<float> small = glint::chermain::GenerateDictionary(config, 1);
   EXPECT_EQ(std::memcmp(small.data(), dictionary(), small.size() * sizeof(float)), 0);

@@ -47,7 +47,7 @@ class ChermainEngineTest : public ::testing::Test {
 };
 std::unique_ptr<DeviceEngine> ChermainEngineTest::engine_;
 
-EvaluateRequest Settings(bool lights, bool fp64, float log_density = 20.0f) {
+EvaluateRequest Settings(bool lights, bool fp64, float log_density = 20.0f, bool polygon = false) {
   EvaluateRequest r;
   auto *m = r.mutable_material();
   m->set_model(v1::CHERMAIN);
@@ -65,6 +65,12 @@ EvaluateRequest Settings(bool lights, bool fp64, float log_density = 20.0f) {
     auto *p = r.add_lights()->mutable_point();
     for (float v : {-1.0f, 0.5f, 3.0f}) p->add_position(v);
     for (float v : {5.0f, 5.0f, 4.0f}) p->add_intensity(v);
+  }
+  if (polygon) {  // a quad above the plane, counter-clockwise seen from below
+    auto *g = r.add_lights()->mutable_polygon();
+    for (float v : {-1.5f, -0.5f, 2.0f, -1.5f, 0.5f, 2.0f, -0.5f, 0.5f, 2.0f, -0.5f, -0.5f, 2.0f})
+      g->add_vertices(v);
+    for (float v : {2.0f, 2.0f, 1.5f}) g->add_radiance(v);
   }
   r.set_precision(fp64 ? v1::FP64 : v1::FP32);
   r.set_seed(0xabcdef12345ull);
@@ -134,15 +140,13 @@ TEST_F(ChermainEngineTest, ValidationNamesTheField) {
   EXPECT_NE(s.message().find("material.chermain.colors: 7 values"), std::string::npos)
       << s.message();
 
+  // Polygon lights are accepted (models/chermain/chermain_polygons.h).
   r = Settings(false, false);
   auto *poly = r.add_lights()->mutable_polygon();
   for (float v : {-1.0f, -1.0f, 2.0f, 1.0f, -1.0f, 2.0f, 0.0f, 1.0f, 2.0f}) poly->add_vertices(v);
   for (float v : {1.0f, 1.0f, 1.0f}) poly->add_radiance(v);
   s = ValidateSettings(r, {});
-  ASSERT_FALSE(s.ok());
-  EXPECT_NE(s.message().find("lights[0].polygon: the CHERMAIN model does not integrate"),
-            std::string::npos)
-      << s.message();
+  EXPECT_TRUE(s.ok()) << s.message();
 
   r = Settings(true, false);
   v1::QueryBatch q = Queries(4, false, 1);
@@ -159,9 +163,10 @@ TEST_F(ChermainEngineTest, ValidationNamesTheField) {
 // edge, or a rounded distribution level), so most queries agree to float noise and the rest
 // only in the mean (as for the binomial model in tests/service/engine_test.cpp).
 TEST_F(ChermainEngineTest, DeviceMatchesHostPath) {
-  for (bool probe : {false, true})
+  for (int kind : {0, 1, 2})  // lights, probes, lights with a polygon
     for (bool fp64 : {false, true}) {
-      EvaluateRequest settings = Settings(!probe, fp64);
+      const bool probe = kind == 1;
+      EvaluateRequest settings = Settings(!probe, fp64, 20.0f, kind == 2);
       v1::QueryBatch q = Queries(3000, probe, 23);
       ASSERT_TRUE(ValidateSettings(settings, {}).ok());
       ASSERT_TRUE(ValidateQueriesForModel(q, settings).ok());
@@ -186,7 +191,7 @@ TEST_F(ChermainEngineTest, DeviceMatchesHostPath) {
 // Bit-identical however the batch is split (random numbers depend on the seed and the cells,
 // never on the query's index), and a new seed is a new pattern.
 TEST_F(ChermainEngineTest, BitIdenticalUnderChunkingAndFollowsTheSeed) {
-  EvaluateRequest settings = Settings(true, false);
+  EvaluateRequest settings = Settings(true, false, 20.0f, true);  // with a polygon
   v1::QueryBatch q = Queries(1000, false, 31);
   EvalPlan plan = MakeEvalPlan(settings, q);
   auto whole = Device(plan, q);
@@ -266,7 +271,7 @@ TEST_F(ChermainEngineTest, FiniteAndNonNegativeAtTheExtremesOnTheDevice) {
 TEST_F(ChermainEngineTest, DictionarySizeChangesThePattern) {
   v1::QueryBatch q = Queries(1000, true, 5);
   std::vector<std::vector<float>> outs;
-  for (uint32_t n : {16u, 64u, 192u}) {
+  for (uint32_t n : {16u, 64u, 192u, 512u}) {
     EvaluateRequest settings = Settings(false, false);
     settings.mutable_material()->mutable_chermain()->set_dictionary_size(n);
     ASSERT_TRUE(ValidateSettings(settings, {}).ok());
@@ -279,6 +284,7 @@ TEST_F(ChermainEngineTest, DictionarySizeChangesThePattern) {
     EXPECT_GT(agree, int(host.size()) * 99 / 100) << n;
   }
   EXPECT_NE(0, std::memcmp(outs[0].data(), outs[2].data(), outs[0].size() * sizeof(float)));
+  EXPECT_NE(0, std::memcmp(outs[2].data(), outs[3].data(), outs[2].size() * sizeof(float)));
 }
 
 }  // namespace

@@ -42,6 +42,7 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -114,10 +115,19 @@ glint::v1::EvaluateRequest AsSmooth(const glint::v1::EvaluateRequest &request, c
   return s;
 }
 
+// The plan of `request` with the data its model takes from the request (Model::request_table:
+// NORMAL_MAP's uploaded map), as the service makes it.
+EvalPlan ResolvedPlan(const glint::v1::EvaluateRequest &request, const glint::v1::QueryBatch &q) {
+  EvalPlan plan = MakeEvalPlan(request, q);
+  if (Status s = ResolveRequestTable(request.material(), &plan); !s.ok())
+    throw std::runtime_error("request table: " + s.message());
+  return plan;
+}
+
 // Host evaluation of `request` on its first `n` queries, split over two threads (chunks of 64).
 std::vector<float> HostParallel(const glint::v1::EvaluateRequest &request, uint32_t n) {
   const glint::v1::QueryBatch q = Tile(request.queries(), n);
-  const EvalPlan plan = MakeEvalPlan(request, q);
+  const EvalPlan plan = ResolvedPlan(request, q);
   std::vector<float> out(3 * size_t(n));
   std::atomic<uint32_t> next{0};
   auto work = [&] {
@@ -193,7 +203,7 @@ bool Driver::Eval(const std::string &path, const glint::v1::EvaluateRequest &req
     if (!s.ok()) *why = "end_to_end: " + s.error_message();
     return s.ok();
   }
-  const EvalPlan plan = MakeEvalPlan(r, r.queries());
+  const EvalPlan plan = ResolvedPlan(r, r.queries());
   if (path == "host") {
     HostEvaluate(plan, r.queries(), out->data());
     return true;
@@ -222,7 +232,7 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
       if (!s.ok()) *why = "end_to_end: " + s.error_message(), ok = false;
       return ok;
     }
-    const EvalPlan plan = MakeEvalPlan(r, r.queries());
+    const EvalPlan plan = ResolvedPlan(r, r.queries());
     const auto t0 = Clock::now();
     if (path == "host") {
       HostEvaluate(plan, r.queries(), o.data());

@@ -238,6 +238,9 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const glint::v1:
   if (!model)
     return Status::Internal("no model with id " + std::to_string(plan.spec.model) +
                             " in the model table");
+  if (model->request_table && !plan.request_table)
+    return Status::Internal(std::string(model->name) +
+                            ": the plan has no request table (ResolveRequestTable not called)");
   const cl_uint n = q.count();
   if (n == 0) return Status::Ok();
 

@@ -9,7 +9,8 @@
 namespace glint {
 
 // Writes 3 * queries.count() floats. Uses double arithmetic when
-// plan.spec.fp64, float otherwise, like the device kernel.
+// plan.spec.fp64, float otherwise, like the device kernel. A model with a request table
+// (NORMAL_MAP) needs ResolveRequestTable on the plan first, as for the device engine.
 void HostEvaluate(const EvalPlan &plan, const glint::v1::QueryBatch &queries, float *out_rgb);
 
 // The model's sample pass (server/model.h ModelSampler): kSampleFloats per sample, sample k of

@@ -2,7 +2,6 @@
 // default kernels, reports SERVING, and shuts down cleanly on SIGINT/SIGTERM.
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
-#include <grpcpp/health_check_service_interface.h>
 
 #include <csignal>
 #include <cstdio>
@@ -10,7 +9,9 @@
 #include <fstream>
 #include <iostream>
 #include <string>
+#include <thread>
 
+#include "server/health_service.h"
 #include "server/model_table.h"
 #include "server/service.h"
 
@@ -27,6 +28,10 @@ struct Flags {
   int max_message_mb = 64;
   bool quiet = false;
   bool list_devices = false;
+  double max_request_cost = glint::CostLimits().max_request_cost;
+  double max_query_cost = glint::CostLimits().max_query_cost;
+  double slice_ms = 50;
+  double shutdown_grace = 10;
 };
 
 const char kUsage[] =
@@ -43,6 +48,19 @@ const char kUsage[] =
     "  --max-pending N      queued+running requests before RESOURCE_EXHAUSTED (default 16)\n"
     "  --max-message-mb N   gRPC message size limit, both directions (default 64)\n"
     "  --port-file PATH     write the bound port here once SERVING\n"
+    "  --max-request-cost X refuse (RESOURCE_EXHAUSTED) a request or stream chunk whose cost\n"
+    "                       exceeds X smooth-BRDF evaluations: queries x lights x method cost x\n"
+    "                       model factor (default 1e11, ~20 min of the 2-core CPU device)\n"
+    "  --max-query-cost X   refuse a request one query of which costs more than X (default 5e7,\n"
+    "                       ~1 s of one core: the longest cancellation can wait for a slice)\n"
+    "  --slice-ms MS        evaluate in query slices of about MS ms; cancellation, deadlines\n"
+    "                       and shutdown act between slices (default 50)\n"
+    "  --shutdown-grace S   on SIGTERM/SIGINT: health NOT_SERVING, new work UNAVAILABLE, work in\n"
+    "                       flight may finish for S seconds, then is cancelled at its next\n"
+    "                       slice; exit 0 (default 10)\n"
+    "memory: about idle RSS + max-pending x 2 x max-message-mb (a request's parsed body and its\n"
+    "  serialised reply) + the bodies gRPC is still receiving (bounded per connection by\n"
+    "  HTTP/2 flow control, not by these flags); see README 'Limits, cancellation and shutdown'\n"
     "  --list-devices       print the OpenCL devices and exit\n"
     "  --quiet              no per-request log lines\n";
 
@@ -63,6 +81,16 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
         std::exit(2);
       }
       return argv[++i];
+    };
+    auto real = [&](const char *name, double lo, double hi) -> double {
+      const char *v = value(name);
+      char *end = nullptr;
+      double x = std::strtod(v, &end);
+      if (*v == '\0' || *end != '\0' || !(x >= lo && x <= hi)) {
+        std::fprintf(stderr, "glintd: %s %s: expected a number in [%g, %g]\n", name, v, lo, hi);
+        std::exit(2);
+      }
+      return x;
     };
     auto number = [&](const char *name, long lo, long hi) -> long {
       const char *v = value(name);
@@ -90,6 +118,14 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->max_pending = int(number("--max-pending", 1, 1 << 16));
     else if (a == "--max-message-mb")
       f->max_message_mb = int(number("--max-message-mb", 1, 1024));
+    else if (a == "--max-request-cost")
+      f->max_request_cost = real("--max-request-cost", 1, 1e30);
+    else if (a == "--max-query-cost")
+      f->max_query_cost = real("--max-query-cost", 1, 1e30);
+    else if (a == "--slice-ms")
+      f->slice_ms = real("--slice-ms", 1, 60000);
+    else if (a == "--shutdown-grace")
+      f->shutdown_grace = real("--shutdown-grace", 0, 3600);
     else if (a == "--list-devices")
       f->list_devices = true;
     else if (a == "--quiet")
@@ -144,6 +180,9 @@ int main(int argc, char **argv) {
   options.limits.max_batch = flags.max_batch;
   options.max_message_bytes = uint64_t(flags.max_message_mb) << 20;
   options.log_requests = !flags.quiet;
+  options.cost.max_request_cost = flags.max_request_cost;
+  options.cost.max_query_cost = flags.max_query_cost;
+  options.slice_ms = flags.slice_ms;
   if (flags.device != "host") {
     glint::DeviceEngineOptions eo;
     eo.device = flags.device;
@@ -159,7 +198,8 @@ int main(int argc, char **argv) {
   glint::Scheduler scheduler(flags.workers, size_t(flags.max_pending));
   glint::GlintServiceImpl service(engine.get(), &scheduler, options);
 
-  grpc::EnableDefaultHealthCheckService(true);
+  // Our own health service (server/health_service.h): NOT_SERVING from the first check on.
+  glint::HealthService health({glint::v1::GlintService::service_full_name()});
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
@@ -167,13 +207,12 @@ int main(int argc, char **argv) {
   builder.SetMaxReceiveMessageSize(flags.max_message_mb << 20);
   builder.SetMaxSendMessageSize(flags.max_message_mb << 20);
   builder.RegisterService(&service);
+  builder.RegisterService(&health);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {
     std::fprintf(stderr, "glintd: could not listen on %s\n", flags.listen.c_str());
     return 1;
   }
-  server->GetHealthCheckService()->SetServingStatus(false);
-
   if (engine) {
     const auto t0 = std::chrono::steady_clock::now();
     for (const auto &spec : WarmSpecs()) {
@@ -196,7 +235,7 @@ int main(int argc, char **argv) {
     std::fprintf(stderr, "glintd: device host (scalar C++ path, no OpenCL)\n");
   }
 
-  server->GetHealthCheckService()->SetServingStatus(true);
+  health.SetServing(true);
   std::string host = flags.listen.substr(0, flags.listen.rfind(':'));
   std::fprintf(stderr, "glintd: SERVING on %s:%d\n", host.c_str(), port);
   if (!flags.port_file.empty()) {
@@ -207,8 +246,30 @@ int main(int argc, char **argv) {
 
   int sig = 0;
   sigwait(&stop_signals, &sig);
-  std::fprintf(stderr, "glintd: signal %d, shutting down\n", sig);
-  server->GetHealthCheckService()->SetServingStatus(false);
-  server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
+  // Graceful shutdown: load balancers see NOT_SERVING, new work is refused with UNAVAILABLE,
+  // work in flight may finish within --shutdown-grace and is then cancelled at its next slice
+  // boundary (at most one slice, bounded by --max-query-cost); then the RPCs still open (idle
+  // streams) get a second to end before gRPC cancels them.
+  using SteadyClock = std::chrono::steady_clock;
+  const auto t0 = SteadyClock::now();
+  const auto since = [&] { return std::chrono::duration<double>(SteadyClock::now() - t0).count(); };
+  std::fprintf(stderr,
+               "glintd: signal %d, shutting down: NOT_SERVING, %zu requests in flight, grace "
+               "%.3g s\n",
+               sig, scheduler.pending(), flags.shutdown_grace);
+  health.SetServing(false);
+  service.BeginShutdown();
+  const auto grace_end = t0 + std::chrono::duration_cast<SteadyClock::duration>(
+                                  std::chrono::duration<double>(flags.shutdown_grace));
+  while (scheduler.pending() > 0 && SteadyClock::now() < grace_end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  if (scheduler.pending() > 0) {
+    std::fprintf(stderr, "glintd: grace over after %.2f s, cancelling %zu requests in flight\n",
+                 since(), scheduler.pending());
+    service.CancelInFlight();
+    while (scheduler.pending() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(1));
+  std::fprintf(stderr, "glintd: stopped after %.2f s\n", since());
   return 0;
 }

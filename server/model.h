@@ -65,6 +65,10 @@ struct Model {
   void (*example)(glint::v1::Material *m, glint::v1::QueryBatch *one_query) = nullptr;
   // Kernel variants compiled and run before the server reports SERVING.
   std::vector<KernelSpec> (*warm_specs)() = nullptr;
+
+  // Admission cost (server/request_cost.h): how many smooth BRDF evaluations one evaluation of
+  // this model with material `m` costs (>= 1; nullptr: 1, the smooth model).
+  double (*cost_factor)(const glint::v1::Material &m) = nullptr;
 };
 
 }  // namespace glint

@@ -9,7 +9,16 @@ namespace glint {
 
 class Status {
  public:
-  enum class Code { kOk, kInvalidArgument, kResourceExhausted, kFailedPrecondition, kInternal };
+  enum class Code {
+    kOk,
+    kInvalidArgument,
+    kResourceExhausted,
+    kFailedPrecondition,
+    kInternal,
+    kCancelled,         // the client cancelled the call
+    kDeadlineExceeded,  // the call's deadline passed before its work finished
+    kUnavailable,       // the server is shutting down
+  };
 
   Status() = default;
   static Status Ok() { return Status(); }
@@ -23,6 +32,11 @@ class Status {
     return Status(Code::kFailedPrecondition, std::move(m));
   }
   static Status Internal(std::string m) { return Status(Code::kInternal, std::move(m)); }
+  static Status Cancelled(std::string m) { return Status(Code::kCancelled, std::move(m)); }
+  static Status DeadlineExceeded(std::string m) {
+    return Status(Code::kDeadlineExceeded, std::move(m));
+  }
+  static Status Unavailable(std::string m) { return Status(Code::kUnavailable, std::move(m)); }
 
   bool ok() const { return code_ == Code::kOk; }
   Code code() const { return code_; }

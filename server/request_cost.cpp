@@ -8,15 +8,24 @@
 namespace glint {
 namespace {
 
-// Units per polygon light for the closed-form methods, per vertex (each edge is one
-// integral); from bench/bench_request_cost.cpp on PoCL's CPU device (ns per query over ns per
-// probe query, divided by the vertex count; see the bench's header for the table).
-constexpr double kLtcPerVertex = 4.0;
-constexpr double kLecocqPerVertex = 6.0;
-// A point or directional light, or a probe: one BRDF evaluation.
+// The unit is one BRDF evaluation inside REFERENCE's quadrature loop, ~50 ns on the 2-core PoCL
+// device under load (bench/bench_request_cost.cpp: 45-69 ns per node). The other weights are
+// that run's time per query over 50 ns, rounded up:
+// LTC: ~1.0 us per quad, ~3.1 us per 16-gon: ~5 units per vertex.
+constexpr double kLtcPerVertex = 5.0;
+// Lecocq's adaptive peak fit: ~90 us (quad) to ~112 us (16-gon) per polygon; with the Pearson
+// term ~119 to ~147 us.
+constexpr double kLecocqBase = 1600.0, kLecocqPerVertex = 40.0;
+constexpr double kLecocqPearsonBase = 2200.0, kLecocqPearsonPerVertex = 50.0;
+// MONTE_CARLO: ~560 ns per sample (MIS: a light sample and a lobe sample, each a BRDF
+// evaluation plus sampling).
+constexpr double kMonteCarloPerSample = 11.0;
+// A point or directional light, or a probe: one BRDF evaluation (SIMD code: an over-estimate).
 constexpr double kPunctual = 1.0;
 // Per-query overhead (loads, frame, store), in units.
 constexpr double kPerQuery = 1.0;
+// The most a model's factor multiplies a polygon light by (see EstimateRequestCost).
+constexpr double kPolygonFactor = 8.0;
 
 std::string Format(double x) {
   char buf[32];
@@ -40,12 +49,12 @@ RequestCost EstimateRequestCost(const glint::v1::EvaluateRequest &settings, uint
   const glint::v1::AreaMethod method = settings.area_method() == glint::v1::AREA_METHOD_UNSPECIFIED
                                            ? glint::v1::LTC
                                            : settings.area_method();
-  double lights = 0;
+  double punctual_cost = 0, polygon_cost = 0;
   int punctual = 0, polygons = 0, max_vertices = 0;
   for (const glint::v1::Light &light : settings.lights()) {
     if (!light.has_polygon()) {
       ++punctual;
-      lights += kPunctual;
+      punctual_cost += kPunctual;
       continue;
     }
     ++polygons;
@@ -53,25 +62,31 @@ RequestCost EstimateRequestCost(const glint::v1::EvaluateRequest &settings, uint
     max_vertices = std::max(max_vertices, v);
     switch (method) {
       case glint::v1::REFERENCE:
-        lights += ReferenceCost(v, samples);
+        polygon_cost += ReferenceCost(v, samples);
         break;
       case glint::v1::MONTE_CARLO:
-        lights += 2.0 * double(samples);  // MIS: a light sample and a lobe sample each
+        polygon_cost += kMonteCarloPerSample * double(samples);
         break;
       case glint::v1::LECOCQ:
+        polygon_cost += kLecocqBase + kLecocqPerVertex * v;
+        break;
       case glint::v1::LECOCQ_PEARSON:
-        lights += kLecocqPerVertex * v;
+        polygon_cost += kLecocqPearsonBase + kLecocqPearsonPerVertex * v;
         break;
       default:
-        lights += kLtcPerVertex * v;
+        polygon_cost += kLtcPerVertex * v;
         break;
     }
   }
-  if (settings.lights_size() == 0) lights = kPunctual;  // a BRDF probe
+  if (settings.lights_size() == 0) punctual_cost = kPunctual;  // a BRDF probe
   const Model *model = FindModel(settings.material().model());
   const double factor =
       model && model->cost_factor ? std::max(1.0, model->cost_factor(settings.material())) : 1.0;
-  c.per_query = (kPerQuery + lights) * factor;
+  // The model's factor multiplies its own per-light work (a probe, point and directional
+  // lights); a polygon light is the smooth area integral plus that work once, measured at 6-7x
+  // the smooth LTC cost for BINOMIAL and KEMPPINEN, so polygons take at most kPolygonFactor.
+  c.per_query =
+      kPerQuery + factor * punctual_cost + std::min(factor, kPolygonFactor) * polygon_cost;
   c.total = c.per_query * double(query_count);
 
   std::string parts;

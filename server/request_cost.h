@@ -28,14 +28,17 @@ struct RequestCost {
 };
 
 struct CostLimits {
-  // 1e11 units: ~20 min of the 2-core PoCL device (about 45e6 units/s per core measured): a 4K
-  // (8.3M query) preview in several chunks under 64 point lights, or 1M queries of a softbox by
-  // REFERENCE at the default 64 nodes (8.6e9), pass; the 1M queries x 64 sixteen-vertex
-  // polygons x REFERENCE 1024 (9e17) does not.
+  // 1e11 units: ~1.4 h of the 2-core PoCL device under load (~50 ns per unit): a bound on
+  // runaway work, not a quota. Admits every example material x light list as a 512x512 preview
+  // by LTC, LECOCQ or REFERENCE at the default 64 nodes and at 1M queries by LTC, and 1M probes
+  // (2e6); refuses the 1M queries x 64 sixteen-vertex polygons x REFERENCE 1024 nodes
+  // (1e15).
   double max_request_cost = 1e11;
-  // 5e7 units: about 1 s of one core. A query cannot be split, so this bounds how long
-  // cancellation, deadlines and shutdown can wait for the slice in progress.
-  double max_query_cost = 5e7;
+  // 1e7 units: ~0.5 s of the device, ~1 s of one core (a single query runs on one). A query
+  // cannot be split, so this bounds how long cancellation, deadlines and shutdown wait for the
+  // slice in progress. Admits 64 sixteen-vertex polygons by REFERENCE at the default 64 nodes
+  // (3.9e6) or a quad at 1024 nodes (3.1e6); refuses 64 sixteen-vertex polygons at 1024 (1e9).
+  double max_query_cost = 1e7;
 };
 
 // The cost of evaluating `query_count` queries with `settings` (a request that passed

@@ -56,7 +56,9 @@ Status EvaluateSliced(DeviceEngine *engine, int worker, const EvalPlan &plan,
       if (!s.ok()) return s;
     }
     const double want = std::floor(rate * options.target_ms);
-    const uint32_t size = uint32_t(std::clamp(want, 1.0, double(n - begin)));
+    double cap = double(n - begin);
+    if (options.max_slice_queries) cap = std::min(cap, double(options.max_slice_queries));
+    const uint32_t size = uint32_t(std::clamp(want, 1.0, cap));
     const auto t0 = Clock::now();
     Status s;
     if (begin == 0 && size == n) {

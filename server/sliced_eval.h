@@ -23,10 +23,13 @@ namespace glint {
 
 struct SliceOptions {
   double per_query_cost = 1;  // RequestCost::per_query
-  // Cost units the device evaluates per ms (all compute units, one request at a time); from
-  // bench/bench_request_cost.cpp on the 2-core PoCL CPU device.
-  double units_per_ms = 60e3;
+  // Cost units the device evaluates per ms (all compute units, one request at a time): ~50 ns
+  // per unit in bench/bench_request_cost.cpp on the loaded 2-core PoCL CPU device. Only sizes
+  // the first slice; later ones use the measured rate.
+  double units_per_ms = 20e3;
   double target_ms = 50;
+  // At most this many queries per slice (0: no cap). Tests force many small slices with it.
+  uint32_t max_slice_queries = 0;
   // Returns OK to go on, or the status the call ends with (CANCELLED, DEADLINE_EXCEEDED,
   // UNAVAILABLE). Empty: never stop.
   std::function<Status()> stop;

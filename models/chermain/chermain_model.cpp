@@ -2,6 +2,7 @@
 // its parameter block (glint.v1.ChermainParams), its table (the dictionary,
 // data/chermain/), what it needs of lights and queries, and one pass (one
 // query per work-item: the footprint's cell loops).
+#include <algorithm>
 #include <sstream>
 
 #include "data/chermain/chermain_dictionary.h"
@@ -131,6 +132,16 @@ std::vector<KernelSpec> ChermainWarmSpecs() {
 }  // namespace
 
 extern const Model kChermainModel;
+// Admission cost per evaluation relative to the smooth model (server/request_cost.h): the cells
+// of the footprint visited per light grow with the maximum anisotropy gamma (Sec. 5.3: at most
+// 4 pi gamma + 4 sqrt(gamma) + 5 per level); bench_request_cost measured ~430 units per light at
+// the default gamma 8 (107 us per query for 4 point lights, PoCL CPU).
+double ChermainCostFactor(const glint::v1::Material &m) {
+  const float gamma = m.chermain().max_anisotropy() > 0.0f ? m.chermain().max_anisotropy()
+                                                           : GLINT_CHERMAIN_DEFAULT_MAX_ANISOTROPY;
+  return 430.0 * std::max(1.0, double(gamma) / 8.0);
+}
+
 const Model kChermainModel = {
     .id = glint::v1::CHERMAIN,
     .name = "CHERMAIN",
@@ -144,6 +155,7 @@ const Model kChermainModel = {
     .pack_params = PackChermainParams,
     .example = ChermainExample,
     .warm_specs = ChermainWarmSpecs,
+    .cost_factor = ChermainCostFactor,
 };
 
 }  // namespace glint

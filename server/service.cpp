@@ -178,7 +178,10 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   const glint::v1::EvaluateRequest *request = &reactor->request;
   glint::v1::EvaluateResponse *response = &reactor->response;
   const auto received = Clock::now();
-  Status s = ParseBody(body, &reactor->request, "request");
+  // Full already: refused before the body is parsed (no second copy of it in memory).
+  Status s = scheduler_->pending() >= scheduler_->max_pending() ? OverloadStatus(*scheduler_)
+                                                                : Status::Ok();
+  if (s.ok()) s = ParseBody(body, &reactor->request, "request");
   if (s.ok()) s = ValidateSettings(*request, options_.limits);
   if (s.ok()) s = Admit(*request, request->queries().count());
   if (!s.ok()) {

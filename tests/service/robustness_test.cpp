@@ -467,8 +467,8 @@ TEST(Shutdown, SigtermDrainsWithinTheGraceBoundAndExitsZero) {
   const bool exited = server->WaitExit(std::chrono::seconds(10), &status);
   const double took = SecondsSince(signalled);
   long_call.join();
-  std::printf("SIGTERM with a long request in flight: exited %s after %.2f s; long request: %s\n",
-              exited ? "" : "(not)", took, long_status.error_message().c_str());
+  std::printf("SIGTERM with a long request in flight: exited %safter %.2f s; long request: %s\n",
+              exited ? "" : "(not) ", took, long_status.error_message().c_str());
   ASSERT_TRUE(exited) << "glintd still running 10 s after SIGTERM";
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "wait status " << status;
   EXPECT_LT(took, 1.0 + 2.0 + 1.0);

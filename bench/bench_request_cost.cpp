@@ -18,6 +18,7 @@
 #include "server/eval_plan.h"
 #include "server/model_table.h"
 #include "server/request_cost.h"
+#include "server/validation.h"
 #include "test_queries.h"
 
 namespace {
@@ -131,6 +132,12 @@ int main(int argc, char **argv) {
   }
   std::vector<double> ns_per_unit;
   for (Shape &shape : Shapes()) {
+    if (glint::Status v = glint::ValidateSettings(shape.request, glint::ValidationLimits());
+        !v.ok()) {  // e.g. CHERMAIN refuses polygon lights
+      if (!json)
+        std::printf("| %s | refused: %s | | | | |\n", shape.name.c_str(), v.message().c_str());
+      continue;
+    }
     const glint::RequestCost unit = glint::EstimateRequestCost(shape.request, 1);
     // Timed on 256 queries first, then on as many as take about 200 ms (at most 1M).
     const bool probe = shape.request.lights_size() == 0;

@@ -4,7 +4,8 @@
 // deadline passed while it waited in the queue never starts). The first slice is sized from the
 // admission cost estimate (server/request_cost.h) and the device's calibrated rate; later ones
 // from the rate the earlier slices actually ran at, so a loaded machine or a cost estimate that
-// is off by a constant still gives slices of about target_ms.
+// is off by a constant still gives slices of about target_ms. A request estimated at no more
+// than 4 slices runs as one (no copy).
 //
 // Results are bit-identical to one unsliced call: every kernel evaluates each query on its own
 // from its own inputs (DESIGN.md "Determinism": no query index, batch or work-item enters the

@@ -14,6 +14,7 @@ PACKAGES=(
   openssl             # tests: certificates for TLS / mutual TLS made at test time
   libboost-math1.74-dev  # chi-square quantiles of the sampling tests (tests/service/sample_test.cpp)
   libssl-dev
+  clang-14 libclang-rt-14-dev
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

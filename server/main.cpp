@@ -2,7 +2,7 @@
 // default kernels, reports SERVING, and shuts down cleanly on SIGINT/SIGTERM.
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
-#include <grpcpp/health_check_service_interface.h>
+#include <malloc.h>
 
 #include <csignal>
 #include <cstdio>
@@ -10,7 +10,9 @@
 #include <fstream>
 #include <iostream>
 #include <string>
+#include <thread>
 
+#include "server/health_service.h"
 #include "server/kserve_service.h"
 #include "server/model_table.h"
 #include "server/normal_map_store.h"
@@ -35,6 +37,10 @@ struct Flags {
   glint::OpsFlags ops;                  // metrics, TLS, tokens (server/ops.h)
   int normal_map_budget_mb = 1024;
   int normal_map_max_upload_mb = 256;
+  double max_request_cost = glint::CostLimits().max_request_cost;
+  double max_query_cost = glint::CostLimits().max_query_cost;
+  double slice_ms = 50;
+  double shutdown_grace = 10;
 };
 
 const char kUsage[] =
@@ -55,11 +61,27 @@ const char kUsage[] =
     "                       serve a material preset as model NAME over the Open Inference\n"
     "                       Protocol (inference.GRPCInferenceService); repeatable\n"
     "  --model-dir DIR      serve every DIR/NAME.json preset (material + optional \"lights\")\n"
-    "  --list-devices       print the OpenCL devices and exit\n"
-    "  --quiet              no per-request log lines\n"
     "  --normal-map-budget-mb N    memory for uploaded normal maps; least recently used maps\n"
     "                       are evicted beyond it (default 1024)\n"
-    "  --normal-map-max-upload-mb N  largest normal-map file accepted (default 256)\n";
+    "  --normal-map-max-upload-mb N  largest normal-map file accepted (default 256)\n"
+    "  --max-request-cost X refuse (RESOURCE_EXHAUSTED) a request or stream chunk whose cost\n"
+    "                       exceeds X smooth-BRDF evaluations: queries x lights x method cost x\n"
+    "                       model factor (default 1e11, ~1.4 h of the 2-core CPU device)\n"
+    "  --max-query-cost X   refuse a request one query of which costs more than X (default 1e7,\n"
+    "                       ~1 s of one core: the longest cancellation can wait for a slice)\n"
+    "  --slice-ms MS        evaluate in query slices of about MS ms; cancellation, deadlines\n"
+    "                       and shutdown act between slices (default 50)\n"
+    "  --shutdown-grace S   on SIGTERM/SIGINT: health NOT_SERVING, new work UNAVAILABLE, work in\n"
+    "                       flight may finish for S seconds, then is cancelled at its next\n"
+    "                       slice; exit 0 (default 10)\n"
+    "  --list-devices       print the OpenCL devices and exit\n"
+    "  --quiet              no per-request log lines\n"
+    "memory: peak RSS <= idle RSS + 3 x M x (max-pending + calls being received), M the\n"
+    "  largest request (<= max-message-mb): an admitted request holds its parsed body, its\n"
+    "  radiance and the serialised reply; a call being received holds its body (gRPC reads a\n"
+    "  whole unary body before any handler runs, so those are bounded by the clients, not by\n"
+    "  these flags); a full server refuses before parsing (README 'Limits, cancellation and\n"
+    "  shutdown')\n";
 
 std::string DefaultCacheDir() {
   if (const char *d = std::getenv("GLINT_CACHE_DIR")) return d;
@@ -78,6 +100,16 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
         std::exit(2);
       }
       return argv[++i];
+    };
+    auto real = [&](const char *name, double lo, double hi) -> double {
+      const char *v = value(name);
+      char *end = nullptr;
+      double x = std::strtod(v, &end);
+      if (*v == '\0' || *end != '\0' || !(x >= lo && x <= hi)) {
+        std::fprintf(stderr, "glintd: %s %s: expected a number in [%g, %g]\n", name, v, lo, hi);
+        std::exit(2);
+      }
+      return x;
     };
     auto number = [&](const char *name, long lo, long hi) -> long {
       const char *v = value(name);
@@ -113,6 +145,14 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->normal_map_budget_mb = int(number("--normal-map-budget-mb", 1, 1 << 20));
     else if (a == "--normal-map-max-upload-mb")
       f->normal_map_max_upload_mb = int(number("--normal-map-max-upload-mb", 1, 1 << 16));
+    else if (a == "--max-request-cost")
+      f->max_request_cost = real("--max-request-cost", 1, 1e30);
+    else if (a == "--max-query-cost")
+      f->max_query_cost = real("--max-query-cost", 1, 1e30);
+    else if (a == "--slice-ms")
+      f->slice_ms = real("--slice-ms", 1, 60000);
+    else if (a == "--shutdown-grace")
+      f->shutdown_grace = real("--shutdown-grace", 0, 3600);
     else if (a == "--list-devices")
       f->list_devices = true;
     else if (a == "--quiet")
@@ -143,6 +183,12 @@ std::vector<glint::KernelSpec> WarmSpecs() {
 }  // namespace
 
 int main(int argc, char **argv) {
+  // Request bodies, parsed arrays and replies are megabytes each: served from mmap and returned
+  // to the system when freed. glibc's default threshold rises to the largest block freed (up to
+  // 32 MiB), after which such blocks come from the heaps of gRPC's many threads and stay
+  // resident. With this and refusing a full server's requests before parsing them, the peak RSS
+  // growth of the memory test's overload (robustness_test Memory.*) fell from 347 to 227 MB.
+  mallopt(M_MMAP_THRESHOLD, 1 << 20);
   Flags flags;
   if (!ParseFlags(argc, argv, &flags)) return 2;
   if (flags.list_devices) {
@@ -175,6 +221,9 @@ int main(int argc, char **argv) {
     nm.max_upload_bytes = uint64_t(flags.normal_map_max_upload_mb) << 20;
     glint::NormalMaps().Configure(nm);
   }
+  options.cost.max_request_cost = flags.max_request_cost;
+  options.cost.max_query_cost = flags.max_query_cost;
+  options.slice_ms = flags.slice_ms;
   if (flags.device != "host") {
     glint::DeviceEngineOptions eo;
     eo.device = flags.device;
@@ -205,7 +254,8 @@ int main(int argc, char **argv) {
   }
   glint::KServeServiceImpl kserve(&service, std::move(kserve_models));
 
-  grpc::EnableDefaultHealthCheckService(true);
+  // Our own health service (server/health_service.h): NOT_SERVING from the first check on.
+  glint::HealthService health({glint::v1::GlintService::service_full_name()});
   // Reflection is gRPC's own service, which the token check cannot guard: off with tokens.
   if (!ops.auth()) grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
@@ -216,13 +266,13 @@ int main(int argc, char **argv) {
   builder.SetMaxSendMessageSize(flags.max_message_mb << 20);
   builder.RegisterService(&service);
   builder.RegisterService(&kserve);
+  builder.RegisterService(&health);
   ops.Configure(&builder, &scheduler, engine.get());
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {
     std::fprintf(stderr, "glintd: could not listen on %s\n", flags.listen.c_str());
     return 1;
   }
-  server->GetHealthCheckService()->SetServingStatus(false);
   if (std::string error; !ops.Start(&error)) {
     std::fprintf(stderr, "glintd: %s\n", error.c_str());
     server->Shutdown();
@@ -256,7 +306,7 @@ int main(int argc, char **argv) {
     std::fprintf(stderr, "glintd: device host (scalar C++ path, no OpenCL)\n");
   }
 
-  server->GetHealthCheckService()->SetServingStatus(true);
+  health.SetServing(true);
   kserve.SetReady(true);
   std::string host = flags.listen.substr(0, flags.listen.rfind(':'));
   std::fprintf(stderr, "glintd: SERVING on %s:%d\n", host.c_str(), port);
@@ -268,9 +318,31 @@ int main(int argc, char **argv) {
 
   int sig = 0;
   sigwait(&stop_signals, &sig);
-  std::fprintf(stderr, "glintd: signal %d, shutting down\n", sig);
-  server->GetHealthCheckService()->SetServingStatus(false);
+  // Graceful shutdown: load balancers see NOT_SERVING, new work is refused with UNAVAILABLE,
+  // work in flight may finish within --shutdown-grace and is then cancelled at its next slice
+  // boundary (at most one slice, bounded by --max-query-cost); then the RPCs still open (idle
+  // streams) get a second to end before gRPC cancels them.
+  using SteadyClock = std::chrono::steady_clock;
+  const auto t0 = SteadyClock::now();
+  const auto since = [&] { return std::chrono::duration<double>(SteadyClock::now() - t0).count(); };
+  std::fprintf(stderr,
+               "glintd: signal %d, shutting down: NOT_SERVING, %zu requests in flight, grace "
+               "%.3g s\n",
+               sig, scheduler.pending(), flags.shutdown_grace);
+  health.SetServing(false);
   kserve.SetReady(false);
-  server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
+  service.BeginShutdown();
+  const auto grace_end = t0 + std::chrono::duration_cast<SteadyClock::duration>(
+                                  std::chrono::duration<double>(flags.shutdown_grace));
+  while (scheduler.pending() > 0 && SteadyClock::now() < grace_end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  if (scheduler.pending() > 0) {
+    std::fprintf(stderr, "glintd: grace over after %.2f s, cancelling %zu requests in flight\n",
+                 since(), scheduler.pending());
+    service.CancelInFlight();
+    while (scheduler.pending() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(1));
+  std::fprintf(stderr, "glintd: stopped after %.2f s\n", since());
   return 0;
 }

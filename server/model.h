@@ -93,6 +93,9 @@ struct Model {
   Status (*request_table)(const glint::v1::Material &m,
                           std::shared_ptr<const std::vector<float>> *table,
                           std::string *key) = nullptr;
+  // Admission cost (server/request_cost.h): how many smooth BRDF evaluations one evaluation of
+  // this model with material `m` costs (>= 1; nullptr: 1, the smooth model).
+  double (*cost_factor)(const glint::v1::Material &m) = nullptr;
 };
 
 }  // namespace glint

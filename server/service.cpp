@@ -1,13 +1,16 @@
 #include "server/service.h"
 
+#include <grpcpp/support/proto_buffer_reader.h>
+#include <grpcpp/support/proto_buffer_writer.h>
+
 #include <chrono>
 #include <cstdio>
 #include <sstream>
 
 #include "server/eval_plan.h"
-#include "server/host_path.h"
 #include "server/model_table.h"
 #include "server/normal_map_store.h"
+#include "server/sliced_eval.h"
 
 namespace glint {
 namespace {
@@ -23,6 +26,55 @@ const char *ModelName(const glint::v1::EvaluateRequest &r) {
              ? glint::v1::Model_Name(r.material().model()).c_str()
              : "?";
 }
+
+// Parses a raw request body. gRPC has already checked the frame (length prefix, size limit);
+// what fails here is the protobuf inside it: truncated, a wrong wire type, a length past the end.
+// The body buffer is released once parsed: only the parsed message stays in memory.
+Status ParseBody(const grpc::ByteBuffer *body, google::protobuf::Message *out,
+                 const std::string &what) {
+  auto *raw = const_cast<grpc::ByteBuffer *>(body);
+  const size_t bytes = raw->Length();
+  bool ok = false;
+  {
+    grpc::ProtoBufferReader reader(raw);
+    ok = out->ParseFromZeroCopyStream(&reader);
+  }
+  raw->Clear();
+  if (ok) return Status::Ok();
+  return Status::InvalidArgument(what + ": the " + std::to_string(bytes) +
+                                 "-byte body does not parse as a " + out->GetTypeName() +
+                                 " (truncated, or not this message); check that client and "
+                                 "server use the same proto/glint/v1/glint.proto");
+}
+
+// Serialises a response into the raw reply buffer.
+grpc::Status SerializeReply(const google::protobuf::Message &message, grpc::ByteBuffer *out) {
+  out->Clear();  // a stream reuses its reply buffer; the writer wants an empty one
+  bool own = false;
+  grpc::Status s = grpc::GenericSerialize<grpc::ProtoBufferWriter, google::protobuf::Message>(
+      message, out, &own);
+  return s;
+}
+
+// A unary call's reactor that owns its typed request and response (the methods are raw, see
+// service.h); Finish serialises the response into the reply buffer.
+template <class Request, class Response>
+class OwningUnaryReactor : public grpc::ServerUnaryReactor {
+ public:
+  explicit OwningUnaryReactor(grpc::ByteBuffer *reply) : reply_(reply) {}
+  Request request;
+  Response response;
+  void Finish(grpc::Status s) {
+    if (s.ok()) s = SerializeReply(response, reply_);
+    response.Clear();  // the serialised copy is what stays until the reply has left
+    request.Clear();
+    grpc::ServerUnaryReactor::Finish(s);
+  }
+  void OnDone() override { delete this; }
+
+ private:
+  grpc::ByteBuffer *reply_;
+};
 
 }  // namespace
 
@@ -40,6 +92,12 @@ grpc::Status ToGrpcStatus(const Status &s) {
       return grpc::Status(grpc::StatusCode::INTERNAL, s.message());
     case Status::Code::kNotFound:
       return grpc::Status(grpc::StatusCode::NOT_FOUND, s.message());
+    case Status::Code::kCancelled:
+      return grpc::Status(grpc::StatusCode::CANCELLED, s.message());
+    case Status::Code::kDeadlineExceeded:
+      return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, s.message());
+    case Status::Code::kUnavailable:
+      return grpc::Status(grpc::StatusCode::UNAVAILABLE, s.message());
   }
   return grpc::Status(grpc::StatusCode::UNKNOWN, s.message());
 }
@@ -70,10 +128,31 @@ void GlintServiceImpl::LogLine(const std::string &line) {
   std::fprintf(stderr, "glintd: %s\n", line.c_str());
 }
 
+Status GlintServiceImpl::Admit(const glint::v1::EvaluateRequest &settings,
+                               uint64_t query_count) const {
+  if (shutting_down_)
+    return Status::Unavailable(
+        "server shutting down: no new work accepted; send to another "
+        "replica");
+  return CheckRequestCost(EstimateRequestCost(settings, query_count), query_count, options_.cost);
+}
+
+Status GlintServiceImpl::StopReason(grpc::CallbackServerContext *ctx) const {
+  if (cancel_in_flight_)
+    return Status::Unavailable(
+        "server shutting down: work in flight cancelled after "
+        "--shutdown-grace; retry on another replica");
+  if (!ctx) return Status::Ok();
+  if (ctx->IsCancelled()) return Status::Cancelled("the client cancelled the call");
+  if (ctx->deadline() <= std::chrono::system_clock::now())
+    return Status::DeadlineExceeded("the call's deadline passed before its work finished");
+  return Status::Ok();
+}
+
 Status GlintServiceImpl::RunBatch(int worker, const glint::v1::EvaluateRequest &settings,
                                   const glint::v1::QueryBatch &queries, uint64_t first_query,
                                   bool streamed, glint::v1::EvaluateResponse *response,
-                                  std::string *kernel) {
+                                  std::string *kernel, grpc::CallbackServerContext *ctx) {
   Status s =
       ValidateQueries(queries, settings.lights_size() > 0, options_.limits, first_query, streamed);
   if (s.ok()) s = ValidateQueriesForModel(queries, settings, first_query);
@@ -86,11 +165,11 @@ Status GlintServiceImpl::RunBatch(int worker, const glint::v1::EvaluateRequest &
   response->set_count(queries.count());
   response->mutable_radiance()->Resize(int(queries.count()) * 3, 0.0f);
   float *out = response->mutable_radiance()->mutable_data();
-  if (engine_) {
-    s = engine_->Evaluate(worker, plan, queries, out);
-  } else {
-    HostEvaluate(plan, queries, out);
-  }
+  SliceOptions slicing;
+  slicing.per_query_cost = EstimateRequestCost(settings, 1).per_query;
+  slicing.target_ms = options_.slice_ms;
+  slicing.stop = [this, ctx] { return StopReason(ctx); };
+  s = EvaluateSliced(engine_, worker, plan, queries, out, slicing);
   response->mutable_stats()->set_compute_ms(MsSince(start));
   response->mutable_stats()->set_device(DeviceName());
   if (options_.metrics && s.ok())
@@ -100,36 +179,45 @@ Status GlintServiceImpl::RunBatch(int worker, const glint::v1::EvaluateRequest &
 }
 
 grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext *ctx,
-                                                     const glint::v1::EvaluateRequest *request,
-                                                     glint::v1::EvaluateResponse *response) {
-  grpc::ServerUnaryReactor *reactor = ctx->DefaultReactor();
+                                                     const grpc::ByteBuffer *body,
+                                                     grpc::ByteBuffer *reply) {
+  using Reactor = OwningUnaryReactor<glint::v1::EvaluateRequest, glint::v1::EvaluateResponse>;
+  auto *reactor = new Reactor(reply);
+  const glint::v1::EvaluateRequest *request = &reactor->request;
+  glint::v1::EvaluateResponse *response = &reactor->response;
   const auto received = Clock::now();
   if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
     reactor->Finish(denied);
     return reactor;
   }
-  Status s = ValidateSettings(*request, options_.limits);
+  // Full already: refused before the body is parsed (no second copy of it in memory).
+  Status s = scheduler_->pending() >= scheduler_->max_pending() ? OverloadStatus(*scheduler_)
+                                                                : Status::Ok();
+  if (s.ok()) s = ParseBody(body, &reactor->request, "request");
+  if (s.ok()) s = ValidateSettings(*request, options_.limits);
+  if (s.ok()) s = Admit(*request, request->queries().count());
   if (!s.ok()) {
     LogLine("Evaluate n=" + std::to_string(request->queries().count()) +
             " refused: " + s.message());
     reactor->Finish(ToGrpcStatus(s));
     return reactor;
   }
-  bool queued = scheduler_->TrySubmit([this, reactor, request, response, received](int worker) {
-    const double queue_ms = MsSince(received);
-    if (options_.metrics) options_.metrics->ObserveQueueWait(queue_ms / 1e3);
-    std::string kernel = "-";
-    Status st = RunBatch(worker, *request, request->queries(), 0, false, response, &kernel);
-    response->mutable_stats()->set_queue_ms(queue_ms);
-    std::ostringstream line;
-    line << "Evaluate n=" << request->queries().count() << " model=" << ModelName(*request)
-         << " kernel=" << kernel << " queue_ms=" << queue_ms
-         << " compute_ms=" << response->stats().compute_ms()
-         << (st.ok() ? " ok" : " refused: " + st.message());
-    LogLine(line.str());
-    if (!st.ok()) response->Clear();
-    return [reactor, st] { reactor->Finish(ToGrpcStatus(st)); };
-  });
+  bool queued =
+      scheduler_->TrySubmit([this, ctx, reactor, request, response, received](int worker) {
+        const double queue_ms = MsSince(received);
+        std::string kernel = "-";
+        Status st =
+            RunBatch(worker, *request, request->queries(), 0, false, response, &kernel, ctx);
+        response->mutable_stats()->set_queue_ms(queue_ms);
+        std::ostringstream line;
+        line << "Evaluate n=" << request->queries().count() << " model=" << ModelName(*request)
+             << " kernel=" << kernel << " queue_ms=" << queue_ms
+             << " compute_ms=" << response->stats().compute_ms()
+             << (st.ok() ? " ok" : " refused: " + st.message());
+        LogLine(line.str());
+        if (!st.ok()) response->Clear();
+        return [reactor, st] { reactor->Finish(ToGrpcStatus(st)); };
+      });
   if (!queued) {
     Status busy = OverloadStatus(*scheduler_);
     LogLine("Evaluate n=" + std::to_string(request->queries().count()) + " " + busy.message());
@@ -142,14 +230,26 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
 // next. Results therefore leave in chunk order, and the reactor is finished
 // only when nothing is outstanding, so `delete this` in OnDone is safe.
 class GlintServiceImpl::StreamReactor
-    : public grpc::ServerBidiReactor<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult> {
+    : public grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> {
  public:
-  explicit StreamReactor(GlintServiceImpl *service) : service_(service), start_(Clock::now()) {
-    StartRead(&chunk_);
+  StreamReactor(GlintServiceImpl *service, grpc::CallbackServerContext *ctx)
+      : service_(service), ctx_(ctx), start_(Clock::now()) {
+    // Refused before the first chunk's body is read where that is already known.
+    if (service_->shutting_down_) {
+      Fail(ToGrpcStatus(service_->Admit({}, 0)));
+      return;
+    }
+    StartRead(&raw_chunk_);
   }
 
   void OnReadDone(bool ok) override {
-    if (!ok) {  // the client half-closed (or cancelled): every chunk is answered
+    if (!ok) {
+      // No more chunks: the client half-closed (every chunk read has been answered, since one is
+      // read only after the previous one's result was written) or the call was cancelled.
+      if (ctx_->IsCancelled()) {
+        return Fail(grpc::Status(grpc::StatusCode::CANCELLED,
+                                 "chunk " + std::to_string(next_index_) + ": call cancelled"));
+      }
       std::ostringstream line;
       line << "EvaluateStream chunks=" << next_index_ << " n=" << next_query_
            << " total_ms=" << MsSince(start_) << " ok";
@@ -157,6 +257,8 @@ class GlintServiceImpl::StreamReactor
       Finish(grpc::Status::OK);
       return;
     }
+    if (Status s = ParseBody(&raw_chunk_, &chunk_, "chunk " + std::to_string(next_index_)); !s.ok())
+      return Fail(ToGrpcStatus(s));
     if (chunk_.chunk_index() != next_index_) {
       return Fail(ToGrpcStatus(
           Status::InvalidArgument("chunk_index: got " + std::to_string(chunk_.chunk_index()) +
@@ -169,7 +271,11 @@ class GlintServiceImpl::StreamReactor
       settings_.clear_queries();
       Status s = ValidateSettings(settings_, service_->options().limits);
       if (!s.ok()) return Fail(ChunkStatus(next_index_, s));
+    } else if (Status s = ValidateLaterChunkSettings(chunk_.request()); !s.ok()) {
+      return Fail(ChunkStatus(next_index_, s));
     }
+    if (Status s = service_->Admit(settings_, chunk_.request().queries().count()); !s.ok())
+      return Fail(ChunkStatus(next_index_, s));
     submitted_ = Clock::now();
     bool queued = service_->scheduler().TrySubmit([this](int worker) -> Scheduler::Respond {
       if (Metrics *m = service_->options().metrics) m->ObserveQueueWait(MsSince(submitted_) / 1e3);
@@ -177,13 +283,17 @@ class GlintServiceImpl::StreamReactor
       result_.set_chunk_index(next_index_);
       result_.set_first_query(next_query_);
       Status s = service_->RunBatch(worker, settings_, chunk_.request().queries(), next_query_,
-                                    true, result_.mutable_result());
+                                    true, result_.mutable_result(), nullptr, ctx_);
       // The engine's own code (INTERNAL for a device failure, INVALID_ARGUMENT for a bad
       // query, ...), exactly as the unary path would return it.
       if (!s.ok()) return [this, st = ChunkStatus(next_index_, s)] { Fail(st); };
       next_query_ += chunk_.request().queries().count();
       ++next_index_;
-      return [this] { StartWrite(&result_); };
+      chunk_.Clear();
+      grpc::Status ser = SerializeReply(result_, &raw_result_);
+      result_.Clear();
+      if (!ser.ok()) return [this, ser] { Fail(ser); };
+      return [this] { StartWrite(&raw_result_); };
     });
     if (!queued) Fail(ToGrpcStatus(OverloadStatus(service_->scheduler())));
   }
@@ -193,7 +303,7 @@ class GlintServiceImpl::StreamReactor
       Finish(grpc::Status(grpc::StatusCode::CANCELLED, "client went away"));
       return;
     }
-    StartRead(&chunk_);
+    StartRead(&raw_chunk_);
   }
 
   void OnDone() override { delete this; }
@@ -206,8 +316,10 @@ class GlintServiceImpl::StreamReactor
   }
 
   GlintServiceImpl *service_;
+  grpc::CallbackServerContext *ctx_;
   Clock::time_point start_;
   Clock::time_point submitted_;  // when the current chunk was queued (queue-wait metric)
+  grpc::ByteBuffer raw_chunk_, raw_result_;
   glint::v1::EvaluateChunk chunk_;
   glint::v1::EvaluateRequest settings_;
   glint::v1::EvaluateChunkResult result_;
@@ -215,22 +327,27 @@ class GlintServiceImpl::StreamReactor
   uint64_t next_query_ = 0;
 };
 
-grpc::ServerBidiReactor<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult>
-    *GlintServiceImpl::EvaluateStream(grpc::CallbackServerContext *ctx) {
-  if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
-    return new RefusedBidiReactor<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult>(denied);
-  }
-  return new StreamReactor(this);
+grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> *GlintServiceImpl::EvaluateStream(
+    grpc::CallbackServerContext *ctx) {
+  if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok())
+    return new RefusedBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>(denied);
+  return new StreamReactor(this, ctx);
 }
 
-grpc::ServerUnaryReactor *GlintServiceImpl::GetCapabilities(
-    grpc::CallbackServerContext *ctx, const glint::v1::GetCapabilitiesRequest *,
-    glint::v1::Capabilities *c) {
+grpc::ServerUnaryReactor *GlintServiceImpl::GetCapabilities(grpc::CallbackServerContext *ctx,
+                                                            const grpc::ByteBuffer *body,
+                                                            grpc::ByteBuffer *reply) {
+  using Reactor = OwningUnaryReactor<glint::v1::GetCapabilitiesRequest, glint::v1::Capabilities>;
+  auto *reactor = new Reactor(reply);
   if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
-    auto *reactor = ctx->DefaultReactor();
     reactor->Finish(denied);
     return reactor;
   }
+  if (Status s = ParseBody(body, &reactor->request, "request"); !s.ok()) {
+    reactor->Finish(ToGrpcStatus(s));
+    return reactor;
+  }
+  glint::v1::Capabilities *c = &reactor->response;
   c->set_server_version(GLINT_VERSION);
   if (engine_) {
     const DeviceInfo &d = engine_->info();
@@ -260,7 +377,6 @@ grpc::ServerUnaryReactor *GlintServiceImpl::GetCapabilities(
   c->set_max_normal_map_upload_bytes(nm.max_upload_bytes);
   c->set_max_normal_map_texels(nm.max_texels);
   c->set_normal_map_budget_bytes(nm.budget_bytes);
-  auto *reactor = ctx->DefaultReactor();
   reactor->Finish(grpc::Status::OK);
   return reactor;
 }

@@ -13,6 +13,7 @@
 #include "server/auth.h"
 #include "server/device_engine.h"
 #include "server/metrics.h"
+#include "server/request_cost.h"
 #include "server/scheduler.h"
 #include "server/validation.h"
 
@@ -24,21 +25,46 @@ struct ServiceOptions {
   bool log_requests = true;
   Metrics *metrics = nullptr;       // --metrics-listen; null: no metric hooks
   const TokenAuth *auth = nullptr;  // --auth-tokens; null: every call is let through
+  CostLimits cost;                  // --max-request-cost, --max-query-cost
+  double slice_ms = 50;             // target duration of one query slice (server/sliced_eval.h)
 };
 
+// The methods are registered raw (grpc::ByteBuffer in and out) and the handlers parse the
+// messages themselves: gRPC 1.51's typed callback handlers answer a body that does not parse
+// with UNIMPLEMENTED and an empty message (unary) or end the read loop as if the client had
+// half-closed (streams, which then finished OK with the bad chunk unanswered). Parsing here
+// gives INVALID_ARGUMENT naming what did not parse. (A new typed callback method is added to
+// this chain as glint::v1::GlintService::WithCallbackMethod_<Name><...>.)
+// Sample and the normal-map calls are typed: a body of theirs that does not parse gets gRPC's
+// own answer.
+using GlintRawService = glint::v1::GlintService::WithRawCallbackMethod_Evaluate<
+    glint::v1::GlintService::WithRawCallbackMethod_EvaluateStream<
+        glint::v1::GlintService::WithRawCallbackMethod_GetCapabilities<
+            glint::v1::GlintService::WithCallbackMethod_Sample<
+                glint::v1::GlintService::WithCallbackMethod_UploadNormalMap<
+                    glint::v1::GlintService::WithCallbackMethod_ListNormalMaps<
+                        glint::v1::GlintService::WithCallbackMethod_DeleteNormalMap<
+                            glint::v1::GlintService::Service>>>>>>>;
+
 // Evaluates on the OpenCL engine, or on the host path when engine is null.
-class GlintServiceImpl final : public glint::v1::GlintService::CallbackService {
+class GlintServiceImpl final : public GlintRawService {
  public:
   GlintServiceImpl(DeviceEngine *engine, Scheduler *scheduler, ServiceOptions options);
 
   grpc::ServerUnaryReactor *Evaluate(grpc::CallbackServerContext *ctx,
-                                     const glint::v1::EvaluateRequest *request,
-                                     glint::v1::EvaluateResponse *response) override;
-  grpc::ServerBidiReactor<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult> *EvaluateStream(
+                                     const grpc::ByteBuffer *request,
+                                     grpc::ByteBuffer *response) override;
+  grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> *EvaluateStream(
       grpc::CallbackServerContext *ctx) override;
   grpc::ServerUnaryReactor *GetCapabilities(grpc::CallbackServerContext *ctx,
-                                            const glint::v1::GetCapabilitiesRequest *request,
-                                            glint::v1::Capabilities *response) override;
+                                            const grpc::ByteBuffer *request,
+                                            grpc::ByteBuffer *response) override;
+
+  // Graceful shutdown (server/main.cpp): after BeginShutdown every new call and stream chunk is
+  // refused with UNAVAILABLE while queued and running work goes on; after CancelInFlight the
+  // running work stops at its next slice boundary with UNAVAILABLE.
+  void BeginShutdown() { shutting_down_ = true; }
+  void CancelInFlight() { cancel_in_flight_ = true; }
   // Importance sampling (server/sample_service.cpp, server/sample.h).
   grpc::ServerUnaryReactor *Sample(grpc::CallbackServerContext *ctx,
                                    const glint::v1::SampleRequest *request,
@@ -56,9 +82,17 @@ class GlintServiceImpl final : public glint::v1::GlintService::CallbackService {
   // Validates `queries` against `settings` (already validated) and evaluates
   // them on `worker`'s queue, filling response->radiance. `kernel`, if given, receives
   // the kernel variant that ran (for the request log).
+  // Runs in query slices (server/sliced_eval.h) and stops between them when `ctx` (if given)
+  // was cancelled or its deadline passed, or the server cancels in-flight work.
   Status RunBatch(int worker, const glint::v1::EvaluateRequest &settings,
                   const glint::v1::QueryBatch &queries, uint64_t first_query, bool streamed,
-                  glint::v1::EvaluateResponse *response, std::string *kernel = nullptr);
+                  glint::v1::EvaluateResponse *response, std::string *kernel = nullptr,
+                  grpc::CallbackServerContext *ctx = nullptr);
+
+  // Admission before a job is queued: UNAVAILABLE while shutting down, then the cost limits.
+  Status Admit(const glint::v1::EvaluateRequest &settings, uint64_t query_count) const;
+  // Why work for `ctx` must stop now (OK: go on).
+  Status StopReason(grpc::CallbackServerContext *ctx) const;
 
   Scheduler &scheduler() { return *scheduler_; }
   const ServiceOptions &options() const { return options_; }
@@ -72,6 +106,8 @@ class GlintServiceImpl final : public glint::v1::GlintService::CallbackService {
   Scheduler *scheduler_;
   ServiceOptions options_;
   std::mutex log_mutex_;
+  std::atomic<bool> shutting_down_{false};
+  std::atomic<bool> cancel_in_flight_{false};
 };
 
 // The one mapping from the engine's Status to gRPC's: unary calls finish with it as is.

@@ -15,7 +15,10 @@ class Status {
     kResourceExhausted,
     kFailedPrecondition,
     kInternal,
-    kNotFound
+    kNotFound,
+    kCancelled,         // the client cancelled the call
+    kDeadlineExceeded,  // the call's deadline passed before its work finished
+    kUnavailable,       // the server is shutting down
   };
 
   Status() = default;
@@ -31,6 +34,11 @@ class Status {
   }
   static Status Internal(std::string m) { return Status(Code::kInternal, std::move(m)); }
   static Status NotFound(std::string m) { return Status(Code::kNotFound, std::move(m)); }
+  static Status Cancelled(std::string m) { return Status(Code::kCancelled, std::move(m)); }
+  static Status DeadlineExceeded(std::string m) {
+    return Status(Code::kDeadlineExceeded, std::move(m));
+  }
+  static Status Unavailable(std::string m) { return Status(Code::kUnavailable, std::move(m)); }
 
   bool ok() const { return code_ == Code::kOk; }
   Code code() const { return code_; }

@@ -422,3 +422,34 @@ Status ValidateQueriesForModel(const glint::v1::QueryBatch &q,
 }
 
 }  // namespace glint
+
+namespace glint {
+
+Status ValidateLaterChunkSettings(const glint::v1::EvaluateRequest &r) {
+  std::string field, value;
+  if (r.lights_size() > 0) {
+    field = "lights";
+    value = std::to_string(r.lights_size()) + " lights";
+  } else if (r.precision() != glint::v1::PRECISION_UNSPECIFIED) {
+    field = "precision";
+    value = "precision " + std::to_string(int(r.precision()));
+  } else if (r.seed() != 0) {
+    field = "seed";
+    value = "seed " + std::to_string(r.seed());
+  } else if (r.area_method() != glint::v1::AREA_METHOD_UNSPECIFIED) {
+    field = "area_method";
+    value = "area_method " + std::to_string(int(r.area_method()));
+  } else if (r.area_samples() != 0) {
+    field = "area_samples";
+    value = "area_samples " + std::to_string(r.area_samples());
+  } else {
+    return Status::Ok();
+  }
+  return Status::InvalidArgument(
+      "request." + field + ": " + value +
+      " in a chunk without a material; later chunks reuse the first chunk's settings and "
+      "carry only queries (send a material to replace material, lights, precision, seed, "
+      "area_method and area_samples together)");
+}
+
+}  // namespace glint

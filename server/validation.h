@@ -38,3 +38,14 @@ Status ValidateQueriesForModel(const glint::v1::QueryBatch &queries,
                                uint64_t first_query = 0);
 
 }  // namespace glint
+
+namespace glint {
+
+// A stream chunk after the first that carries no material reuses the first chunk's settings, so
+// it must carry none of them: lights, precision, seed, area_method or area_samples there would
+// be silently ignored, and are refused instead ("request.lights: 2 lights in a chunk without a
+// material; ..."). A chunk with a material replaces all settings and is checked by
+// ValidateSettings.
+Status ValidateLaterChunkSettings(const glint::v1::EvaluateRequest &chunk_request);
+
+}  // namespace glint

@@ -112,6 +112,13 @@ std::vector<KernelSpec> BinomialWarmSpecs() {
 }  // namespace
 
 extern const Model kBinomialModel;
+// Admission cost per evaluation relative to the smooth model (server/request_cost.h): the facet
+// count per light costs ~48 smooth evaluations (bench_request_cost: 4 point lights 12 us/query
+// vs ~50 ns per unit, PoCL CPU; a polygon by LTC ~8x less, so this over-estimates it).
+double BinomialCostFactor(const glint::v1::Material &) {
+  return 48.0;
+}
+
 const Model kBinomialModel = {
     .id = glint::v1::BINOMIAL,
     .name = "BINOMIAL",
@@ -127,6 +134,7 @@ const Model kBinomialModel = {
     .sample = {.unsupported_reason =
                    "its glints are a count of reflecting facets per light (Kneiphof & Klein "
                    "2024), not a normal distribution that directions could be drawn from"},
+    .cost_factor = BinomialCostFactor,
 };
 
 }  // namespace glint

@@ -132,6 +132,14 @@ std::vector<KernelSpec> KemppinenWarmSpecs() {
 }  // namespace
 
 extern const Model kKemppinenModel;
+// Admission cost per evaluation relative to the smooth model (server/request_cost.h): k angular
+// neighbours per cell and level are evaluated explicitly; bench_request_cost measured ~22 units
+// per light at k = 4 and ~63 at k = 16 (PoCL CPU), so about 6 k.
+double KemppinenCostFactor(const glint::v1::Material &m) {
+  const uint32_t k = m.kemppinen().neighbors() ? m.kemppinen().neighbors() : 4;
+  return 6.0 * double(k);
+}
+
 const Model kKemppinenModel = {
     .id = glint::v1::KEMPPINEN,
     .name = "KEMPPINEN",
@@ -148,6 +156,7 @@ const Model kKemppinenModel = {
     .warm_specs = KemppinenWarmSpecs,
     .sample = {"models/kemppinen/kemppinen_sample.cl", "glint_kemppinen_sample", KemppinenSampleF32,
                KemppinenSampleF64},
+    .cost_factor = KemppinenCostFactor,
 };
 
 }  // namespace glint

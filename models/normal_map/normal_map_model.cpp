@@ -105,6 +105,18 @@ void NormalMapExample(Material *m, glint::v1::QueryBatch *one_query) {
 }  // namespace
 
 extern const Model kNormalMapModel;
+// Admission cost (server/request_cost.h) in smooth evaluations per evaluation: the triangles
+// that survive pruning cost ~1-2 us each (README "Cost"); at the ~100 texels of a one-texel
+// footprint at cut-off 5 that is ~2000 smooth evaluations, 4x4 subdivision ~7x more, and the
+// cut-off box's area grows as cutoff^2. The footprint's own size is not in the material, so
+// big footprints are underestimated here; the slicer corrects from its measured rate after
+// the first slice.
+double NormalMapCostFactor(const glint::v1::Material &m) {
+  const double cutoff = m.normal_map().cutoff_sigma() > 0 ? m.normal_map().cutoff_sigma() : 5.0;
+  const double subdivision = m.normal_map().subdivision() == 4 ? 7.0 : 1.0;
+  return 2000.0 * subdivision * (cutoff * cutoff) / 25.0;
+}
+
 const Model kNormalMapModel = {
     .id = glint::v1::NORMAL_MAP,
     .name = "NORMAL_MAP",
@@ -118,6 +130,7 @@ const Model kNormalMapModel = {
     .example = NormalMapExample,
     .uses_ndf = false,
     .request_table = NormalMapRequestTable,
+    .cost_factor = NormalMapCostFactor,
 };
 
 }  // namespace glint

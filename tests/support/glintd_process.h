@@ -170,6 +170,24 @@ class Glintd {
   const std::string &address() const { return address_; }
   pid_t pid() const { return pid_; }  // for signals other than the destructor's SIGTERM
   std::string Stderr() const { return ReadFile(log_ + ".err"); }
+  // Sends `sig` to the server (graceful-shutdown tests).
+  void Signal(int sig) {
+    if (pid_ > 0) kill(pid_, sig);
+  }
+  // Waits up to `timeout` for the server to exit; true with its wait status if it did.
+  bool WaitExit(std::chrono::milliseconds timeout, int *wait_status) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (pid_ > 0) {
+      const pid_t r = waitpid(pid_, wait_status, WNOHANG);
+      if (r == pid_) {
+        pid_ = -1;
+        return true;
+      }
+      if (std::chrono::steady_clock::now() > deadline) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return false;
+  }
   bool Alive() {
     if (pid_ <= 0) return false;
     if (waitpid(pid_, nullptr, WNOHANG) == 0) return true;

@@ -1,0 +1,128 @@
+#include "server/request_cost.h"
+
+#include <algorithm>
+#include <cstdio>
+
+#include "server/model_table.h"
+
+namespace glint {
+namespace {
+
+// The unit is one BRDF evaluation inside REFERENCE's quadrature loop, ~50 ns on the 2-core PoCL
+// device under load (bench/bench_request_cost.cpp: 45-69 ns per node). The other weights are
+// that run's time per query over 50 ns, rounded up:
+// LTC: ~1.0 us per quad, ~3.1 us per 16-gon: ~5 units per vertex.
+constexpr double kLtcPerVertex = 5.0;
+// Lecocq's adaptive peak fit: ~90 us (quad) to ~112 us (16-gon) per polygon; with the Pearson
+// term ~119 to ~147 us.
+constexpr double kLecocqBase = 1600.0, kLecocqPerVertex = 40.0;
+constexpr double kLecocqPearsonBase = 2200.0, kLecocqPearsonPerVertex = 50.0;
+// MONTE_CARLO: ~560 ns per sample (MIS: a light sample and a lobe sample, each a BRDF
+// evaluation plus sampling).
+constexpr double kMonteCarloPerSample = 11.0;
+// A point or directional light, or a probe: one BRDF evaluation (SIMD code: an over-estimate).
+constexpr double kPunctual = 1.0;
+// Per-query overhead (loads, frame, store), in units.
+constexpr double kPerQuery = 1.0;
+// The most a model's factor multiplies a polygon light by (see EstimateRequestCost).
+constexpr double kPolygonFactor = 8.0;
+
+std::string Format(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", x);
+  return buf;
+}
+
+// REFERENCE: (4 ceil(samples / 4))^2 Gauss-Legendre nodes per fan triangle
+// (kernels/area/area_lights.h, area_reference_polygon); clipping to the horizon adds at most
+// one vertex to a convex polygon, so at most (vertices - 1) triangles.
+double ReferenceCost(int vertices, uint32_t samples) {
+  const double nodes = 4.0 * double((samples + 3) / 4 > 0 ? (samples + 3) / 4 : 1);
+  return nodes * nodes * double(std::max(1, vertices - 1));
+}
+
+}  // namespace
+
+RequestCost EstimateRequestCost(const glint::v1::EvaluateRequest &settings, uint64_t query_count) {
+  RequestCost c;
+  const uint32_t samples = settings.area_samples() ? settings.area_samples() : 64;
+  const glint::v1::AreaMethod method = settings.area_method() == glint::v1::AREA_METHOD_UNSPECIFIED
+                                           ? glint::v1::LTC
+                                           : settings.area_method();
+  double punctual_cost = 0, polygon_cost = 0;
+  int punctual = 0, polygons = 0, max_vertices = 0;
+  for (const glint::v1::Light &light : settings.lights()) {
+    if (!light.has_polygon()) {
+      ++punctual;
+      punctual_cost += kPunctual;
+      continue;
+    }
+    ++polygons;
+    const int v = light.polygon().vertices_size() / 3;
+    max_vertices = std::max(max_vertices, v);
+    switch (method) {
+      case glint::v1::REFERENCE:
+        polygon_cost += ReferenceCost(v, samples);
+        break;
+      case glint::v1::MONTE_CARLO:
+        polygon_cost += kMonteCarloPerSample * double(samples);
+        break;
+      case glint::v1::LECOCQ:
+        polygon_cost += kLecocqBase + kLecocqPerVertex * v;
+        break;
+      case glint::v1::LECOCQ_PEARSON:
+        polygon_cost += kLecocqPearsonBase + kLecocqPearsonPerVertex * v;
+        break;
+      default:
+        polygon_cost += kLtcPerVertex * v;
+        break;
+    }
+  }
+  if (settings.lights_size() == 0) punctual_cost = kPunctual;  // a BRDF probe
+  const Model *model = FindModel(settings.material().model());
+  const double factor =
+      model && model->cost_factor ? std::max(1.0, model->cost_factor(settings.material())) : 1.0;
+  // The model's factor multiplies its own per-light work (a probe, point and directional
+  // lights); a polygon light is the smooth area integral plus that work once, measured at 6-7x
+  // the smooth LTC cost for BINOMIAL and KEMPPINEN, so polygons take at most kPolygonFactor.
+  c.per_query =
+      kPerQuery + factor * punctual_cost + std::min(factor, kPolygonFactor) * polygon_cost;
+  c.total = c.per_query * double(query_count);
+
+  std::string parts;
+  if (settings.lights_size() == 0) parts = "probe";
+  if (punctual) parts = std::to_string(punctual) + " point/directional lights";
+  if (polygons) {
+    if (!parts.empty()) parts += " + ";
+    parts += std::to_string(polygons) + " polygon lights (up to " + std::to_string(max_vertices) +
+             " vertices) by " + glint::v1::AreaMethod_Name(method);
+    if (method == glint::v1::REFERENCE) parts += " " + std::to_string(samples) + " nodes";
+    if (method == glint::v1::MONTE_CARLO) parts += " " + std::to_string(samples) + " samples";
+  }
+  if (factor != 1.0) parts += " x " + std::string(model->name) + " factor " + Format(factor);
+  c.parts = parts;
+  return c;
+}
+
+Status CheckRequestCost(const RequestCost &cost, uint64_t query_count, const CostLimits &limits) {
+  std::string what = "(";  // built by appending: GCC 12 warns falsely on "(" + std::string
+  what += std::to_string(query_count);
+  what += " queries x " + Format(cost.per_query) + " per query: " + cost.parts + ")";
+  if (cost.per_query > limits.max_query_cost) {
+    return Status::ResourceExhausted(
+        "request cost: " + Format(cost.per_query) + " BRDF evaluations per query " + what +
+        " exceeds --max-query-cost " + Format(limits.max_query_cost) +
+        " (a query is the smallest interruptible piece of work); use fewer or simpler polygon "
+        "lights, fewer area_samples or a cheaper area_method");
+  }
+  if (cost.total > limits.max_request_cost) {
+    return Status::ResourceExhausted(
+        "request cost: " + Format(cost.total) + " BRDF evaluations " + what +
+        " exceeds --max-request-cost " + Format(limits.max_request_cost) +
+        "; split the batch into smaller requests or stream chunks, or use a cheaper "
+        "area_method");
+  }
+  return Status::Ok();
+}
+
+}  // namespace glint

@@ -1,0 +1,138 @@
+// Admission cost (server/request_cost.h) against explicit counts: REFERENCE's Gauss-Legendre
+// nodes per fan triangle, MONTE_CARLO samples, the per-vertex weights, the model factor; the
+// default limits admit every example material x light list at 1M queries by the methods a
+// preview uses and refuse the issue's request.
+#include "server/request_cost.h"
+
+#include <google/protobuf/util/json_util.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace {
+
+namespace v1 = glint::v1;
+
+v1::EvaluateRequest Smooth() {
+  v1::EvaluateRequest r;
+  r.mutable_material()->set_model(v1::SMOOTH);
+  return r;
+}
+
+void AddPolygon(v1::EvaluateRequest *r, int vertices) {
+  auto *p = r->add_lights()->mutable_polygon();
+  for (int k = 0; k < 3 * vertices; ++k) p->add_vertices(0.0f);
+}
+
+TEST(RequestCost, ReferenceCountsNodesPerFanTriangle) {
+  v1::EvaluateRequest r = Smooth();
+  AddPolygon(&r, 4);
+  r.set_area_method(v1::REFERENCE);
+  r.set_area_samples(30);  // rounded up to 8 panels of 4 nodes: 32 x 32 per triangle
+  // A quad clipped to the horizon has at most 5 vertices, 3 fan triangles; +1 per query.
+  EXPECT_EQ(glint::EstimateRequestCost(r, 10).per_query, 1.0 + 3 * 32 * 32);
+  EXPECT_EQ(glint::EstimateRequestCost(r, 10).total, 10 * (1.0 + 3 * 32 * 32));
+  r.set_area_samples(0);  // default 64 nodes
+  EXPECT_EQ(glint::EstimateRequestCost(r, 1).per_query, 1.0 + 3 * 64 * 64);
+}
+
+TEST(RequestCost, MonteCarloCountsSamplesAndPunctualLightsOneEach) {
+  v1::EvaluateRequest r = Smooth();
+  AddPolygon(&r, 6);
+  AddPolygon(&r, 3);
+  r.add_lights()->mutable_point();
+  r.add_lights()->mutable_directional();
+  r.set_area_method(v1::MONTE_CARLO);
+  r.set_area_samples(100);
+  const double mc = glint::EstimateRequestCost(r, 1).per_query;
+  r.set_area_samples(200);
+  // Twice the samples on both polygons: the difference is 2 polygons x 100 samples x weight.
+  const double mc2 = glint::EstimateRequestCost(r, 1).per_query;
+  EXPECT_GT(mc2 - mc, 0);
+  EXPECT_DOUBLE_EQ(mc2 - mc, (mc - 3.0) / 1.0 * 1.0);  // 1 per query + 2 punctual lights
+}
+
+TEST(RequestCost, ModelFactorMultipliesAndLtcGrowsWithVertices) {
+  v1::EvaluateRequest r = Smooth();
+  AddPolygon(&r, 4);
+  const double quad = glint::EstimateRequestCost(r, 1).per_query;
+  v1::EvaluateRequest r16 = Smooth();
+  AddPolygon(&r16, 16);
+  const double sixteen = glint::EstimateRequestCost(r16, 1).per_query;
+  EXPECT_DOUBLE_EQ((sixteen - 1) / (quad - 1), 4.0);  // per vertex
+  r.mutable_material()->set_model(v1::KEMPPINEN);
+  r.mutable_material()->mutable_kemppinen()->set_neighbors(16);
+  const double k16 = glint::EstimateRequestCost(r, 1).per_query;
+  r.mutable_material()->mutable_kemppinen()->set_neighbors(4);
+  const double k4 = glint::EstimateRequestCost(r, 1).per_query;
+  // The Kemppinen factor (6 k) multiplies the query's punctual work; a polygon at most 8x.
+  EXPECT_DOUBLE_EQ(k16, 1 + 8 * (quad - 1));
+  EXPECT_DOUBLE_EQ(k4, 1 + 8 * (quad - 1));
+  r.clear_lights();
+  r.add_lights()->mutable_point();
+  const double k4_point = glint::EstimateRequestCost(r, 1).per_query;
+  r.mutable_material()->mutable_kemppinen()->set_neighbors(16);
+  EXPECT_DOUBLE_EQ(glint::EstimateRequestCost(r, 1).per_query, 1 + 6 * 16);
+  EXPECT_DOUBLE_EQ(k4_point, 1 + 6 * 4);
+  EXPECT_GT(k4, quad);
+}
+
+TEST(RequestCost, DefaultsRefuseTheIssueRequestNamingCostAndLimit) {
+  v1::EvaluateRequest r = Smooth();
+  for (int k = 0; k < 64; ++k) AddPolygon(&r, 16);
+  r.set_area_method(v1::REFERENCE);
+  r.set_area_samples(1024);
+  const glint::RequestCost one = glint::EstimateRequestCost(r, 1);
+  EXPECT_EQ(one.per_query, 1.0 + 64.0 * 15 * 1024 * 1024);
+  glint::Status s = glint::CheckRequestCost(one, 1, glint::CostLimits());
+  EXPECT_EQ(s.code(), glint::Status::Code::kResourceExhausted);
+  EXPECT_NE(s.message().find("1.01e+09"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("--max-query-cost 1e+07"), std::string::npos) << s.message();
+  // The total limit on its own: cheap queries, too many of them.
+  glint::CostLimits tight;
+  tight.max_request_cost = 1000;
+  v1::EvaluateRequest probe = Smooth();
+  s = glint::CheckRequestCost(glint::EstimateRequestCost(probe, 1000), 1000, tight);
+  EXPECT_EQ(s.code(), glint::Status::Code::kResourceExhausted);
+  EXPECT_NE(s.message().find("--max-request-cost 1e+03"), std::string::npos) << s.message();
+  EXPECT_TRUE(glint::CheckRequestCost(glint::EstimateRequestCost(probe, 499), 499, tight).ok());
+}
+
+// Every example material under every example light list as a 512x512 preview by LTC, LECOCQ
+// and REFERENCE at the default 64 nodes, and as 1M queries by LTC: admitted by the default
+// limits (the previews and demos).
+TEST(RequestCost, DefaultsAdmitEveryExampleAsAPreview) {
+  namespace fs = std::filesystem;
+  auto read = [](const fs::path &p) {
+    std::ifstream in(p);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  };
+  int checked = 0;
+  for (const auto &mat : fs::directory_iterator(GLINT_EXAMPLES_DIR "/materials")) {
+    for (const auto &lights : fs::directory_iterator(GLINT_EXAMPLES_DIR "/lights")) {
+      v1::EvaluateRequest r;
+      ASSERT_TRUE(
+          google::protobuf::util::JsonStringToMessage(read(mat.path()), r.mutable_material()).ok());
+      v1::LightList list;
+      ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(read(lights.path()), &list).ok());
+      *r.mutable_lights() = list.lights();
+      for (auto [m, n] : {std::pair{v1::LTC, 1u << 20},
+                          {v1::LTC, 512u * 512u},
+                          {v1::LECOCQ, 512u * 512u},
+                          {v1::REFERENCE, 512u * 512u}}) {
+        r.set_area_method(m);
+        const glint::RequestCost c = glint::EstimateRequestCost(r, n);
+        glint::Status s = glint::CheckRequestCost(c, n, glint::CostLimits());
+        EXPECT_TRUE(s.ok()) << mat.path() << " x " << lights.path() << ": " << s.message();
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GE(checked, 4 * 8 * 5);
+}
+
+}  // namespace

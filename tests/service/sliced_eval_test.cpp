@@ -1,0 +1,127 @@
+// Query slices (server/sliced_eval.h): a request evaluated in many small slices is bit-identical
+// to the same request in one call, on the OpenCL device and on the host path, for every model
+// and the stochastic area method (their random numbers come from each query's own inputs, never
+// its index). The stop check runs before every slice, the first included: a stop there does no
+// work at all, a stop later leaves the remaining queries unwritten.
+#include "server/sliced_eval.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "server/model_table.h"
+#include "test_queries.h"
+
+namespace {
+
+namespace v1 = glint::v1;
+
+v1::EvaluateRequest Request(v1::Model model, bool polygon_mc) {
+  v1::EvaluateRequest r;
+  auto *m = r.mutable_material();
+  m->set_model(model);
+  m->set_ndf(model == v1::CHERMAIN ? v1::BECKMANN : v1::GGX);
+  m->set_alpha_x(0.3f);
+  m->set_alpha_y(0.2f);
+  for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
+  v1::QueryBatch unused;
+  if (const glint::Model *spec = glint::FindModel(model); spec->example) spec->example(m, &unused);
+  auto *p = r.add_lights()->mutable_point();
+  for (float v : {0.5f, -1.0f, 2.0f}) p->add_position(v);
+  for (float v : {4.0f, 4.0f, 4.0f}) p->add_intensity(v);
+  p->set_radius(0.2f);
+  if (polygon_mc) {
+    auto *q = r.add_lights()->mutable_polygon();
+    for (float v : {-1.0f, -1.0f, 2.0f, 1.0f, -1.0f, 2.0f, 1.0f, 1.0f, 2.0f, -1.0f, 1.0f, 2.0f})
+      q->add_vertices(v);
+    for (float v : {1.0f, 1.0f, 1.0f}) q->add_radiance(v);
+    q->set_two_sided(true);
+    r.set_area_method(v1::MONTE_CARLO);
+    r.set_area_samples(16);
+  }
+  r.set_seed(12345);
+  *r.mutable_queries() = glint::test::RandomQueries(1001, false, false, 3);
+  return r;
+}
+
+class SlicedEval : public ::testing::TestWithParam<bool> {  // true: OpenCL device
+ protected:
+  static void SetUpTestSuite() {
+    glint::DeviceEngineOptions o;
+    o.workers = 1;
+    if (const char *d = std::getenv("GLINT_CACHE_DIR")) o.cache_dir = d;
+    glint::Status s = glint::DeviceEngine::Create(o, &engine_);
+    ASSERT_TRUE(s.ok()) << s.message();
+  }
+  static void TearDownTestSuite() { engine_.reset(); }
+  glint::DeviceEngine *engine() const { return GetParam() ? engine_.get() : nullptr; }
+  static std::unique_ptr<glint::DeviceEngine> engine_;
+};
+std::unique_ptr<glint::DeviceEngine> SlicedEval::engine_;
+
+TEST_P(SlicedEval, ManySlicesAreBitIdenticalToOneCall) {
+  for (const glint::Model *model : glint::Models()) {
+    for (bool mc : {false, true}) {
+      if (mc && model->id != v1::SMOOTH) continue;  // kernel variants the server warms anyway
+      const v1::EvaluateRequest r = Request(model->id, mc);
+      const glint::EvalPlan plan = glint::MakeEvalPlan(r, r.queries());
+      const uint32_t n = r.queries().count();
+      std::vector<float> whole(size_t(n) * 3), sliced(size_t(n) * 3, -1.0f);
+      glint::SliceOptions one;
+      one.per_query_cost = 1e-9;  // one slice
+      glint::SliceStats one_stats;
+      glint::Status s =
+          glint::EvaluateSliced(engine(), 0, plan, r.queries(), whole.data(), one, &one_stats);
+      ASSERT_TRUE(s.ok()) << s.message();
+      ASSERT_EQ(one_stats.slices, 1);
+      glint::SliceOptions many;
+      many.max_slice_queries = 37;  // not a multiple of the 8 SIMD lanes
+      glint::SliceStats stats;
+      s = glint::EvaluateSliced(engine(), 0, plan, r.queries(), sliced.data(), many, &stats);
+      ASSERT_TRUE(s.ok()) << s.message();
+      EXPECT_EQ(stats.slices, int((n + 36) / 37));
+      EXPECT_EQ(0, std::memcmp(whole.data(), sliced.data(), whole.size() * sizeof(float)))
+          << model->name << (mc ? " with MONTE_CARLO polygon" : "");
+      double positive = 0;
+      for (float v : whole) positive += v > 0;
+      EXPECT_GT(positive, 0) << model->name;  // the comparison is not between two zero arrays
+    }
+  }
+}
+
+TEST_P(SlicedEval, StopIsCheckedBeforeEverySliceTheFirstIncluded) {
+  const v1::EvaluateRequest r = Request(v1::SMOOTH, false);
+  const glint::EvalPlan plan = glint::MakeEvalPlan(r, r.queries());
+  const uint32_t n = r.queries().count();
+  for (int stop_at : {0, 3}) {  // the check before slice 0 (expired work), before slice 3
+    std::vector<float> out(size_t(n) * 3, -7.0f);
+    int checks = 0;
+    glint::SliceOptions o;
+    o.max_slice_queries = 100;
+    o.stop = [&]() -> glint::Status {
+      return checks++ == stop_at ? glint::Status::DeadlineExceeded("deadline") : glint::Status();
+    };
+    glint::Status s = glint::EvaluateSliced(engine(), 0, plan, r.queries(), out.data(), o);
+    EXPECT_EQ(s.code(), glint::Status::Code::kDeadlineExceeded);
+    EXPECT_EQ(checks, stop_at + 1);
+    // Slices before the stop wrote their queries; nothing after it was evaluated.
+    const size_t written = size_t(stop_at) * 100 * 3;
+    for (size_t i = 0; i < out.size(); ++i) {
+      if (i < written) {
+        ASSERT_NE(out[i], -7.0f) << "query " << i / 3 << " should have been evaluated";
+      } else {
+        ASSERT_EQ(out[i], -7.0f) << "query " << i / 3 << " evaluated after the stop";
+      }
+    }
+  }
+}
+
+std::string PathName(const ::testing::TestParamInfo<bool> &p) {
+  return p.param ? "Device" : "Host";
+}
+INSTANTIATE_TEST_SUITE_P(DeviceAndHost, SlicedEval, ::testing::Values(true, false), PathName);
+
+}  // namespace

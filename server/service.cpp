@@ -205,6 +205,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   bool queued =
       scheduler_->TrySubmit([this, ctx, reactor, request, response, received](int worker) {
         const double queue_ms = MsSince(received);
+        if (options_.metrics) options_.metrics->ObserveQueueWait(queue_ms / 1e3);
         std::string kernel = "-";
         Status st =
             RunBatch(worker, *request, request->queries(), 0, false, response, &kernel, ctx);

@@ -128,6 +128,10 @@ const Model kNormalMapModel = {
     .validate_queries = ValidateNormalMapQueries,
     .pack_params = PackNormalMapParams,
     .example = NormalMapExample,
+    .sample = {.unsupported_reason =
+                   "importance sampling of the normal map's P-NDF (Yan et al. 2014 Sec. 6: a "
+                   "footprint point, its normal, the intrinsic-roughness perturbation) is not "
+                   "implemented yet"},
     .uses_ndf = false,
     .request_table = NormalMapRequestTable,
     .cost_factor = NormalMapCostFactor,

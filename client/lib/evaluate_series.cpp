@@ -99,20 +99,7 @@ grpc::Status EvaluateSeries(GlintClient &client,
     const uint64_t local = received % per_setting;
     const uint64_t first = local * chunk_queries;
     const uint64_t n = std::min<uint64_t>(chunk_queries, count - first);
-    std::string problem;
-    if (received >= chunks) {
-      problem = "server sent a result after all " + std::to_string(chunks) + " chunks";
-    } else if (result.chunk_index() != received) {
-      problem = "server answered chunk " + std::to_string(result.chunk_index()) + " where chunk " +
-                std::to_string(received) + " was expected";
-    } else if (result.first_query() != stream_query) {
-      problem = "chunk " + std::to_string(received) + " reports first_query " +
-                std::to_string(result.first_query()) + ", expected " + std::to_string(stream_query);
-    } else if (static_cast<uint64_t>(result.result().radiance_size()) != n * 3) {
-      problem = "chunk " + std::to_string(received) + " carries " +
-                std::to_string(result.result().radiance_size()) + " radiance floats for " +
-                std::to_string(n) + " queries";
-    }
+    const std::string problem = ChunkResultProblem(result, received, chunks, stream_query, n);
     if (!problem.empty()) {
       protocol_error = grpc::Status(grpc::StatusCode::INTERNAL, problem);
       context.TryCancel();

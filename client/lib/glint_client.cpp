@@ -477,21 +477,7 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
   while (stream->Read(&result)) {
     const uint64_t first = received * chunk_queries;
     const uint64_t n = std::min<uint64_t>(chunk_queries, count - std::min<uint64_t>(first, count));
-    std::string problem;
-    if (received >= chunks) {
-      problem = "server sent a result for chunk " + std::to_string(result.chunk_index()) +
-                " after all " + std::to_string(chunks) + " chunks were answered";
-    } else if (result.chunk_index() != received) {
-      problem = "server answered chunk " + std::to_string(result.chunk_index()) + " where chunk " +
-                std::to_string(received) + " was expected";
-    } else if (result.first_query() != first) {
-      problem = "chunk " + std::to_string(received) + " reports first_query " +
-                std::to_string(result.first_query()) + ", expected " + std::to_string(first);
-    } else if (static_cast<uint64_t>(result.result().radiance_size()) != n * 3) {
-      problem = "chunk " + std::to_string(received) + " carries " +
-                std::to_string(result.result().radiance_size()) + " radiance floats for " +
-                std::to_string(n) + " queries";
-    }
+    const std::string problem = ChunkResultProblem(result, received, chunks, first, n);
     if (!problem.empty()) {
       protocol_error = grpc::Status(grpc::StatusCode::INTERNAL, problem);
       context.TryCancel();
@@ -521,6 +507,28 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
   }
   *radiance = std::move(out);
   return grpc::Status::OK;
+}
+
+std::string ChunkResultProblem(const glint::v1::EvaluateChunkResult &result, uint64_t received,
+                               uint64_t chunks, uint64_t first, uint64_t n) {
+  if (received >= chunks) {
+    return "server sent a result for chunk " + std::to_string(result.chunk_index()) +
+           " after all " + std::to_string(chunks) + " chunks were answered";
+  }
+  if (result.chunk_index() != received) {
+    return "server answered chunk " + std::to_string(result.chunk_index()) + " where chunk " +
+           std::to_string(received) + " was expected";
+  }
+  if (result.first_query() != first) {
+    return "chunk " + std::to_string(received) + " reports first_query " +
+           std::to_string(result.first_query()) + ", expected " + std::to_string(first);
+  }
+  if (static_cast<uint64_t>(result.result().radiance_size()) != n * 3) {
+    return "chunk " + std::to_string(received) + " carries " +
+           std::to_string(result.result().radiance_size()) + " radiance floats for " +
+           std::to_string(n) + " queries";
+  }
+  return "";
 }
 
 }  // namespace glint::client

@@ -160,4 +160,9 @@ const char *StatusCodeName(grpc::StatusCode code);
 // "UNAVAILABLE: failed to connect ..." (code name, then the message when there is one).
 std::string FormatStatus(const grpc::Status &status);
 
+// What is wrong with stream result number `received` (of `chunks` expected) that should cover
+// `n` queries starting at stream query `first`, or "" when it is what was asked for.
+std::string ChunkResultProblem(const glint::v1::EvaluateChunkResult &result, uint64_t received,
+                               uint64_t chunks, uint64_t first, uint64_t n);
+
 }  // namespace glint::client

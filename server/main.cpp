@@ -76,9 +76,10 @@ const char kUsage[] =
     "                       slice; exit 0 (default 10)\n"
     "  --list-devices       print the OpenCL devices and exit\n"
     "  --quiet              no per-request log lines\n"
-    "memory: peak RSS <= idle RSS + 3 x M x (max-pending + calls being received), M the\n"
-    "  largest request (<= max-message-mb): an admitted request holds its parsed body, its\n"
-    "  radiance and the serialised reply; a call being received holds its body (gRPC reads a\n"
+    "memory: peak RSS <= idle RSS + M x (3 x (max-pending + calls being received) + 2 x\n"
+    "  workers), M the largest request (<= max-message-mb): an admitted request holds its\n"
+    "  parsed body, its radiance and the serialised reply; a worker the device copies of its\n"
+    "  queries and radiance; a call being received holds its body (gRPC reads a\n"
     "  whole unary body before any handler runs, so those are bounded by the clients, not by\n"
     "  these flags); a full server refuses before parsing (README 'Limits, cancellation and\n"
     "  shutdown')\n";

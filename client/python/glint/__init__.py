@@ -9,14 +9,14 @@
 The wire messages are in ``glint.v1.glint_pb2`` (generated from proto/glint/v1/glint.proto).
 """
 
-from glint._client import Client, EvaluateInfo
+from glint._client import Client, EvaluateInfo, SampleResult
 from glint._errors import Error
 from glint.v1 import glint_pb2 as pb
 
 # Tracebacks and reprs name the public path (glint.Error), not the private module.
-for _public in (Client, EvaluateInfo, Error):
+for _public in (Client, EvaluateInfo, Error, SampleResult):
     _public.__module__ = "glint"
 del _public
 
 __version__ = "0.1.0"
-__all__ = ["Client", "Error", "EvaluateInfo", "pb", "__version__"]
+__all__ = ["Client", "Error", "EvaluateInfo", "SampleResult", "pb", "__version__"]

@@ -10,6 +10,8 @@ server's determinism contract makes the radiance bit-identical however a batch i
 from __future__ import annotations
 
 import dataclasses
+import os
+import pathlib
 import threading
 import time
 from typing import Any, Callable, Iterator, Optional, Union
@@ -347,3 +349,88 @@ class Client:
             )
         self.last_info = info
         return out
+
+    # -- importance sampling ----------------------------------------------------------------
+
+    def sample(
+        self,
+        material: MaterialLike,
+        wo: Any,
+        samples: int,
+        uv: Any = None,
+        footprint: Any = None,
+        position: Any = None,
+        normal: Any = None,
+        tangent: Any = None,
+        precision: Union[str, int] = "fp32",
+        seed: int = 0,
+    ) -> "SampleResult":
+        """``samples`` (K) incident directions per query drawn by the Sample RPC, with their pdf
+        (solid angle) and weight f(wi, wo) cos_i / pdf: a :class:`SampleResult` of arrays
+        ``wi`` (N, K, 3), ``pdf`` (N, K), ``weight`` (N, K, 3), float32. Query arrays as in
+        :meth:`evaluate` (no ``wi``, no lights). Queries are sent in calls of at most
+        max_batch / K queries and half the message limit, as ``glint sample`` does; samples
+        depend only on (seed, the query, the sample index), so the split does not change them.
+        Models without a sampler (BINOMIAL) are refused with ``INVALID_ARGUMENT``."""
+        k = int(samples)
+        if not 1 <= k <= 65536:
+            raise ValueError(f"samples: {k}; expected 1 to 65536")
+        queries = Queries(
+            uv=uv, footprint=footprint, wo=wo, position=position, normal=normal, tangent=tangent
+        )
+        caps = self._cached_capabilities()
+        message_limit = min(caps.max_message_bytes or _GRPC_DEFAULT_MESSAGE_BYTES, self.max_message_bytes)
+        by_batch = max(1, (caps.max_batch or 0xFFFFFFFF) // k)
+        by_bytes = max(1, (message_limit // 2) // (k * 7 * 4))
+        per_call = min(by_batch, by_bytes, queries.count)
+        n = queries.count
+        wi = np.empty((n, k, 3), dtype=np.float32)
+        pdf = np.empty((n, k), dtype=np.float32)
+        weight = np.empty((n, k, 3), dtype=np.float32)
+        settings = dict(material=to_material(material), samples_per_query=k, seed=int(seed),
+                        precision=to_precision(precision))
+        for first in range(0, n, per_call):
+            m = min(per_call, n - first)
+            request = pb.SampleRequest(queries=queries.batch(first, first + m), **settings)
+            try:
+                response = self._stub.Sample(request)
+            except grpc.RpcError as e:
+                raise Error.from_rpc_error(e) from None
+            if len(response.pdf) != m * k or len(response.wi) != 3 * m * k or len(response.weight) != 3 * m * k:
+                raise Error(grpc.StatusCode.INTERNAL,
+                            f"server returned {len(response.pdf)} samples for {m} queries x {k}")
+            wi[first : first + m] = np.asarray(response.wi, dtype=np.float32).reshape(m, k, 3)
+            pdf[first : first + m] = np.asarray(response.pdf, dtype=np.float32).reshape(m, k)
+            weight[first : first + m] = np.asarray(response.weight, dtype=np.float32).reshape(m, k, 3)
+        return SampleResult(wi, pdf, weight)
+
+    # -- normal maps ------------------------------------------------------------------------
+
+    def upload_normal_map(self, path: "os.PathLike[str] | str") -> str:
+        """Uploads a normal map file (OpenEXR float RGB or 8/16-bit RGB PNG tangent-space
+        normals) in 1 MiB chunks and returns its digest, ``sha256:<hex>``, for a NORMAL_MAP
+        material's ``normal_map.digest``. The server stores a map once however often it is
+        uploaded; a bad file is refused with ``INVALID_ARGUMENT`` naming it."""
+        data = pathlib.Path(path).read_bytes()
+        name = pathlib.Path(path).name
+
+        def chunks() -> Iterator[pb.NormalMapChunk]:
+            step = 1 << 20
+            for offset in range(0, max(len(data), 1), step):
+                yield pb.NormalMapChunk(filename=name if offset == 0 else "", data=data[offset : offset + step])
+
+        try:
+            info = self._stub.UploadNormalMap(chunks())
+        except grpc.RpcError as e:
+            raise Error.from_rpc_error(e) from None
+        return info.digest
+
+
+@dataclasses.dataclass
+class SampleResult:
+    """What :meth:`Client.sample` returns: sample j of query q is ``wi[q, j]``, ``pdf[q, j]``,
+    ``weight[q, j]``. A sample without a direction is wi = 0, pdf 0, weight 0."""
+
+    wi: np.ndarray
+    pdf: np.ndarray
+    weight: np.ndarray

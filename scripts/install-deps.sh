@@ -15,6 +15,7 @@ PACKAGES=(
   libboost-math1.74-dev  # chi-square quantiles of the sampling tests (tests/service/sample_test.cpp)
   libssl-dev
   clang-14 libclang-rt-14-dev
+  nginx-light  # tests/deploy: the gRPC load balancer of docker/compose.yaml
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -297,9 +297,19 @@ Status DeviceEngine::Sample(int worker, const EvalPlan &plan, const glint::v1::Q
   if (samples == 0) return Status::Ok();
   KernelArguments args;
   auto table = model_tables_.find(model->id);
-  Status s = MakeArguments(
-      runtime_->context(), plan, q, ltc_tables_[plan.spec.ndf == GLINT_NDF_BECKMANN ? 1 : 0].get(),
-      table == model_tables_.end() ? nullptr : table->second.get(), out, &args);
+  cl_mem model_table = table == model_tables_.end() ? nullptr : table->second.get();
+  ClBuffer request_table;  // the plan's Model::request_table (NORMAL_MAP), held until read back
+  if (model->request_table && !plan.request_table)
+    return Status::Internal(std::string(model->name) +
+                            ": the plan has no request table (ResolveRequestTable not called)");
+  if (plan.request_table) {
+    Status t = RequestTableBufferFor(plan, &request_table);
+    if (!t.ok()) return t;
+    model_table = request_table.get();
+  }
+  Status s = MakeArguments(runtime_->context(), plan, q,
+                           ltc_tables_[plan.spec.ndf == GLINT_NDF_BECKMANN ? 1 : 0].get(),
+                           model_table, out, &args);
   if (!s.ok()) return s;
   cl_int err = CL_SUCCESS;
   args.out.reset(clCreateBuffer(runtime_->context(), CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR,

@@ -126,6 +126,8 @@ EvalPlan MakeEvalPlan(const glint::v1::EvaluateRequest &settings,
   if (const Model *model = FindModel(s.model); model && model->pack_params)
     model->pack_params(m, plan.params.data());
   plan.area_samples = settings.area_samples() ? int(settings.area_samples()) : 64;
+  if (const Model *model = FindModel(s.model); model && model->request_table)
+    plan.request_table_material = std::make_shared<const glint::v1::Material>(m);
   static_assert(GLINT_LIGHT_FLOATS == 8, "the light records above are 8 floats");
   s.has_directional = plan.n_directional > 0;
   s.has_point = plan.n_point > 0;

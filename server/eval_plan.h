@@ -54,6 +54,9 @@ struct EvalPlan {
   // table; the key names its content for the device engine's buffer cache.
   std::shared_ptr<const std::vector<float>> request_table;
   std::string request_table_key;
+  // The material, kept (by MakeEvalPlan) only for a model with a request table, so that the
+  // host path resolves the table itself when the caller did not (HostEvaluate, HostSample).
+  std::shared_ptr<const glint::v1::Material> request_table_material;
 };
 
 // The LTC table (GLINT_LTC_GRID^2 x GLINT_LTC_ENTRY floats, tools/ltc/README.md) for a

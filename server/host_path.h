@@ -10,7 +10,9 @@ namespace glint {
 
 // Writes 3 * queries.count() floats. Uses double arithmetic when
 // plan.spec.fp64, float otherwise, like the device kernel. A model with a request table
-// (NORMAL_MAP) needs ResolveRequestTable on the plan first, as for the device engine.
+// (NORMAL_MAP) gets it from plan.request_table (ResolveRequestTable) or, when unset, resolves it
+// from the material MakeEvalPlan kept; if that fails (map deleted since validation) the output
+// is zeros.
 void HostEvaluate(const EvalPlan &plan, const glint::v1::QueryBatch &queries, float *out_rgb);
 
 // The model's sample pass (server/model.h ModelSampler): kSampleFloats per sample, sample k of

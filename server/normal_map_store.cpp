@@ -15,6 +15,24 @@ std::string MiB(uint64_t bytes) {
   return std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB";
 }
 
+Status NotHeld(const std::string &digest) {
+  return Status::NotFound("material.normal_map.digest: " + digest +
+                          " is not held by this server (never uploaded, deleted or evicted); "
+                          "upload the map again (UploadNormalMap, glint upload)");
+}
+
+// Subdivision 4 of a w x h map within the texel limit and the table's side limit.
+Status SubdivisionFits(uint32_t w, uint32_t h, uint64_t max_texels) {
+  if (uint64_t(w) * h * 16 > max_texels || 4ull * w > GLINT_NM_MAX_SIDE ||
+      4ull * h > GLINT_NM_MAX_SIDE)
+    return Status::InvalidArgument(
+        "material.normal_map.subdivision: 4 turns the " + std::to_string(w) + "x" +
+        std::to_string(h) + " map into " + std::to_string(uint64_t(w) * h * 16) +
+        " sub-texels, over the server's limit of " + std::to_string(max_texels) +
+        " (Capabilities.max_normal_map_texels); expected subdivision 1 for this map");
+  return Status::Ok();
+}
+
 }  // namespace
 
 bool IsNormalMapDigest(const std::string &d) {
@@ -135,10 +153,7 @@ Status NormalMapStore::Table(const std::string &digest, int subdivision, NormalM
   {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = maps_.find(digest);
-    if (it == maps_.end())
-      return Status::NotFound("material.normal_map.digest: " + digest +
-                              " is not held by this server (never uploaded, deleted or evicted); "
-                              "upload the map again (UploadNormalMap, glint upload)");
+    if (it == maps_.end()) return NotHeld(digest);
     TouchLocked(it->second);
     if (it->second.tables[slot]) {
       *out = it->second.tables[slot];
@@ -149,13 +164,7 @@ Status NormalMapStore::Table(const std::string &digest, int subdivision, NormalM
     h = it->second.info.height();
     max_texels = limits_.max_texels;
   }
-  if (uint64_t(w) * h * 16 > max_texels || 4ull * w > GLINT_NM_MAX_SIDE ||
-      4ull * h > GLINT_NM_MAX_SIDE)
-    return Status::InvalidArgument(
-        "material.normal_map.subdivision: 4 turns the " + std::to_string(w) + "x" +
-        std::to_string(h) + " map into " + std::to_string(uint64_t(w) * h * 16) +
-        " sub-texels, over the server's limit of " + std::to_string(max_texels) +
-        " (Capabilities.max_normal_map_texels); expected subdivision 1 for this map");
+  if (Status s = SubdivisionFits(w, h, max_texels); !s.ok()) return s;
   std::vector<float> st(base->begin() + GLINT_NM_HEADER_FLOATS,
                         base->begin() + GLINT_NM_HEADER_FLOATS + ptrdiff_t(w) * h * 2);
   auto table = std::make_shared<const std::vector<float>>(BuildNormalMapTable(w, h, st, 4));
@@ -176,6 +185,14 @@ Status NormalMapStore::Table(const std::string &digest, int subdivision, NormalM
   }
   *out = table;
   return Status::Ok();
+}
+
+Status NormalMapStore::Check(const std::string &digest, int subdivision) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = maps_.find(digest);
+  if (it == maps_.end()) return NotHeld(digest);
+  if (subdivision != 4 || it->second.tables[1]) return Status::Ok();
+  return SubdivisionFits(it->second.info.width(), it->second.info.height(), limits_.max_texels);
 }
 
 void NormalMapStore::List(glint::v1::ListNormalMapsResponse *out) const {

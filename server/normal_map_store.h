@@ -50,6 +50,11 @@ class NormalMapStore {
   // The model table of `digest` at `subdivision` (1 or 4; 4 is built on first use and kept
   // under the budget). NOT_FOUND naming the digest when the store does not hold it.
   Status Table(const std::string &digest, int subdivision, NormalMapTable *out);
+  // What Table would refuse without building anything (cheap, for validation on a gRPC handler
+  // thread): NOT_FOUND naming the digest, subdivision 4 over the texel limit. Building a
+  // subdivision-4 table (seconds for a large map) is left to Table, which the request's worker
+  // calls (ResolveRequestTable); its budget refusal comes from there.
+  Status Check(const std::string &digest, int subdivision);
 
   void List(glint::v1::ListNormalMapsResponse *out) const;
   Status Delete(const std::string &digest);

@@ -24,7 +24,7 @@ Status ValidateSampleRequest(const glint::v1::SampleRequest &r, const Validation
         std::string("material.model: ") + model->name + " cannot be sampled: " +
         (model->sample.unsupported_reason ? model->sample.unsupported_reason
                                           : "the model has no sample pass") +
-        "; expected a model with an NDF (SMOOTH, KEMPPINEN, CHERMAIN)");
+        "; expected a model with an NDF (SMOOTH, KEMPPINEN, CHERMAIN, NORMAL_MAP)");
   }
   const uint32_t k = r.samples_per_query();
   if (k < 1 || k > kMaxSamplesPerQuery) {
@@ -58,7 +58,10 @@ Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleReques
   const glint::v1::QueryBatch &q = request.queries();
   const uint32_t k = request.samples_per_query();
   const size_t samples = size_t(q.count()) * k;
-  const EvalPlan plan = MakeEvalPlan(settings, q);
+  EvalPlan plan = MakeEvalPlan(settings, q);
+  // The normal map of a NORMAL_MAP material (NOT_FOUND naming the digest when it is gone).
+  s = ResolveRequestTable(settings.material(), &plan);
+  if (!s.ok()) return s;
   std::vector<float> raw(samples * kSampleFloats);
   if (engine) {
     s = engine->Sample(worker, plan, q, k, raw.data());

@@ -1,7 +1,9 @@
 // bench_models case of the NORMAL_MAP model (models/normal_map/README.md): the P-NDF's pruning
 // cut-off, on a 128 x 128 bumpy map generated here (tools/normal_map) and put into the
-// process's normal-map store, as an upload would. No error reference: the P-NDF of a map does
-// not converge to a smooth model; its accuracy is tested against binning (normal_map_pndf_test).
+// process's normal-map store, as an upload would. Quad rows: polygon lights by the model's MIS
+// (normal_map_polygons.h), area_samples per technique (the bench's default). No error reference:
+// the P-NDF of a map does not converge to a smooth model; its accuracy is tested against binning
+// (normal_map_pndf_test).
 #include <cstdio>
 #include <stdexcept>
 #include <string>
@@ -42,7 +44,7 @@ ModelBenchCase MakeNormalMapCase() {
     char name[32];
     std::snprintf(name, sizeof name, "cutoff=%g", double(cutoff));
     c.variants.push_back({name,
-                          {Lights::kProbe, Lights::kDirectionalPoint},
+                          {Lights::kProbe, Lights::kDirectionalPoint, Lights::kQuad},
                           true,
                           [cutoff](glint::v1::EvaluateRequest *r, const QueryStats &) {
                             r->mutable_material()->mutable_normal_map()->set_cutoff_sigma(cutoff);

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "client/cli/normal_map_commands.h"
 #include "client/lib/glint_client.h"
 #include "client/lib/query_io.h"
 
@@ -26,8 +27,8 @@ constexpr const char *kSampleUsage =
 
 Importance-samples the material's BRDF: for each query of Q.csv, K incident directions wi with
 their pdf (solid angle) and the weight f(wi, wo) cos_i / pdf (RGB). The mean weight over a
-query's samples estimates its directional albedo. SMOOTH, KEMPPINEN and CHERMAIN can be
-sampled; BINOMIAL is refused. Samples depend on (seed, the query's inputs, sample index) only.
+query's samples estimates its directional albedo. SMOOTH, KEMPPINEN, CHERMAIN and NORMAL_MAP
+can be sampled; BINOMIAL is refused. Samples depend on (seed, the query's inputs, sample index) only.
 
   --server ADDR       gRPC target, e.g. 127.0.0.1:50051
   --material M.json   glint.v1.Material in proto3 JSON
@@ -37,6 +38,8 @@ sampled; BINOMIAL is refused. Samples depend on (seed, the query's inputs, sampl
                       sample without a direction is 0,0,0 with pdf 0 and weight 0
   --seed N            seed (default 0)
   --precision P       fp32 (default) or fp64
+  --normal-map FILE   NORMAL_MAP materials: use FILE (EXR / PNG) as material.normal_map.digest,
+                      uploading it when the server does not hold it
   --tls-ca, --tls-cert, --tls-key, --token-file   TLS and bearer token, as for every
                       command ('glint info --help')
 )";
@@ -50,9 +53,9 @@ struct UsageError {
 };
 
 std::map<std::string, std::string> ParseArgs(int argc, char **argv, bool *help) {
-  const std::vector<std::string> known = {"server",   "material", "queries",   "samples",
-                                          "out",      "seed",     "precision", "tls-ca",
-                                          "tls-cert", "tls-key",  "token-file"};
+  const std::vector<std::string> known = {"server",   "material", "queries",    "samples",
+                                          "out",      "seed",     "precision",  "tls-ca",
+                                          "tls-cert", "tls-key",  "token-file", "normal-map"};
   std::map<std::string, std::string> values;
   for (int i = 0; i < argc; ++i) {
     std::string arg = argv[i];
@@ -119,6 +122,8 @@ int Run(const std::map<std::string, std::string> &args) {
                                                         get("tls-key"), get("token-file"));
   auto channel = glint::client::MakeChannel(server, options.max_message_bytes, options.security);
   GlintClient client(channel, options);
+  if (args.count("normal-map"))
+    glint::cli::AttachNormalMap(server, options, args.at("normal-map"), base.mutable_material());
   glint::v1::Capabilities caps;
   if (grpc::Status s = client.GetCapabilities(&caps); !s.ok()) {
     std::fprintf(stderr, "glint: GetCapabilities: %s\n", FormatStatus(s).c_str());

@@ -11,11 +11,22 @@
 #include "server/normal_map_store.h"
 
 GLINT_DECLARE_HOST_PASS(NormalMap)
+GLINT_DECLARE_HOST_PASS(NormalMapPolygons)
+GLINT_DECLARE_HOST_SAMPLE(NormalMapSample)
 
 namespace glint {
 namespace {
 
 using glint::v1::Material;
+
+bool HasProbesOrPunctualLights(const EvalPlan &plan) {
+  // Also when nothing else runs, so a batch always gets its output written.
+  return plan.spec.probe || plan.n_directional > 0 || plan.n_point > 0 || plan.n_polygon == 0;
+}
+
+bool HasPolygons(const EvalPlan &plan) {
+  return plan.n_polygon > 0;
+}
 
 int Subdivision(const Material &m) {
   return m.normal_map().subdivision() == 4 ? 4 : 1;
@@ -45,20 +56,18 @@ Status ValidateNormalMapParams(const Material &m) {
     o << "material.normal_map.subdivision: " << p.subdivision()
       << "; expected 1 (2 triangles per texel) or 4 (4 x 4 Catmull-Rom sub-texels), 0 = 1";
   } else {
-    // The map must be here (NOT_FOUND names the digest), and subdivision 4 within the limits.
-    NormalMapTable table;
-    return NormalMaps().Table(p.digest(), Subdivision(m), &table);
+    // The map must be here (NOT_FOUND names the digest), and subdivision 4 within the texel
+    // limit. Validation runs on the gRPC handler's thread: it only checks; the request's worker
+    // builds a missing subdivision-4 table (NormalMapRequestTable, seconds for a large map).
+    return NormalMaps().Check(p.digest(), Subdivision(m));
   }
   return Status::InvalidArgument(o.str());
 }
 
-Status ValidateNormalMapLight(const Material &, const glint::v1::Light &light,
-                              const std::string &field) {
-  if (light.has_polygon())
-    return Status::InvalidArgument(
-        field +
-        ".polygon: the NORMAL_MAP model does not integrate polygon lights (Yan et al. 2014 shade "
-        "point lights only); expected directional or point lights, or BRDF probes");
+// Polygon lights are integrated by the P-NDF's own multiple importance sampling
+// (normal_map_polygons.h), area_samples samples per technique: the other area methods are
+// smooth-lobe integrators and do not apply.
+Status ValidateNormalMapLight(const Material &, const glint::v1::Light &, const std::string &) {
   return Status::Ok();
 }
 
@@ -121,17 +130,17 @@ const Model kNormalMapModel = {
     .id = glint::v1::NORMAL_MAP,
     .name = "NORMAL_MAP",
     .params_field = "normal_map",
-    .passes = {{"models/normal_map/normal_map.cl", "glint_normal_map", 1, nullptr, NormalMapF32,
-                NormalMapF64}},
+    .passes = {{"models/normal_map/normal_map.cl", "glint_normal_map", 1, HasProbesOrPunctualLights,
+                NormalMapF32, NormalMapF64},
+               {"models/normal_map/normal_map_area.cl", "glint_normal_map_area", 1, HasPolygons,
+                NormalMapPolygonsF32, NormalMapPolygonsF64}},
     .validate_params = ValidateNormalMapParams,
     .validate_light = ValidateNormalMapLight,
     .validate_queries = ValidateNormalMapQueries,
     .pack_params = PackNormalMapParams,
     .example = NormalMapExample,
-    .sample = {.unsupported_reason =
-                   "importance sampling of the normal map's P-NDF (Yan et al. 2014 Sec. 6: a "
-                   "footprint point, its normal, the intrinsic-roughness perturbation) is not "
-                   "implemented yet"},
+    .sample = {"models/normal_map/normal_map_sample.cl", "glint_normal_map_sample",
+               NormalMapSampleF32, NormalMapSampleF64},
     .uses_ndf = false,
     .request_table = NormalMapRequestTable,
     .cost_factor = NormalMapCostFactor,

@@ -44,6 +44,9 @@
 #define GLINT_NM_ERF_SATURATION 4.0f
 /* The Gaussian factor of Eq. 11 is exp(-24.5) = 2.3e-11 of its peak at 7 sigma. */
 #define GLINT_NM_GAUSS_RANGE 7.0f
+/* The large-footprint limit's weight (nm_footprint): a Gaussian this many
+ * periods wide, normalised over one period. */
+#define GLINT_NM_WIDE_SIGMA 100.0f
 /* Gauss-Legendre pieces per outer integral (their count is at most 8 where
  * erf limits them and 14 where the Gaussian does). */
 #define GLINT_NM_MAX_PIECES 16
@@ -51,6 +54,9 @@
 typedef struct {
   real cx, cy;        /* footprint centre, vertex coordinates, within one period */
   real sxx, sxy, syy; /* inverse covariance of G_p */
+  real pxx, pxy, pyy; /* covariance of G_p (vertex coordinates) */
+  real pdet;          /* its determinant, without cancellation */
+  int uniform;        /* 1: the large-footprint limit (nm_footprint): G_p uniform over a period */
   real box_x, box_y;  /* cutoff half-widths of G_p along x and y */
   real norm;          /* 1 / (2 pi sqrt(det Sigma_p)) * 1 / (2 pi sigma_r^2) */
   real s, t;          /* the queried normal's (s, t) */
@@ -306,20 +312,20 @@ GLINT_FN real nm_traverse(const GLINT_GLOBAL float *table, NmQuery q,
   return sum;
 }
 
-/* D(s, t) for the footprint at uv with Jacobian fp = (du/dx, dv/dx, du/dy,
- * dv/dy): Eq. 6 over every period copy of the map the footprint's cutoff box
- * touches. */
-GLINT_FN real nm_pndf(const GLINT_GLOBAL float *table, real u, real v, const real *fp, real s,
-                      real t, real sigma_r, real cutoff, GLINT_PRIVATE NmStats *stats) {
+/* The footprint part of a query: G_p of the footprint at uv with Jacobian
+ * fp = (du/dx, dv/dx, du/dy, dv/dy) in vertex coordinates (its covariance,
+ * inverse covariance and cut-off box, clamped to GLINT_NM_MAX_PERIODS
+ * periods), the map's size, and the period copies k[0..3] = (kx0, kx1, ky0,
+ * ky1) the cut-off box touches. q.norm holds G_p's normalisation only. Shared
+ * by the P-NDF (nm_pndf) and its sampler (normal_map_sample.h), so both see
+ * the same G_p. */
+GLINT_FN NmQuery nm_footprint(const GLINT_GLOBAL float *table, real u, real v, const real *fp,
+                              real cutoff, GLINT_PRIVATE int *k) {
   uint W = (uint)table[0], H = (uint)table[1];
   NmQuery q;
   q.W = W;
   q.H = H;
   q.levels = (uint)table[2];
-  q.s = s;
-  q.t = t;
-  q.rho = GLINT_R(1.0) / (sigma_r * sigma_r);
-  q.cut_r = cutoff * sigma_r;
   /* G_p: covariance sigma_pix^2 J J^T in uv (J's columns: d(uv)/dx, d(uv)/dy),
    * scaled to vertex coordinates, plus a floor that keeps it proper. */
   real Wr = (real)W, Hr = (real)H;
@@ -333,12 +339,47 @@ GLINT_FN real nm_pndf(const GLINT_GLOBAL float *table, real u, real v, const rea
   real detJ = ax * by - ay * bx;
   real det = sp2 * sp2 * detJ * detJ + floor2 * (c0xx + c0yy) + floor2 * floor2;
   real cxx = c0xx + floor2, cyy = c0yy + floor2;
-  /* Not finite (NaN or overflowing footprints): the largest footprint allowed. */
+  /* Not finite (NaN or overflowing footprints): the large-footprint limit. */
   int bad = !(isfinite(cxx) & isfinite(cyy) & isfinite(cxy) & isfinite(det));
   cxx = bad ? Wr * Wr : cxx;
   cyy = bad ? Hr * Hr : cyy;
   cxy = bad ? GLINT_R(0.0) : cxy;
   det = bad ? Wr * Wr * Hr * Hr : det;
+  q.uniform = 0;
+  /* The large-footprint limit: a Gaussian at least one period wide along both
+   * axes (sigma_x >= W, sigma_y >= H vertex spacings) wrapped onto the periodic
+   * map is uniform to within sum_{m != 0} exp(-2 pi^2 m^2 sigma^2 / W^2)
+   * <= 2 e^{-2 pi^2} / (1 - e^{-6 pi^2}) = 5.4e-9 per axis (its Fourier series),
+   * so D is the map's global NDF convolved with G_r: one traversal of one period
+   * weighted uniformly. The weight is a Gaussian GLINT_NM_WIDE_SIGMA periods wide
+   * about the period's centre, normalised over the period in closed form, so
+   * the triangle integrals stay those of Eq. 8-11; it varies by at most
+   * 1 - exp(-(1/4 + 1/4) / (2 GLINT_NM_WIDE_SIGMA^2)) = 2.5e-5 across the period.
+   * Narrower footprints keep the clamp below (shape kept). */
+  if (cxx >= Wr * Wr && cyy >= Hr * Hr) {
+    real sb = GLINT_R(GLINT_NM_WIDE_SIGMA) * fmax(Wr, Hr);
+    q.uniform = 1;
+    q.pxx = sb * sb;
+    q.pyy = sb * sb;
+    q.pxy = GLINT_R(0.0);
+    q.pdet = q.pxx * q.pyy;
+    q.sxx = GLINT_R(1.0) / q.pxx;
+    q.syy = q.sxx;
+    q.sxy = GLINT_R(0.0);
+    q.cx = GLINT_R(0.5) * Wr;
+    q.cy = GLINT_R(0.5) * Hr;
+    q.box_x = GLINT_R(0.5) * Wr + GLINT_R(1.0);
+    q.box_y = GLINT_R(0.5) * Hr + GLINT_R(1.0);
+    /* int over the period of exp(-|x - c|^2 / (2 sb^2)) dx */
+    real zx = GLINT_R(0.5) * Wr / (sb * GLINT_R(1.41421356237309504880)),
+         zy = GLINT_R(0.5) * Hr / (sb * GLINT_R(1.41421356237309504880));
+    q.norm = GLINT_R(1.0) / (GLINT_R(2.0) * GLINT_PI * sb * sb * erf(zx) * erf(zy));
+    k[0] = 0;
+    k[1] = 0;
+    k[2] = 0;
+    k[3] = 0;
+    return q;
+  }
   /* At most GLINT_NM_MAX_PERIODS periods inside the cutoff box: shrink the
    * covariance (shape kept) where the box would be wider. */
   real lim = GLINT_R(0.5) * GLINT_R(GLINT_NM_MAX_PERIODS) / cutoff;
@@ -347,27 +388,57 @@ GLINT_FN real nm_pndf(const GLINT_GLOBAL float *table, real u, real v, const rea
   cyy *= shrink;
   cxy *= shrink;
   det *= shrink * shrink;
+  q.pxx = cxx;
+  q.pyy = cyy;
+  q.pxy = cxy;
+  q.pdet = det;
   q.sxx = cyy / det;
   q.syy = cxx / det;
   q.sxy = -cxy / det;
   q.box_x = cutoff * sqrt(cxx);
   q.box_y = cutoff * sqrt(cyy);
-  q.norm = GLINT_R(1.0) / (GLINT_R(2.0) * GLINT_PI * sqrt(det)) /
-           (GLINT_R(2.0) * GLINT_PI * sigma_r * sigma_r);
+  q.norm = GLINT_R(1.0) / (GLINT_R(2.0) * GLINT_PI * sqrt(det));
   /* uv of 1e7 and beyond: keep the fraction (the map tiles uv space). */
   real fu = u - floor(u), fv = v - floor(v);
-  real cx = fu * Wr - GLINT_R(0.5), cy = fv * Hr - GLINT_R(0.5);
-  int kx0 = (int)floor((cx - q.box_x) / Wr), kx1 = (int)floor((cx + q.box_x) / Wr);
-  int ky0 = (int)floor((cy - q.box_y) / Hr), ky1 = (int)floor((cy + q.box_y) / Hr);
+  q.cx = fu * Wr - GLINT_R(0.5);
+  q.cy = fv * Hr - GLINT_R(0.5);
+  k[0] = (int)floor((q.cx - q.box_x) / Wr);
+  k[1] = (int)floor((q.cx + q.box_x) / Wr);
+  k[2] = (int)floor((q.cy - q.box_y) / Hr);
+  k[3] = (int)floor((q.cy + q.box_y) / Hr);
+  return q;
+}
+
+/* D(s, t) of the footprint query fq (nm_footprint, with its period copies
+ * k): Eq. 6 over every period copy of the map the footprint's cutoff box
+ * touches. */
+GLINT_FN real nm_pndf_footprint(const GLINT_GLOBAL float *table, NmQuery fq, const int *k, real s,
+                                real t, real sigma_r, real cutoff, GLINT_PRIVATE NmStats *stats) {
+  NmQuery q = fq;
+  q.s = s;
+  q.t = t;
+  q.rho = GLINT_R(1.0) / (sigma_r * sigma_r);
+  q.cut_r = cutoff * sigma_r;
+  q.norm = fq.norm / (GLINT_R(2.0) * GLINT_PI * sigma_r * sigma_r);
+  real Wr = (real)q.W, Hr = (real)q.H;
   real sum = GLINT_R(0.0);
-  for (int ky = ky0; ky <= ky1; ++ky) {
-    for (int kx = kx0; kx <= kx1; ++kx) {
-      q.cx = cx - (real)kx * Wr;
-      q.cy = cy - (real)ky * Hr;
+  for (int ky = k[2]; ky <= k[3]; ++ky) {
+    for (int kx = k[0]; kx <= k[1]; ++kx) {
+      q.cx = fq.cx - (real)kx * Wr;
+      q.cy = fq.cy - (real)ky * Hr;
       sum += nm_traverse(table, q, stats);
     }
   }
   return sum * q.norm;
+}
+
+/* D(s, t) for the footprint at uv with Jacobian fp = (du/dx, dv/dx, du/dy,
+ * dv/dy). */
+GLINT_FN real nm_pndf(const GLINT_GLOBAL float *table, real u, real v, const real *fp, real s,
+                      real t, real sigma_r, real cutoff, GLINT_PRIVATE NmStats *stats) {
+  int k[4];
+  NmQuery q = nm_footprint(table, u, v, fp, cutoff, k);
+  return nm_pndf_footprint(table, q, k, s, t, sigma_r, cutoff, stats);
 }
 
 #endif /* GLINT_NORMAL_MAP_PNDF_H */

@@ -325,10 +325,6 @@ class RequestSampler {
     int n_dir = device ? Int(1, 2) : Int(0, 2);
     int n_point = device ? Int(1, 2) : Int(0, 2);
     int n_poly = device ? Int(1, 2) : Int(0, 2);
-    if (model == v1::NORMAL_MAP) {  // refused: no area lights
-      n_poly = 0;
-      if (n_dir + n_point == 0) n_dir = 1;
-    }
     if (n_dir + n_point + n_poly == 0) n_poly = 1;
     for (int i = 0; i < n_dir; ++i) {
       auto *d = r->add_lights()->mutable_directional();
@@ -524,7 +520,8 @@ TEST_F(StabilitySweep, EveryAcceptedRequestGivesFiniteNonNegativeOutput) {
          {v1::LTC, v1::LECOCQ, v1::LECOCQ_PEARSON, v1::MONTE_CARLO, v1::REFERENCE})
       for (bool fp64 : {false, true})
         for (bool device : {true, false}) {
-          // NORMAL_MAP refuses polygon lights: the area method changes nothing.
+          // NORMAL_MAP integrates polygon lights by its own sampling whatever the area method
+          // (models/normal_map/normal_map_polygons.h): one method covers it.
           if (model == v1::NORMAL_MAP && method != v1::LTC) continue;
           const auto config_start = std::chrono::steady_clock::now();
           RequestSampler sampler(1000003u * uint64_t(model) + 10007u * uint64_t(method) +

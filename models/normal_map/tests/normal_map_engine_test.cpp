@@ -134,8 +134,9 @@ TEST_F(NormalMapEngineTest, ValidationNamesTheFieldAndNotFoundNamesTheDigest) {
   auto *poly = r.add_lights()->mutable_polygon();
   for (float v : {-1.0f, -1.0f, 2.0f, 1.0f, -1.0f, 2.0f, 0.0f, 1.0f, 2.0f}) poly->add_vertices(v);
   for (float c : {1.0f, 1.0f, 1.0f}) poly->add_radiance(c);
-  EXPECT_NE(Plan(r, &plan).message().find("lights[2].polygon"), std::string::npos)
-      << Plan(r, &plan).message();
+  // Polygon lights are accepted (normal_map_polygons.h; tested in normal_map_polygon_test).
+  EXPECT_TRUE(Plan(r, &plan).ok()) << Plan(r, &plan).message();
+  EXPECT_EQ(plan.n_polygon, 1u);
   r = Request(digest, 0.01f, 2, true);
   r.mutable_queries()->clear_footprint();
   EXPECT_NE(Plan(r, &plan).message().find("queries.footprint"), std::string::npos);
@@ -229,6 +230,32 @@ TEST_F(NormalMapEngineTest, ReuploadedMapAfterDeleteGivesTheSameResult) {
   EXPECT_EQ(Put(m), digest);
   ASSERT_TRUE(Plan(r, &plan).ok());
   EXPECT_EQ(Device(plan, r.queries()), first);
+}
+
+// Validation runs on the gRPC handler's thread: it must not build a subdivision-4 table (seconds
+// for a large map), only check that it may. The table appears in the store when the request's
+// worker resolves it (ResolveRequestTable), and the host path resolves it itself from a plan
+// whose table was never resolved.
+TEST_F(NormalMapEngineTest, ValidationLeavesTheSubdivisionFourBuildToTheWorker) {
+  const std::string digest = Put(Map(24, 20, 0.2));
+  EvaluateRequest r = Request(digest, 0.03f, 4, true);
+  r.mutable_material()->mutable_normal_map()->set_subdivision(4);
+  const uint64_t before = NormalMaps().bytes();
+  ASSERT_TRUE(ValidateSettings(r, {}).ok());
+  EXPECT_EQ(NormalMaps().bytes(), before) << "validation built the subdivision-4 table";
+  // The host path without ResolveRequestTable: resolves (and builds) it from the plan's material.
+  const EvalPlan unresolved = MakeEvalPlan(r, r.queries());
+  ASSERT_FALSE(unresolved.request_table);
+  const std::vector<float> host = Host(unresolved, r.queries());
+  EXPECT_GT(NormalMaps().bytes(), before) << "the host path did not build the table";
+  EvalPlan plan;
+  ASSERT_TRUE(Plan(r, &plan).ok());
+  ASSERT_TRUE(plan.request_table);
+  EXPECT_EQ(
+      plan.request_table->size(),
+      size_t(8 + 96 * 80 * 2 + 4 * (48 * 40 + 24 * 20 + 12 * 10 + 6 * 5 + 3 * 3 + 2 * 2 + 1)));
+  EXPECT_EQ(Host(plan, r.queries()), host);
+  EXPECT_GT(*std::max_element(host.begin(), host.end()), 0.0f) << "nothing reflected";
 }
 
 }  // namespace

@@ -304,3 +304,72 @@ TEST(NormalMapPndf, Fp32AgreesWithFp64) {
 
 }  // namespace
 }  // namespace glint
+
+namespace glint {
+namespace {
+
+// The large-footprint limit (README "Periodic tiling, footprint limits"): a footprint at least
+// one period wide along both axes sees the map's global normal distribution convolved with G_r,
+//   D(s) = 1 / (W H) int_period G_r(n(x) - s) dx,
+// (the wrapped Gaussian is uniform to 5.4e-9; the kernel's near-uniform weight varies by at most
+// 2.5e-5). The reference sums G_r(n(x) - s) over M x M midpoints of every cell, n(x) interpolated
+// on the cell's two triangles (written out here), at M = 24 and 12; the tolerance is 2x their
+// difference (the midpoint rule's error estimate) plus 3e-5 of the value.
+TEST(NormalMapPndf, LargeFootprintApproachesTheGlobalNdfConvolvedWithGr) {
+  const uint32_t W = 8, H = 6;
+  const auto st = [](double i, double j) {
+    return std::pair{0.2 * std::sin(2 * kPi * (i + 0.3 * j) / 8),
+                     0.15 * std::cos(2 * kPi * (2.0 * j + 0.5 * i) / 6)};
+  };
+  const auto table = Table(W, H, st);
+  const double sigma_r = 0.05;
+  const auto global = [&](double s, double t, int m) {
+    double sum = 0;
+    for (uint32_t j = 0; j < H; ++j)
+      for (uint32_t i = 0; i < W; ++i) {
+        const auto [s00, t00] = st(i, j);
+        const auto [s10, t10] = st((i + 1) % W, j);
+        const auto [s01, t01] = st(i, (j + 1) % H);
+        const auto [s11, t11] = st((i + 1) % W, (j + 1) % H);
+        for (int a = 0; a < m; ++a)
+          for (int b = 0; b < m; ++b) {
+            const double fx = (a + 0.5) / m, fy = (b + 0.5) / m;
+            double ns, nt;
+            if (fx + fy <= 1) {
+              ns = s00 + fx * (s10 - s00) + fy * (s01 - s00);
+              nt = t00 + fx * (t10 - t00) + fy * (t01 - t00);
+            } else {
+              ns = s11 + (1 - fx) * (s01 - s11) + (1 - fy) * (s10 - s11);
+              nt = t11 + (1 - fx) * (t01 - t11) + (1 - fy) * (t10 - t11);
+            }
+            // The table stores float (s, t): round as it does.
+            sum += Gauss2(double(float(ns)) - s, double(float(nt)) - t, sigma_r * sigma_r, 0,
+                          sigma_r * sigma_r);
+          }
+      }
+    return sum / (double(m) * m * W * H);
+  };
+  // sigma = 0.5 px x J in uv periods: 1, 3 and 1000 periods, a NaN footprint (the largest).
+  const double nan = std::nan("");
+  for (const auto &fp : {std::array<double, 4>{2.0, 0.0, 0.0, 2.0},
+                         {6.0, 1.0, -1.0, 6.0},
+                         {2000.0, 0.0, 0.0, 2000.0},
+                         {nan, 0.0, 0.0, 1.0}}) {
+    for (auto [s, t] : {std::pair{0.0, 0.0}, {0.1, -0.05}, {-0.18, 0.12}, {0.3, 0.3}}) {
+      const double fine = global(s, t, 24), coarse = global(s, t, 12);
+      const double tol = 2 * std::fabs(fine - coarse) + 3e-5 * fine + 1e-12;
+      for (double u : {0.1, 0.77})
+        EXPECT_NEAR(Pndf64(table, u, 0.4, fp.data(), s, t, sigma_r, 5.0), fine, tol)
+            << "footprint " << fp[0] << " at (" << s << ", " << t << ")";
+    }
+  }
+  // Below one period the footprint is a Gaussian on the map (clamped to GLINT_NM_MAX_PERIODS
+  // periods inside its cut-off box): at 1/4 period it still depends on where it sits.
+  const double quarter[4] = {0.5, 0.0, 0.0, 0.5};
+  EXPECT_GT(std::fabs(Pndf64(table, 0.1, 0.4, quarter, 0.1, -0.05, sigma_r, 5.0) -
+                      Pndf64(table, 0.6, 0.9, quarter, 0.1, -0.05, sigma_r, 5.0)),
+            0.05 * global(0.1, -0.05, 24));
+}
+
+}  // namespace
+}  // namespace glint

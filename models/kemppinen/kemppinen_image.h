@@ -143,6 +143,10 @@ GLINT_FN KemppinenUPolygon kemppinen_image_clip_rect(KemppinenUPolygon R, real x
   return P;
 }
 
+/* Lobe standard deviations beyond which a Gaussian tail is dropped:
+ * exp(-5.7^2 / 2) / 2 = 4e-8, below the fp32 resolution of a mass ~1. */
+#define GLINT_KEMPPINEN_FAR_SIGMAS 5.7
+
 /* 8-point Gauss-Legendre on [-1, 1] (Abramowitz & Stegun Table 25.4). */
 GLINT_FN real kemppinen_gl8_node(int k) {
   const real x[4] = {GLINT_R(0.1834346424956498), GLINT_R(0.5255324099163290),
@@ -160,6 +164,8 @@ GLINT_FN real kemppinen_gl8_weight(int k) {
  * by 8-point Gauss-Legendre. The integrand is smooth on [0, 1]: its width in
  * x is ~1/h, and for h > 6 the whole integral is below e^-18 / 2 pi. */
 GLINT_FN real kemppinen_owen_t_small(real h, real a) {
+  /* T(h, a) <= exp(-h^2 / 2) / 4 (a <= 1): below 4e-8 beyond h = 5.7. */
+  if (h > GLINT_R(5.7)) return GLINT_R(0.0);
   real sum = GLINT_R(0.0);
   for (int k = 0; k < 8; ++k) {
     real x = GLINT_R(0.5) * a * (GLINT_R(1.0) + kemppinen_gl8_node(k));
@@ -180,52 +186,64 @@ GLINT_FN real kemppinen_owen_t(real h, real a) {
 }
 
 /* Standard normal mass of the right triangle with the apex at the origin,
- * the right angle at distance h >= 0 and the other leg t (signed: the mass is
+ * the right angle at distance h > 0 and the other leg t (signed: the mass is
  * odd in t): atan(|t| / h) / (2 pi) - T(h, |t| / h) (the wedge below the
  * hypotenuse minus its part beyond the leg x = h). */
 GLINT_FN real kemppinen_right_triangle_mass(real h, real t) {
   real at = fabs(t);
-  if (!(h > GLINT_R(1e-20)) || !(at > GLINT_R(0.0))) return GLINT_R(0.0);
+  if (!(at > GLINT_R(0.0))) return GLINT_R(0.0);
   real m = atan2(at, h) * GLINT_R(0.15915494309189533577) - kemppinen_owen_t(h, at / h);
   return t < GLINT_R(0.0) ? -m : m;
 }
 
 /* The mass over R of the facet lobe N(x - g; diag(sx^2, sy^2)): in whitened
  * coordinates (the lobe the standard normal at the origin) the sum over R's
- * edges of the signed masses of the triangles (origin, edge), each the
- * difference of two right triangles at the foot of the perpendicular; exact
- * up to the quadrature of Owen's T (tested against brute-force quadrature).
- * Facets more than 7 sigma outside every edge's line or inside all of them
- * are 0 or 1 without it (the rest below e^-24). */
-GLINT_FN real kemppinen_image_mass(KemppinenUPolygon R, real gx, real gy, real sx, real sy) {
+ * edges (a, b) of the signed masses of the triangles (origin, a, b), each the
+ * difference of two right triangles at the foot of the perpendicular
+ * (kemppinen_right_triangle_mass). For an edge farther than
+ * GLINT_KEMPPINEN_FAR_SIGMAS the Owen's T parts are below exp(-FAR^2 / 2) / 2
+ * and the triangle's mass is its angle / 2 pi (atan2, no T). Exact up to the quadrature of Owen's T
+ * (tested against Monte Carlo), and g on R's boundary gives the interior angle / 2 pi (1/2 on an
+ * edge): a facet costs an atan2 per far edge and two T per near edge. */
+GLINT_FN real kemppinen_image_mass(const GLINT_PRIVATE KemppinenUPolygon *R, real gx, real gy,
+                                   real sx, real sy) {
   real isx = GLINT_R(1.0) / sx, isy = GLINT_R(1.0) / sy;
+  /* Far inside every edge or far beyond one: 1 or 0 (the rest below
+   * exp(-FAR^2 / 2) / 2 per edge) without the sum. */
   real dmin = GLINT_R(1e30);
-  for (int k = 0; k < R.n; ++k) {
-    int j = (k + 1) % R.n;
-    real ex = (R.x[j] - R.x[k]) * isx, ey = (R.y[j] - R.y[k]) * isy;
+  for (int k = 0; k < R->n; ++k) {
+    int j = (k + 1) % R->n;
+    real ex = (R->x[j] - R->x[k]) * isx, ey = (R->y[j] - R->y[k]) * isy;
     real len = sqrt(ex * ex + ey * ey);
     if (!(len > GLINT_R(0.0))) continue;
-    /* Signed distance of g to the edge's line, > 0 inside (R is ccw). */
-    real d = (ex * (gy - R.y[k]) * isy - ey * (gx - R.x[k]) * isx) / len;
-    if (d < GLINT_R(-7.0)) return GLINT_R(0.0);
+    real d = (ex * (gy - R->y[k]) * isy - ey * (gx - R->x[k]) * isx) / len;
+    if (d < -GLINT_R(GLINT_KEMPPINEN_FAR_SIGMAS)) return GLINT_R(0.0);
     dmin = fmin(dmin, d);
   }
-  if (dmin > GLINT_R(7.0)) return GLINT_R(1.0);
+  if (dmin > GLINT_R(GLINT_KEMPPINEN_FAR_SIGMAS)) return GLINT_R(1.0);
   real mass = GLINT_R(0.0);
-  for (int k = 0; k < R.n; ++k) {
-    int j = (k + 1) % R.n;
-    real ax = (R.x[k] - gx) * isx, ay = (R.y[k] - gy) * isy;
-    real bx = (R.x[j] - gx) * isx, by = (R.y[j] - gy) * isy;
+  for (int k = 0; k < R->n; ++k) {
+    int j = (k + 1) % R->n;
+    real ax = (R->x[k] - gx) * isx, ay = (R->y[k] - gy) * isy;
+    real bx = (R->x[j] - gx) * isx, by = (R->y[j] - gy) * isy;
     real ex = bx - ax, ey = by - ay;
     real len = sqrt(ex * ex + ey * ey);
     if (!(len > GLINT_R(0.0))) continue;
     ex /= len;
     ey /= len;
-    real h = fabs(ax * ey - ay * ex);                    /* distance of the origin to the line */
-    real ta = ax * ex + ay * ey, tb = bx * ex + by * ey; /* along the line from the foot */
-    real cross = ax * by - ay * bx;
-    real m = kemppinen_right_triangle_mass(h, tb) - kemppinen_right_triangle_mass(h, ta);
-    mass += cross >= GLINT_R(0.0) ? m : -m;
+    /* Signed distance of g to the edge's line, > 0 inside (R is ccw):
+     * (a - g) x e, also the orientation of the triangle (g, a, b). */
+    real d = ax * ey - ay * ex;
+    real h = fabs(d);
+    if (!(h > GLINT_R(1e-20))) continue; /* g on the edge's line: a degenerate triangle */
+    real m;
+    if (h > GLINT_R(GLINT_KEMPPINEN_FAR_SIGMAS)) {
+      m = atan2(fabs(ax * by - ay * bx), ax * bx + ay * by) * GLINT_R(0.15915494309189533577);
+    } else {
+      real ta = ax * ex + ay * ey, tb = bx * ex + by * ey; /* along the line from the foot */
+      m = kemppinen_right_triangle_mass(h, tb) - kemppinen_right_triangle_mass(h, ta);
+    }
+    mass += d >= GLINT_R(0.0) ? m : -m;
   }
   return clamp(mass, GLINT_R(0.0), GLINT_R(1.0));
 }
@@ -248,15 +266,29 @@ GLINT_FN real kemppinen_psi(real z) {
  *   E = closed int_dR Qx(x) qy(y) dy,
  *   Qx(x) = sx [psi((bx0 - x) / sx) - psi((bx1 - x) / sx)]  (dQx/dx = qx),
  * integrated per edge by 8-point Gauss-Legendre over the edge's part within
- * 7 sy of the block's rows (qy < e^-24 beyond). Exact as R shrinks (A Q_B(c))
+ * GLINT_KEMPPINEN_FAR_SIGMAS sy of the block's rows (qy below 4e-8 beyond);
+ * R far inside or outside the block gives its area or 0 directly. Exact as R shrinks (A Q_B(c))
  * and as sigma -> 0 (area of R in B); tested against Monte Carlo. */
-GLINT_FN real kemppinen_image_block_mass(KemppinenUPolygon R, real bx0, real bx1, real by0,
-                                         real by1, real sx, real sy) {
-  real lo = by0 - GLINT_R(7.0) * sy, hi = by1 + GLINT_R(7.0) * sy;
+GLINT_FN real kemppinen_image_block_mass(const GLINT_PRIVATE KemppinenUPolygon *R, real bx0,
+                                         real bx1, real by0, real by1, real sx, real sy) {
+  /* R far inside the block: Q_B = 1 over R; far outside: 0. */
+  real far = GLINT_R(GLINT_KEMPPINEN_FAR_SIGMAS);
+  real rx0 = R->x[0], rx1 = R->x[0], ry0 = R->y[0], ry1 = R->y[0];
+  for (int k = 1; k < R->n; ++k) {
+    rx0 = fmin(rx0, R->x[k]);
+    rx1 = fmax(rx1, R->x[k]);
+    ry0 = fmin(ry0, R->y[k]);
+    ry1 = fmax(ry1, R->y[k]);
+  }
+  if (rx0 - bx0 > far * sx && bx1 - rx1 > far * sx && ry0 - by0 > far * sy && by1 - ry1 > far * sy)
+    return R->area;
+  if (bx0 - rx1 > far * sx || rx0 - bx1 > far * sx || by0 - ry1 > far * sy || ry0 - by1 > far * sy)
+    return GLINT_R(0.0);
+  real lo = by0 - far * sy, hi = by1 + far * sy;
   real sum = GLINT_R(0.0);
-  for (int k = 0; k < R.n; ++k) {
-    int j = (k + 1) % R.n;
-    real x0 = R.x[k], y0 = R.y[k], x1 = R.x[j], y1 = R.y[j];
+  for (int k = 0; k < R->n; ++k) {
+    int j = (k + 1) % R->n;
+    real x0 = R->x[k], y0 = R->y[k], x1 = R->x[j], y1 = R->y[j];
     real dy = y1 - y0;
     if (dy == GLINT_R(0.0)) continue; /* horizontal: dy = 0 along it */
     /* The part of the edge inside the strip lo <= y <= hi, as t in [t0, t1]. */

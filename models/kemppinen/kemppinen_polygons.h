@@ -53,26 +53,27 @@ GLINT_FN real3 kemppinen_image_rho(SmoothMaterial m, real3 wo, real x, real y) {
 /* One polygon light's glinty radiance (RGB): `smooth` is its smooth radiance
  * by the request's area method, `L` its emitted radiance, R its image. */
 GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, KemppinenFootprint fp,
-                                        real3 wo, real3 L, real3 smooth, KemppinenUPolygon R) {
+                                        real3 wo, real3 L, real3 smooth,
+                                        const GLINT_PRIVATE KemppinenUPolygon *R) {
   real3 out = r3_mul(smooth, p.mean_color);
-  if (R.n < 3 || !(R.area > GLINT_R(0.0))) return out;
+  if (R->n < 3 || !(R->area > GLINT_R(0.0))) return out;
   /* The lobe width (Eq. 4) at the image's centroid. */
-  real3 hc = kemppinen_from_disk(m.ndf, R.cx, R.cy, m.alpha_x, m.alpha_y);
+  real3 hc = kemppinen_from_disk(m.ndf, R->cx, R->cy, m.alpha_x, m.alpha_y);
   if (!(hc.z > GLINT_R(0.0))) return out;
   KemppinenAngular a = kemppinen_angular(
       p,
       kemppinen_to_disk(m.ndf, hc, m.alpha_x, m.alpha_y, ndf_D(m.ndf, hc, m.alpha_x, m.alpha_y)));
-  a.x = R.cx;
-  a.y = R.cy;
+  a.x = R->cx;
+  a.y = R->cy;
   /* R's bounding box, for the block's width. */
   real bw = GLINT_R(0.0), bh = GLINT_R(0.0);
   {
-    real x0 = R.x[0], x1 = R.x[0], y0 = R.y[0], y1 = R.y[0];
-    for (int k = 1; k < R.n; ++k) {
-      x0 = fmin(x0, R.x[k]);
-      x1 = fmax(x1, R.x[k]);
-      y0 = fmin(y0, R.y[k]);
-      y1 = fmax(y1, R.y[k]);
+    real x0 = R->x[0], x1 = R->x[0], y0 = R->y[0], y1 = R->y[0];
+    for (int k = 1; k < R->n; ++k) {
+      x0 = fmin(x0, R->x[k]);
+      x1 = fmax(x1, R->x[k]);
+      y0 = fmin(y0, R->y[k]);
+      y1 = fmax(y1, R->y[k]);
     }
     bw = x1 - x0;
     bh = y1 - y0;
@@ -92,9 +93,9 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
     real bx0 = b.ba_x / res_a, bx1 = b.ea_x / res_a, by0 = b.ba_y / res_a, by1 = b.ea_y / res_a;
     real expect = kemppinen_image_block_mass(R, bx0, bx1, by0, by1, a.sx, a.sy);
     if (!(expect > GLINT_R(0.0))) continue; /* no explicit lobe reaches R */
-    KemppinenUPolygon RB = kemppinen_image_clip_rect(R, bx0, bx1, by0, by1);
+    KemppinenUPolygon RB = kemppinen_image_clip_rect(*R, bx0, bx1, by0, by1);
     /* rho where the block meets R (R's centroid when only lobes reach it). */
-    real rx = RB.area > GLINT_R(0.0) ? RB.cx : R.cx, ry = RB.area > GLINT_R(0.0) ? RB.cy : R.cy;
+    real rx = RB.area > GLINT_R(0.0) ? RB.cx : R->cx, ry = RB.area > GLINT_R(0.0) ? RB.cy : R->cy;
     real3 rho = r3_mul(L, kemppinen_image_rho(m, wo, rx, ry));
     /* The pixel filter normalised in spatial cells: b.norm holds both
      * Gaussians' norms, the angular one 1 / (2 pi sax say) in cells. */
@@ -150,7 +151,7 @@ GLINT_FN real3 kemppinen_polygons_query(EvalSpec spec, KernelInputs in, uint i) 
     const GLINT_GLOBAL float *rec = in.polygons + GLINT_POLYGON_FLOATS * l;
     real3 L = make_real3((real)rec[2], (real)rec[3], (real)rec[4]);
     KemppinenUPolygon R = kemppinen_image(m.ndf, m.alpha_x, m.alpha_y, wo, P.v, P.n);
-    radiance = r3_add(radiance, kemppinen_polygon_glints(m, p, fp, wo, L, ls, R));
+    radiance = r3_add(radiance, kemppinen_polygon_glints(m, p, fp, wo, L, ls, &R));
   }
   return radiance;
 }

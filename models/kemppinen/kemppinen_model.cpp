@@ -69,9 +69,16 @@ Status ValidateKemppinenParams(const Material &m) {
 Status ValidateKemppinenQueries(const glint::v1::EvaluateRequest &, const glint::v1::QueryBatch &q,
                                 uint64_t first_query) {
   if (q.uv().empty()) {
+    // K25's uv-free variant (Sec. 3.3.6, "UV-free") projects position on three planes, but
+    // "the partial derivatives are still required" (Sec. 4): the pixel filter (Eq. 5) needs
+    // dp/dx, dp/dy, which QueryBatch does not carry (its footprint is the uv Jacobian). A client
+    // that has them can project position itself and send uv with its footprint.
     return Status::InvalidArgument(
-        "queries.uv: empty; the KEMPPINEN model needs uv (2 per query) to place the facets (the "
-        "paper's uv-free triplanar variant is not implemented)");
+        "queries.uv: empty; the KEMPPINEN model needs uv (2 per query) and its footprint to place "
+        "the facets and filter them. The paper's uv-free triplanar variant is not offered: it "
+        "still needs the pixel footprint of the position (dp/dx, dp/dy), which queries do not "
+        "carry; project position to uv (planar or triplanar) in the client and send uv with its "
+        "footprint");
   }
   if (q.footprint().empty()) {
     return Status::InvalidArgument(

@@ -53,9 +53,10 @@ Status ValidateKemppinenParams(const Material &m) {
   } else if (!(k.anisotropy() == 0.0f || (k.anisotropy() >= 0.05f && k.anisotropy() <= 20.0f))) {
     o << "material.kemppinen.anisotropy: " << k.anisotropy()
       << "; expected a stretch in [0.05, 20] (0 = 1)";
-  } else if (!(k.colors_size() == 0 || k.colors_size() == 3 || k.colors_size() == 6)) {
+  } else if (!(k.colors_size() % 3 == 0 && k.colors_size() <= 3 * GLINT_KEMPPINEN_MAX_COLORS)) {
     o << "material.kemppinen.colors: " << k.colors_size()
-      << " values; expected 0, 3 or 6 (no colour, or one or two RGB triples)";
+      << " values; expected flat RGB triples, 0 to " << GLINT_KEMPPINEN_MAX_COLORS
+      << " colours (a multiple of 3, at most " << 3 * GLINT_KEMPPINEN_MAX_COLORS << " values)";
   } else if (!std::all_of(k.colors().begin(), k.colors().end(),
                           [](float c) { return c >= 0.0f && c <= 1.0f; })) {
     o << "material.kemppinen.colors: a channel outside [0, 1]; expected RGB in [0, 1]";
@@ -68,9 +69,16 @@ Status ValidateKemppinenParams(const Material &m) {
 Status ValidateKemppinenQueries(const glint::v1::EvaluateRequest &, const glint::v1::QueryBatch &q,
                                 uint64_t first_query) {
   if (q.uv().empty()) {
+    // K25's uv-free variant (Sec. 3.3.6, "UV-free") projects position on three planes, but
+    // "the partial derivatives are still required" (Sec. 4): the pixel filter (Eq. 5) needs
+    // dp/dx, dp/dy, which QueryBatch does not carry (its footprint is the uv Jacobian). A client
+    // that has them can project position itself and send uv with its footprint.
     return Status::InvalidArgument(
-        "queries.uv: empty; the KEMPPINEN model needs uv (2 per query) to place the facets (the "
-        "paper's uv-free triplanar variant is not implemented)");
+        "queries.uv: empty; the KEMPPINEN model needs uv (2 per query) and its footprint to place "
+        "the facets and filter them. The paper's uv-free triplanar variant is not offered: it "
+        "still needs the pixel footprint of the position (dp/dx, dp/dy), which queries do not "
+        "carry; project position to uv (planar or triplanar) in the client and send uv with its "
+        "footprint");
   }
   if (q.footprint().empty()) {
     return Status::InvalidArgument(
@@ -95,23 +103,18 @@ Status ValidateKemppinenQueries(const glint::v1::EvaluateRequest &, const glint:
 void PackKemppinenParams(const Material &m, float *params) {
   static_assert(GLINT_KEMPPINEN_FLOATS <= GLINT_MODEL_PARAM_FLOATS);
   const auto &k = m.kemppinen();
-  params[0] = static_cast<float>(k.density());
-  params[1] =
+  params[GLINT_KEMPPINEN_DENSITY] = static_cast<float>(k.density());
+  params[GLINT_KEMPPINEN_MICRO] =
       k.microroughness() > 0.0f ? k.microroughness() : GLINT_KEMPPINEN_DEFAULT_MICROROUGHNESS;
-  params[2] = k.filter_size() > 0.0f ? k.filter_size() : GLINT_KEMPPINEN_DEFAULT_FILTER_SIZE;
-  params[3] = static_cast<float>(k.neighbors() > 0 ? k.neighbors()
-                                                   : uint32_t(GLINT_KEMPPINEN_DEFAULT_NEIGHBORS));
-  params[4] = k.anisotropy() > 0.0f ? k.anisotropy() : GLINT_KEMPPINEN_DEFAULT_ANISOTROPY;
-  // Colours: 8 bits per channel, r + 256 g + 65536 b (< 2^24, exact in a float); the count last
-  // (kemppinen_ndf.h kemppinen_params_unpack).
-  const int n_colors = k.colors_size() / 3;
-  for (int c = 0; c < n_colors; ++c) {
-    uint32_t v = 0;
-    for (int ch = 0; ch < 3; ++ch)
-      v |= uint32_t(std::lround(double(k.colors(3 * c + ch)) * 255.0)) << (8 * ch);
-    params[5 + c] = static_cast<float>(v);
-  }
-  params[7] = static_cast<float>(n_colors);
+  params[GLINT_KEMPPINEN_FILTER] =
+      k.filter_size() > 0.0f ? k.filter_size() : GLINT_KEMPPINEN_DEFAULT_FILTER_SIZE;
+  params[GLINT_KEMPPINEN_NEIGHBORS] = static_cast<float>(
+      k.neighbors() > 0 ? k.neighbors() : uint32_t(GLINT_KEMPPINEN_DEFAULT_NEIGHBORS));
+  params[GLINT_KEMPPINEN_ANISO] =
+      k.anisotropy() > 0.0f ? k.anisotropy() : GLINT_KEMPPINEN_DEFAULT_ANISOTROPY;
+  // Colours as given (validated: flat RGB triples in [0, 1], at most GLINT_KEMPPINEN_MAX_COLORS).
+  params[GLINT_KEMPPINEN_N_COLORS] = static_cast<float>(k.colors_size() / 3);
+  for (int i = 0; i < k.colors_size(); ++i) params[GLINT_KEMPPINEN_COLORS + i] = k.colors(i);
 }
 
 void KemppinenExample(Material *m, glint::v1::QueryBatch *one_query) {

@@ -110,31 +110,32 @@ typedef struct {
   real filter;  /* f */
   int n_side;   /* sqrt(k): angular cells per axis explicitly evaluated */
   real aniso;   /* a, A_star = diag(a, 1/a) */
-  real3 c0, c1; /* the facets' two colours (K25 3.3.6); both white without colours */
+  /* The facets' colours (K25 3.3.6), uniform over the lanes: n_colors >= 1
+   * RGB triples (one white one without colours) and their mean, the colour
+   * of the compensation (each facet takes colour c with probability 1/n). */
+  int n_colors;
+  float colors[3 * GLINT_KEMPPINEN_MAX_COLORS];
+  real3 mean_color;
 } KemppinenParams;
-
-/* A colour packed as r + 256 g + 65536 b, 8 bits per channel (an integer
- * < 2^24, exact in a float): kemppinen_model.cpp packs it. */
-GLINT_FN real3 kemppinen_unpack_color(float packed) {
-  uint v = (uint)packed;
-  return make_real3((real)(v & 255u) * GLINT_R(1.0 / 255.0),
-                    (real)((v >> 8) & 255u) * GLINT_R(1.0 / 255.0),
-                    (real)((v >> 16) & 255u) * GLINT_R(1.0 / 255.0));
-}
 
 GLINT_FN KemppinenParams kemppinen_params_unpack(const GLINT_GLOBAL float *packed) {
   KemppinenParams p;
-  p.density = (real)packed[0];
-  p.micro = (real)packed[1];
-  p.filter = (real)packed[2];
-  int k = (int)packed[3];
+  p.density = (real)packed[GLINT_KEMPPINEN_DENSITY];
+  p.micro = (real)packed[GLINT_KEMPPINEN_MICRO];
+  p.filter = (real)packed[GLINT_KEMPPINEN_FILTER];
+  int k = (int)packed[GLINT_KEMPPINEN_NEIGHBORS];
   p.n_side = k >= 16 ? 4 : k >= 9 ? 3 : k >= 4 ? 2 : 1;
-  p.aniso = (real)packed[4];
-  int n_colors = (int)packed[7];
-  p.c0 = make_real3(GLINT_R(1.0), GLINT_R(1.0), GLINT_R(1.0));
-  p.c1 = p.c0;
-  if (n_colors >= 1) p.c0 = kemppinen_unpack_color(packed[5]);
-  p.c1 = n_colors >= 2 ? kemppinen_unpack_color(packed[6]) : p.c0;
+  p.aniso = (real)packed[GLINT_KEMPPINEN_ANISO];
+  int n = (int)packed[GLINT_KEMPPINEN_N_COLORS];
+  n = n > GLINT_KEMPPINEN_MAX_COLORS ? GLINT_KEMPPINEN_MAX_COLORS : n;
+  p.n_colors = n >= 1 ? n : 1;
+  float sum[3] = {0.0f, 0.0f, 0.0f};
+  for (int i = 0; i < 3 * GLINT_KEMPPINEN_MAX_COLORS; ++i) {
+    p.colors[i] = n >= 1 ? packed[GLINT_KEMPPINEN_COLORS + i] : 1.0f;
+    if (i < 3 * p.n_colors) sum[i % 3] += p.colors[i];
+  }
+  real inv_n = GLINT_R(1.0) / (real)p.n_colors;
+  p.mean_color = make_real3((real)sum[0] * inv_n, (real)sum[1] * inv_n, (real)sum[2] * inv_n);
   return p;
 }
 
@@ -193,6 +194,31 @@ GLINT_FN DiskPoint kemppinen_to_disk(int ndf, real3 h, real ax, real ay, real D)
   }
   return p;
 }
+
+/* T^-1 (kemppinen_to_disk inverted): a point of the unit square to the unit
+ * half-vector h; valid only inside the disk of radius 1/2 about (1/2, 1/2)
+ * (returns h.z = 0 outside). One query per call (GLINT_LANES == 1: it
+ * branches on the point). */
+#if !defined(__OPENCL_VERSION__) || GLINT_LANES == 1
+GLINT_FN real3 kemppinen_from_disk(int ndf, real x, real y, real ax, real ay) {
+  real dx = GLINT_R(2.0) * (x - GLINT_R(0.5)), dy = GLINT_R(2.0) * (y - GLINT_R(0.5));
+  real d2 = dx * dx + dy * dy;
+  real3 none = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  if (!(d2 < GLINT_R(1.0))) return none;
+  if (ndf == GLINT_NDF_BECKMANN) {
+    /* K25 3.2.2 (B2 o B1): r^2 = 1 - exp(-|t|^2), t = d sqrt(-ln(1 - r^2)) / r
+     * (-> d as r -> 0), slope = (ax tx, ay ty), h = (slope, 1) / |.|. */
+    real q = -log1p(-d2);
+    real scale = d2 > GLINT_R(1e-12) ? sqrt(q / d2) : GLINT_R(1.0);
+    return r3_normalize(make_real3(ax * dx * scale, ay * dy * scale, GLINT_R(1.0)));
+  }
+  /* K25 3.2.1: inverse Lambert projection n = (d sqrt(2 - |d|^2), 1 - |d|^2),
+   * then the inverse stretch h ~ M^-T n = (ax nx, ay ny, nz) (kemppinen_to_disk
+   * writes the stretch as ax ay M^T h). */
+  real k = sqrt(GLINT_R(2.0) - d2);
+  return r3_normalize(make_real3(ax * dx * k, ay * dy * k, GLINT_R(1.0) - d2));
+}
+#endif
 
 /* ------------------------------------------------------- Gaussian rectangles */
 
@@ -305,7 +331,7 @@ GLINT_FN real kemppinen_roulette(real r, real w) {
  * in [0,1)^4 within its cell and its roulette number (K25 3.3.1). */
 typedef struct {
   real sx, sy, ax, ay, r;
-  real pick; /* 0 or 1: which of the two colours (K25 3.3.6) */
+  real pick; /* in [0, 1): the colour is number floor(pick n) of n (K25 3.3.6) */
 } KemppinenFacet;
 
 /* The hash of (seed, level, spatial cell); facets absorb their angular cell. */
@@ -333,7 +359,7 @@ GLINT_FN KemppinenFacet kemppinen_facet(kemp_uint spatial_key, real ix, real iy)
   g.ax = kemppinen_u16_hi(h2);
   g.ay = kemppinen_u16_lo(h2);
   g.r = kemppinen_u16_hi(key);
-  g.pick = KEMP_TO_REAL(key & 1u);
+  g.pick = kemppinen_u16_lo(key); /* bits 0-15, independent of r's 16-31 */
   return g;
 }
 
@@ -428,6 +454,18 @@ GLINT_FN real kemppinen_facet_lobe(KemppinenBlocks b, real cx, real cy, real ix,
   return glint_select(exp(-e) * b.norm, GLINT_R(0.0), outside);
 }
 
+/* 1 - P_s: the pixel filter's mass outside the explicit 2x2 spatial block,
+ * per axis from the diagonal of Sigma_s (cells); the query lies inside the
+ * block, so 1 - mass is the two tails. */
+GLINT_FN real kemppinen_spatial_outside(KemppinenFootprint fp, KemppinenBlocks b) {
+  real ssx = sqrt(fp.sxx) * b.res_s, ssy = sqrt(fp.syy) * b.res_s;
+  real sx0 = (b.bs_x - b.ts_x) / ssx, sx1 = (b.bs_x + GLINT_R(2.0) - b.ts_x) / ssx;
+  real sy0 = (b.bs_y - b.ts_y) / ssy, sy1 = (b.bs_y + GLINT_R(2.0) - b.ts_y) / ssy;
+  real tx = GLINT_R(0.5) * (kemppinen_erfc_abs(sx0) + kemppinen_erfc_abs(sx1));
+  real ty = GLINT_R(0.5) * (kemppinen_erfc_abs(sy0) + kemppinen_erfc_abs(sy1));
+  return tx + (GLINT_R(1.0) - tx) * ty;
+}
+
 /* K25 Eq. 9-10 for level l: the expected lobe mass of the facets not
  * evaluated explicitly,
  *   C = P_a(square) - P_s(spatial block) P_a(B(k) in the square)
@@ -450,15 +488,21 @@ GLINT_FN real kemppinen_compensation(KemppinenFootprint fp, KemppinenAngular a, 
   real xout = kemppinen_mass_e(x0, x1, ex0, ex1) + kemppinen_mass_e(x2, x3, ex2, ex3);
   real yout = kemppinen_mass_e(y0, y1, ey0, ey1) + kemppinen_mass_e(y2, y3, ey2, ey3);
   real square_minus_block = xsq * yout + yb * xout; /* = P_a(square) - P_a(B) */
-  /* Spatial block mass per axis from the diagonal of Sigma_s (cells); the
-   * query lies inside the block, so 1 - mass is the two tails. */
-  real ssx = sqrt(fp.sxx) * b.res_s, ssy = sqrt(fp.syy) * b.res_s;
-  real sx0 = (b.bs_x - b.ts_x) / ssx, sx1 = (b.bs_x + GLINT_R(2.0) - b.ts_x) / ssx;
-  real sy0 = (b.bs_y - b.ts_y) / ssy, sy1 = (b.bs_y + GLINT_R(2.0) - b.ts_y) / ssy;
-  real tx = GLINT_R(0.5) * (kemppinen_erfc_abs(sx0) + kemppinen_erfc_abs(sx1));
-  real ty = GLINT_R(0.5) * (kemppinen_erfc_abs(sy0) + kemppinen_erfc_abs(sy1));
-  real one_minus_ps = tx + (GLINT_R(1.0) - tx) * ty;
-  return fmax(square_minus_block + one_minus_ps * xb * yb, GLINT_R(0.0));
+  return fmax(square_minus_block + kemppinen_spatial_outside(fp, b) * xb * yb, GLINT_R(0.0));
+}
+
+/* K25 3.3.6: facet g's colour, number floor(pick n) of the n colours (each
+ * with probability 1/n up to 2^-16: pick is a 16-bit uniform), by selects
+ * (the index is per lane, the colour table uniform). */
+GLINT_FN real3 kemppinen_facet_color(KemppinenParams p, KemppinenFacet g) {
+  real idx = floor(g.pick * (real)p.n_colors);
+  real3 c = make_real3((real)p.colors[0], (real)p.colors[1], (real)p.colors[2]);
+  for (int k = 1; k < p.n_colors; ++k) {
+    real3 ck =
+        make_real3((real)p.colors[3 * k], (real)p.colors[3 * k + 1], (real)p.colors[3 * k + 2]);
+    c = r3_select(c, ck, idx >= (real)k);
+  }
+  return c;
 }
 
 /* Level l's part of S with MIP weight w: roulette-weighted explicit facets
@@ -467,7 +511,6 @@ GLINT_FN real3 kemppinen_level(KemppinenParams p, KemppinenFootprint fp, Kemppin
                                real level, real w) {
   KemppinenBlocks b = kemppinen_blocks(p, fp, a, level);
   real3 sum = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-  real3 dc = r3_sub(p.c1, p.c0);
   int n = p.n_side;
   for (int j = 0; j < 4; ++j) {
     real cx = b.bs_x + (real)(j & 1);
@@ -484,13 +527,12 @@ GLINT_FN real3 kemppinen_level(KemppinenParams p, KemppinenFootprint fp, Kemppin
         real wt =
             glint_select(GLINT_R(0.0), keep * kemppinen_facet_lobe(b, cx, cy, ix, iy, g), valid);
         /* K25 3.3.6: the facet's colour from its cell's hash. */
-        sum = r3_add(sum, r3_scale(r3_add(p.c0, r3_scale(dc, g.pick)), wt));
+        sum = r3_add(sum, r3_scale(kemppinen_facet_color(p, g), wt));
       }
     }
   }
-  /* The compensation in the mean colour (each colour has probability 1/2). */
-  real3 mean = r3_scale(r3_add(p.c0, p.c1), GLINT_R(0.5));
-  return r3_add(sum, r3_scale(mean, w * kemppinen_compensation(fp, a, b)));
+  /* The compensation in the mean colour (each colour has probability 1/n). */
+  return r3_add(sum, r3_scale(p.mean_color, w * kemppinen_compensation(fp, a, b)));
 }
 
 /* S(x, h) = D_star / D (RGB: the facets' colours) for the query's footprint

@@ -1,14 +1,23 @@
 /* The Kemppinen model's packed parameter block (GLINT_MODEL_PARAM_FLOATS),
  * shared by its descriptor (kemppinen_model.cpp packs it, defaults applied)
  * and its kernels (kemppinen_ndf.h unpacks it): plain #defines, valid OpenCL C
- * and C++.
- *   [density K_P, microroughness alpha_star, filter_size f, neighbors k,
- *    anisotropy a, colour 0, colour 1, number of colours (0, 1, 2)]
- * with a colour packed as r + 256 g + 65536 b, 8 bits per channel. */
+ * and C++. Offsets (floats):
+ *   0 density K_P, 1 microroughness alpha_star, 2 filter_size f,
+ *   3 neighbors k, 4 anisotropy a, 5 number of colours n (0 = white),
+ *   6-7 unused (0), 8 + 3 c .. 10 + 3 c colour c's r, g, b (c < n <= 8). */
 #ifndef GLINT_KEMPPINEN_PARAMS_H
 #define GLINT_KEMPPINEN_PARAMS_H
 
-#define GLINT_KEMPPINEN_FLOATS 8
+#define GLINT_KEMPPINEN_DENSITY 0
+#define GLINT_KEMPPINEN_MICRO 1
+#define GLINT_KEMPPINEN_FILTER 2
+#define GLINT_KEMPPINEN_NEIGHBORS 3
+#define GLINT_KEMPPINEN_ANISO 4
+#define GLINT_KEMPPINEN_N_COLORS 5
+#define GLINT_KEMPPINEN_COLORS 8
+/* Per-glint colours (K25 3.3.6): up to 8 RGB triples. */
+#define GLINT_KEMPPINEN_MAX_COLORS 8
+#define GLINT_KEMPPINEN_FLOATS (GLINT_KEMPPINEN_COLORS + 3 * GLINT_KEMPPINEN_MAX_COLORS)
 
 /* What 0 (unset) means for the optional fields (glint.v1.KemppinenParams). */
 #define GLINT_KEMPPINEN_DEFAULT_MICROROUGHNESS 0.02f

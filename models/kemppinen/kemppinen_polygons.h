@@ -1,21 +1,136 @@
 /* Polygon lights for the Kemppinen glint model (K25 has point lights and
  * environment maps only), one query per work-item (clipping branches per
- * query): APPROXIMATION, the smooth area integral of the request's area
- * method times S = D_star / D (models/kemppinen/kemppinen_ndf.h) at the
- * half-vector of the polygon's centre direction. The expectation over uv is
- * exact away from the disk rim (E[S] = 1); the glint pattern of a large light
- * is that of its centre (one glint value per light instead of each facet's
- * lobe integrated over the light's image in U). Measured against per-direction
- * glints in models/kemppinen/tests/kemppinen_test.cpp. */
+ * query). The reflected radiance of a light of radiance L is
+ *   L_o = int_light L f cos_i dwi = int_R rho(x) S(x) dx,
+ *   rho(x) = L f(wi, wo) cos_i 4 (wo.h) / |J_T(h)|        (dwi = 4 wo.h dh, dh = dx / |J_T|)
+ * over the light's image R in U (models/kemppinen/kemppinen_image.h), with S
+ * = D_star / D = explicit facet lobes + compensation (kemppinen_ndf.h). Per
+ * MIP level l (weight w_l) of the query's footprint:
+ *  - explicit facets: the n x n angular cells around R's centroid (n = the
+ *    material's sqrt(k), widened up to 4 to cover R's bounding box), times the
+ *    2x2 spatial block. Facet i contributes
+ *      rho_l R(r_i, w_l) N_s,i M_i / res_a^2,
+ *    N_s,i its pixel-filter weight (cells), M_i its lobe's mass over R
+ *    (kemppinen_image_mass, an approximation), rho_l = rho at the centroid
+ *    of the block's part of R (rho taken constant over the block);
+ *  - compensation through the smooth area integral L_smooth of the request's
+ *    area method: w_l (L_smooth - rho_l P_s A_l) in the mean colour, with A_l
+ *    the area of R inside the block and P_s the pixel filter's mass in the
+ *    spatial block: the expectation of the explicit part over uv (facets
+ *    uniform in their cells), so the sum is unbiased up to the lobes' spill
+ *    over R's edges inside the block (int_B M vs A_l).
+ * APPROXIMATIONS, measured against Monte Carlo over the light in
+ * models/kemppinen/tests/kemppinen_test.cpp: R's straight edges between the
+ * images of arc points; the lobe
+ * width |J_T| and rho taken at R's centroid / the block's part of R; facets of
+ * cells beyond the explicit block enter only through the compensation (a
+ * light whose image spans more than 4 x 4 cells of a level has smooth parts).
+ * The result is clamped at 0 per channel. */
 #ifndef GLINT_KEMPPINEN_POLYGONS_H
 #define GLINT_KEMPPINEN_POLYGONS_H
 
 #include "kernels/area/area_lights.h"
 #include "kernels/area/polygon_lights.h"
 #include "models/kemppinen/kemppinen_eval.h"
+#include "models/kemppinen/kemppinen_image.h"
 
-/* Polygon lights for query i, one query per work-item (clipping branches):
- * the APPROXIMATION in the header comment. */
+/* Widest explicit angular block for a polygon light (cells per axis). */
+#define GLINT_KEMPPINEN_POLYGON_MAX_SIDE 4
+
+/* rho at U point (x, y) (see the header comment), RGB, without L. */
+GLINT_FN real3 kemppinen_image_rho(SmoothMaterial m, real3 wo, real x, real y) {
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  real3 h = kemppinen_from_disk(m.ndf, x, y, m.alpha_x, m.alpha_y);
+  real oh = r3_dot(wo, h);
+  if (!(h.z > GLINT_R(0.0)) || !(oh > GLINT_R(0.0))) return zero;
+  real3 wi = r3_sub(r3_scale(h, GLINT_R(2.0) * oh), wo);
+  DiskPoint d =
+      kemppinen_to_disk(m.ndf, h, m.alpha_x, m.alpha_y, ndf_D(m.ndf, h, m.alpha_x, m.alpha_y));
+  if (!(d.jac > GLINT_R(0.0))) return zero;
+  return r3_scale(smooth_reflect_cos(m, wi, wo), GLINT_R(4.0) * oh / d.jac);
+}
+
+/* One polygon light's glinty radiance (RGB): `smooth` is its smooth radiance
+ * by the request's area method, `L` its emitted radiance, R its image. */
+GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, KemppinenFootprint fp,
+                                        real3 wo, real3 L, real3 smooth,
+                                        const GLINT_PRIVATE KemppinenUPolygon *R) {
+  real3 out = r3_mul(smooth, p.mean_color);
+  if (R->n < 3 || !(R->area > GLINT_R(0.0))) return out;
+  /* The lobe width (Eq. 4) at the image's centroid. */
+  real3 hc = kemppinen_from_disk(m.ndf, R->cx, R->cy, m.alpha_x, m.alpha_y);
+  if (!(hc.z > GLINT_R(0.0))) return out;
+  KemppinenAngular a = kemppinen_angular(
+      p,
+      kemppinen_to_disk(m.ndf, hc, m.alpha_x, m.alpha_y, ndf_D(m.ndf, hc, m.alpha_x, m.alpha_y)));
+  a.x = R->cx;
+  a.y = R->cy;
+  /* R's bounding box, for the block's width. */
+  real bw = GLINT_R(0.0), bh = GLINT_R(0.0);
+  {
+    real x0 = R->x[0], x1 = R->x[0], y0 = R->y[0], y1 = R->y[0];
+    for (int k = 1; k < R->n; ++k) {
+      x0 = fmin(x0, R->x[k]);
+      x1 = fmax(x1, R->x[k]);
+      y0 = fmin(y0, R->y[k]);
+      y1 = fmax(y1, R->y[k]);
+    }
+    bw = x1 - x0;
+    bh = y1 - y0;
+  }
+  real lf = floor(fp.lambda);
+  real w1 = fp.lambda - lf;
+  for (int lv = 0; lv < 2; ++lv) {
+    real w = lv == 0 ? GLINT_R(1.0) - w1 : w1;
+    if (!(w > GLINT_R(0.0))) continue;
+    real level = fmin(lf + (real)lv, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL));
+    real res_a = floor(exp2(level) + GLINT_R(0.5));
+    /* Cells per axis covering R's bounding box (+1: it straddles a border). */
+    real cover = (real)ceil(fmax(bw, bh) * res_a) + GLINT_R(1.0);
+    KemppinenParams pb = p;
+    pb.n_side = (int)fmin(fmax((real)p.n_side, cover), (real)GLINT_KEMPPINEN_POLYGON_MAX_SIDE);
+    KemppinenBlocks b = kemppinen_blocks(pb, fp, a, level);
+    real bx0 = b.ba_x / res_a, bx1 = b.ea_x / res_a, by0 = b.ba_y / res_a, by1 = b.ea_y / res_a;
+    real expect = kemppinen_image_block_mass(R, bx0, bx1, by0, by1, a.sx, a.sy);
+    if (!(expect > GLINT_R(0.0))) continue; /* no explicit lobe reaches R */
+    KemppinenUPolygon RB = kemppinen_image_clip_rect(*R, bx0, bx1, by0, by1);
+    /* rho where the block meets R (R's centroid when only lobes reach it). */
+    real rx = RB.area > GLINT_R(0.0) ? RB.cx : R->cx, ry = RB.area > GLINT_R(0.0) ? RB.cy : R->cy;
+    real3 rho = r3_mul(L, kemppinen_image_rho(m, wo, rx, ry));
+    /* The pixel filter normalised in spatial cells: b.norm holds both
+     * Gaussians' norms, the angular one 1 / (2 pi sax say) in cells. */
+    real sn = b.norm * GLINT_R(2.0) * GLINT_PI * (a.sx * res_a) * (a.sy * res_a);
+    real3 sum = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+    int n = pb.n_side;
+    for (int j = 0; j < 4; ++j) {
+      real cx = b.bs_x + (real)(j & 1);
+      real cy = b.bs_y + (real)(j >> 1);
+      kemp_uint key = kemppinen_spatial_key(fp.seed_key, level, cx, cy);
+      for (int mm = 0; mm < n * n; ++mm) {
+        real ix = b.ba_x + (real)(mm % n);
+        real iy = b.ba_y + (real)(mm / n);
+        if (!(ix < b.ea_x && iy < b.ea_y)) continue;
+        KemppinenFacet g = kemppinen_facet(key, ix, iy);
+        real keep = kemppinen_roulette(g.r, w);
+        if (!(keep > GLINT_R(0.0))) continue;
+        real gx = (ix + g.ax) / res_a, gy = (iy + g.ay) / res_a;
+        real ox = gx - GLINT_R(0.5), oy = gy - GLINT_R(0.5);
+        if (ox * ox + oy * oy >= GLINT_R(0.25)) continue; /* rejected (3.3.1) */
+        real dx = b.ts_x - cx - g.sx, dy = b.ts_y - cy - g.sy;
+        real ns = sn * exp(-(b.qxx * dx * dx + b.qxy * dx * dy + b.qyy * dy * dy));
+        real mass = kemppinen_image_mass(R, gx, gy, a.sx, a.sy);
+        sum = r3_add(sum, r3_scale(kemppinen_facet_color(p, g), keep * ns * mass));
+      }
+    }
+    real ps = GLINT_R(1.0) - kemppinen_spatial_outside(fp, b);
+    real3 expected = r3_scale(p.mean_color, w * ps * expect);
+    out = r3_add(out, r3_mul(rho, r3_sub(r3_scale(sum, GLINT_R(1.0) / (res_a * res_a)), expected)));
+  }
+  return make_real3(fmax(out.x, GLINT_R(0.0)), fmax(out.y, GLINT_R(0.0)),
+                    fmax(out.z, GLINT_R(0.0)));
+}
+
+/* Polygon lights for query i, one query per work-item. */
 GLINT_FN real3 kemppinen_polygons_query(EvalSpec spec, KernelInputs in, uint i) {
   real3 radiance = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   SmoothMaterial m = smooth_material_unpack(in.material, spec.ndf, spec.fresnel);
@@ -33,15 +148,10 @@ GLINT_FN real3 kemppinen_polygons_query(EvalSpec spec, KernelInputs in, uint i) 
     PolygonLight P = polygon_light(spec, in, sp, m, l, area_key);
     real3 ls = P.radiance;
     if (!(ls.x + ls.y + ls.z > GLINT_R(0.0))) continue;
-    /* The centre direction: mean of the unit vertex directions. */
-    real3 c = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-    for (int k = 0; k < P.n; ++k) c = r3_add(c, area_safe_normalize(P.v[k], P.v[k]));
-    real3 up = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0));
-    real3 wc = area_safe_normalize(c, up);
-    real3 h = area_safe_normalize(r3_add(wc, wo), up);
-    real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
-    radiance = r3_add(radiance,
-                      r3_mul(ls, kemppinen_glint_factor(p, fp, m.ndf, h, m.alpha_x, m.alpha_y, D)));
+    const GLINT_GLOBAL float *rec = in.polygons + GLINT_POLYGON_FLOATS * l;
+    real3 L = make_real3((real)rec[2], (real)rec[3], (real)rec[4]);
+    KemppinenUPolygon R = kemppinen_image(m.ndf, m.alpha_x, m.alpha_y, wo, P.v, P.n);
+    radiance = r3_add(radiance, kemppinen_polygon_glints(m, p, fp, wo, L, ls, &R));
   }
   return radiance;
 }

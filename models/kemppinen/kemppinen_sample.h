@@ -68,28 +68,6 @@ GLINT_FN real kemppinen_sample_smooth_fraction(SmoothMaterial m, KemppinenParams
                GLINT_R(GLINT_KEMPPINEN_SAMPLE_SMOOTH_MAX));
 }
 
-/* T^-1 (kemppinen_to_disk inverted): a point of the unit square to the unit
- * half-vector h; valid only inside the disk of radius 1/2 about (1/2, 1/2)
- * (returns h.z = 0 outside). */
-GLINT_FN real3 kemppinen_from_disk(int ndf, real x, real y, real ax, real ay) {
-  real dx = GLINT_R(2.0) * (x - GLINT_R(0.5)), dy = GLINT_R(2.0) * (y - GLINT_R(0.5));
-  real d2 = dx * dx + dy * dy;
-  real3 none = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-  if (!(d2 < GLINT_R(1.0))) return none;
-  if (ndf == GLINT_NDF_BECKMANN) {
-    /* K25 3.2.2 (B2 o B1): r^2 = 1 - exp(-|t|^2), t = d sqrt(-ln(1 - r^2)) / r
-     * (-> d as r -> 0), slope = (ax tx, ay ty), h = (slope, 1) / |.|. */
-    real q = -log1p(-d2);
-    real scale = d2 > GLINT_R(1e-12) ? sqrt(q / d2) : GLINT_R(1.0);
-    return r3_normalize(make_real3(ax * dx * scale, ay * dy * scale, GLINT_R(1.0)));
-  }
-  /* K25 3.2.1: inverse Lambert projection n = (d sqrt(2 - |d|^2), 1 - |d|^2),
-   * then the inverse stretch h ~ M^-T n = (ax nx, ay ny, nz) (kemppinen_to_disk
-   * writes the stretch as ax ay M^T h). */
-  real k = sqrt(GLINT_R(2.0) - d2);
-  return r3_normalize(make_real3(ax * dx * k, ay * dy * k, GLINT_R(1.0) - d2));
-}
-
 /* The facet choice weight's spatial factor: the pixel filter N(x_s - g_s;
  * Sigma_s) up to its norm (the exponent of kemppinen_facet_lobe's spatial
  * part, in cells). */
@@ -114,7 +92,7 @@ GLINT_FN KemppinenSampleFacet kemppinen_sample_facet(SmoothMaterial m, Kemppinen
   s.gx = (ix + g.ax) / b.res_a;
   s.gy = (iy + g.ay) / b.res_a;
   real ox = s.gx - GLINT_R(0.5), oy = s.gy - GLINT_R(0.5);
-  real3 c = r3_add(p.c0, r3_scale(r3_sub(p.c1, p.c0), g.pick));
+  real3 c = kemppinen_facet_color(p, g);
   real lum = (c.x + c.y + c.z) * GLINT_R(1.0 / 3.0);
   s.w = ox * ox + oy * oy < GLINT_R(0.25)
             ? kemppinen_roulette(g.r, wl) * kemppinen_spatial_filter(b, cx, cy, g) * lum

@@ -62,7 +62,10 @@ EvaluateRequest MakeSettings(v1::Ndf ndf, bool lights, bool polygon, bool fp64, 
   k->set_density(3e5);
   k->set_microroughness(0.05f);
   k->set_neighbors(uint32_t(neighbors));
-  for (float c : {1.0f, 0.2f, 0.1f, 1.0f, 0.9f, 0.2f}) k->add_colors(c);  // per-glint colours
+  // Per-glint colours, five (a facet picks one of n from its hash, kemppinen_facet_color).
+  for (float c :
+       {1.0f, 0.2f, 0.1f, 1.0f, 0.9f, 0.2f, 0.1f, 0.4f, 1.0f, 0.3f, 1.0f, 0.3f, 0.5f, 0.0f, 0.5f})
+    k->add_colors(c);
   if (lights) {
     auto *d = r.add_lights()->mutable_directional();
     for (float v : {0.6f, 0.0f, 0.8f}) d->add_direction(v);
@@ -101,12 +104,20 @@ TEST(KemppinenValidation, RefusalsNameTheField) {
   bad.mutable_material()->mutable_kemppinen()->set_microroughness(2.0f);
   refused(bad, "material.kemppinen.microroughness");
   bad = r;
-  bad.mutable_material()->mutable_kemppinen()->add_colors(1.0f);  // 7 values
+  bad.mutable_material()->mutable_kemppinen()->add_colors(1.0f);  // 16 values
   refused(bad, "material.kemppinen.colors");
   bad = r;
   bad.mutable_material()->mutable_kemppinen()->clear_colors();
   for (float c : {1.0f, 0.2f, 2.0f}) bad.mutable_material()->mutable_kemppinen()->add_colors(c);
   refused(bad, "material.kemppinen.colors");  // a channel > 1
+  bad = r;
+  bad.mutable_material()->mutable_kemppinen()->clear_colors();
+  for (int k = 0; k < 27; ++k) bad.mutable_material()->mutable_kemppinen()->add_colors(0.5f);
+  refused(bad, "material.kemppinen.colors");  // 9 colours, at most 8
+  EvaluateRequest eight = r;
+  eight.mutable_material()->mutable_kemppinen()->clear_colors();
+  for (int k = 0; k < 24; ++k) eight.mutable_material()->mutable_kemppinen()->add_colors(0.5f);
+  EXPECT_TRUE(ValidateSettings(eight, {}).ok());
   EvaluateRequest one = r;
   one.mutable_material()->mutable_kemppinen()->clear_colors();
   for (float c : {1.0f, 0.2f, 0.1f}) one.mutable_material()->mutable_kemppinen()->add_colors(c);
@@ -132,6 +143,7 @@ TEST(KemppinenValidation, RefusalsNameTheField) {
   Status s = ValidateQueriesForModel(no_uv, r);
   EXPECT_FALSE(s.ok());
   EXPECT_NE(s.message().find("queries.uv"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("triplanar"), std::string::npos) << s.message();  // says why
   v1::QueryBatch no_fp = q;
   no_fp.clear_footprint();
   s = ValidateQueriesForModel(no_fp, r);

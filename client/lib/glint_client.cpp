@@ -12,6 +12,7 @@
 #include <thread>
 #include <utility>
 
+#include "client/lib/chunk_encoding.h"
 #include "client/lib/server_list.h"
 #include "grpc/health/v1/health.grpc.pb.h"
 
@@ -557,9 +558,20 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
   grpc::ClientContext context;
   PrepareContext(&context);
   SetDeadline(&context, deadline);
-  std::unique_ptr<
-      grpc::ClientReaderWriter<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult>>
-      stream = stub_->EvaluateStream(&context);
+  // Chunks are encoded straight from the request's arrays (client/lib/chunk_encoding.h: one copy
+  // of the queries instead of a sliced message plus its serialisation).
+  std::unique_ptr<RawChunkStream> stream = OpenRawChunkStream(channel_.get(), &context);
+  std::string settings;
+  {
+    glint::v1::EvaluateRequest first;
+    *first.mutable_material() = request.material();
+    *first.mutable_lights() = request.lights();
+    first.set_precision(request.precision());
+    first.set_seed(request.seed());
+    first.set_area_method(request.area_method());
+    first.set_area_samples(request.area_samples());
+    settings = first.SerializeAsString();
+  }
 
   // Writer and reader run concurrently: with both sides' HTTP/2 windows full, a client that only
   // reads after writing everything would wait for a server that waits for it. Chunks are built
@@ -568,22 +580,14 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
   std::string writer_error;
   std::thread writer([&] {
     try {
+      static const std::string kNoSettings;
       for (uint64_t k = 0; k < chunks; ++k) {
-        glint::v1::EvaluateChunk chunk;
-        chunk.set_chunk_index(k);
-        glint::v1::EvaluateRequest *part = chunk.mutable_request();
-        if (k == 0) {
-          *part->mutable_material() = request.material();
-          *part->mutable_lights() = request.lights();
-          part->set_precision(request.precision());
-          part->set_seed(request.seed());
-          part->set_area_method(request.area_method());
-          part->set_area_samples(request.area_samples());
-        }
         const auto begin = static_cast<uint32_t>(k * chunk_queries);
         const auto end =
             static_cast<uint32_t>(std::min<uint64_t>(uint64_t{begin} + chunk_queries, count));
-        *part->mutable_queries() = SliceQueries(request.queries(), begin, end);
+        // The first chunk carries every setting; the others only queries.
+        const grpc::ByteBuffer chunk =
+            EncodeChunk(k, k == 0 ? settings : kNoSettings, request.queries(), begin, end);
         // false: the call is over (server error or our own cancel); Finish says why.
         if (!stream->Write(chunk)) return;
       }

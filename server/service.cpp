@@ -1,5 +1,6 @@
 #include "server/service.h"
 
+#include <google/protobuf/io/coded_stream.h>
 #include <grpcpp/support/proto_buffer_reader.h>
 #include <grpcpp/support/proto_buffer_writer.h>
 
@@ -9,6 +10,7 @@
 #include <mutex>
 #include <optional>
 #include <sstream>
+#include <vector>
 
 #include "server/eval_plan.h"
 #include "server/model_table.h"
@@ -46,6 +48,43 @@ Status ParseBody(const grpc::ByteBuffer *body, google::protobuf::Message *out,
   if (ok) return Status::Ok();
   return Status::InvalidArgument(what + ": the " + std::to_string(bytes) +
                                  "-byte body does not parse as a " + out->GetTypeName() +
+                                 " (truncated, or not this message); check that client and "
+                                 "server use the same proto/glint/v1/glint.proto");
+}
+
+// Clears every field of `m` but the one named `keep`, and its unknown fields (through reflection,
+// so fields added to the contract later are cleared too).
+void ClearAllBut(google::protobuf::Message *m, const char *keep) {
+  const google::protobuf::Reflection *reflection = m->GetReflection();
+  std::vector<const google::protobuf::FieldDescriptor *> fields;
+  reflection->ListFields(*m, &fields);
+  for (const google::protobuf::FieldDescriptor *f : fields)
+    if (f->name() != keep) reflection->ClearField(m, f);
+  reflection->MutableUnknownFields(m)->Clear();
+}
+
+// Parses a stream chunk into a message used before, keeping the capacity of its query arrays
+// (issue 12): Clear() (which ParseFrom calls) deletes the nested request with its arrays, and
+// parsing into fresh arrays regrows them by doubling and faults in their pages for every chunk.
+// Everything else is cleared first, so the merge below sees an empty message, as a parse would.
+Status ParseChunkReusing(const grpc::ByteBuffer *body, glint::v1::EvaluateChunk *chunk,
+                         const std::string &what) {
+  ClearAllBut(chunk, "request");
+  glint::v1::EvaluateRequest *request = chunk->mutable_request();
+  ClearAllBut(request, "queries");
+  request->mutable_queries()->Clear();  // repeated fields keep their capacity
+  auto *raw = const_cast<grpc::ByteBuffer *>(body);
+  const size_t bytes = raw->Length();
+  bool ok = false;
+  {
+    grpc::ProtoBufferReader reader(raw);
+    google::protobuf::io::CodedInputStream input(&reader);
+    ok = chunk->MergeFromCodedStream(&input) && input.ConsumedEntireMessage();
+  }
+  raw->Clear();
+  if (ok) return Status::Ok();
+  return Status::InvalidArgument(what + ": the " + std::to_string(bytes) +
+                                 "-byte body does not parse as a " + chunk->GetTypeName() +
                                  " (truncated, or not this message); check that client and "
                                  "server use the same proto/glint/v1/glint.proto");
 }
@@ -262,7 +301,14 @@ class GlintServiceImpl::StreamReactor
     grpc::Status failed;
     if (ok) {
       // Only one read is ever outstanding: raw_chunk_ and the read-side counters are ours here.
-      chunk = std::make_shared<Chunk>();
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        if (!spare_.empty()) {
+          chunk = std::move(spare_.back());
+          spare_.pop_back();
+        }
+      }
+      if (!chunk) chunk = std::make_shared<Chunk>();
       failed = Accept(&chunk);
     }
     {
@@ -312,7 +358,8 @@ class GlintServiceImpl::StreamReactor
   // Parses and checks the chunk just read (index, settings, admission) on gRPC's thread.
   grpc::Status Accept(std::shared_ptr<Chunk> *chunk) {
     Chunk &c = **chunk;
-    if (Status s = ParseBody(&raw_chunk_, &c.message, "chunk " + std::to_string(read_index_));
+    if (Status s =
+            ParseChunkReusing(&raw_chunk_, &c.message, "chunk " + std::to_string(read_index_));
         !s.ok())
       return ToGrpcStatus(s);
     if (c.message.chunk_index() != read_index_) {
@@ -408,14 +455,15 @@ class GlintServiceImpl::StreamReactor
       Status s =
           service_->RunBatch(worker, *chunk->settings, chunk->message.request().queries(),
                              chunk->first_query, true, result.mutable_result(), nullptr, ctx_);
-      chunk->message.Clear();  // the queries are no longer needed: free them before the reply
       grpc::Status status = ChunkStatus(chunk->index, s);
       grpc::ByteBuffer reply;
       if (status.ok()) status = SerializeReply(result, &reply);
-      return [this, status, reply = std::move(reply)]() mutable {
+      return [this, chunk, status, reply = std::move(reply)]() mutable {
         {
           std::lock_guard<std::mutex> lock(mu_);
           computing_ = false;
+          // Its arrays' memory serves a later chunk (ParseChunkReusing).
+          if (spare_.size() < kDepth) spare_.push_back(std::move(chunk));
           if (status.ok() && !write_failed_) {
             // Also after a later chunk failed to read: this chunk came before it.
             to_write_.push_back(std::move(reply));
@@ -444,6 +492,7 @@ class GlintServiceImpl::StreamReactor
   bool finished_ = false, write_failed_ = false;
   std::optional<grpc::Status> failure_;
   std::deque<std::shared_ptr<Chunk>> waiting_;  // parsed, in order, not yet submitted
+  std::vector<std::shared_ptr<Chunk>> spare_;   // evaluated chunks whose arrays are reused
   std::deque<grpc::ByteBuffer> to_write_;       // serialized results in order; front in flight
   uint64_t answered_ = 0;                       // results queued for writing
 };

@@ -7,6 +7,7 @@
 //   host        the host C++ path on one thread (HostEvaluate),
 //   end_to_end  glintd's service in this process on loopback through the client library
 //               (protobuf + gRPC both ways; fp32, each model's first variant per light set),
+//               on the batch the device row of the same run timed,
 // in fp32 and fp64. One row per measurement:
 //   evals_per_s      queries / median seconds of --repeat runs; the batch (the shared queries
 //                    tiled) grows until one run takes >= the minimum time or reaches 2^20 queries,
@@ -244,8 +245,17 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
     return ok;
   };
   double t = 0;
+  // end_to_end times the batch its device row timed in this run (issue 12: the two rates side
+  // by side on the same batch, 1M queries for the probes).
+  uint32_t same_as_device = 0;
+  if (path == "end_to_end")
+    for (const Row &d : rows_)
+      if (d.path == "device" && d.model == row->model && d.variant == row->variant &&
+          d.lights == row->lights && d.precision == row->precision)
+        same_as_device = d.batch;
+  if (same_as_device) n = same_as_device;
   if (!once(n, &t)) return false;
-  while (t < o_.min_time && n < o_.max_batch) {
+  while (!same_as_device && t < o_.min_time && n < o_.max_batch) {
     const double grow = std::clamp(1.3 * o_.min_time / std::max(t, 1e-6), 2.0, 64.0);
     n = uint32_t(std::min(double(o_.max_batch), std::ceil(n * grow)));
     if (!once(n, &t)) return false;

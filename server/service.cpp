@@ -1,11 +1,16 @@
 #include "server/service.h"
 
+#include <google/protobuf/io/coded_stream.h>
 #include <grpcpp/support/proto_buffer_reader.h>
 #include <grpcpp/support/proto_buffer_writer.h>
 
 #include <chrono>
 #include <cstdio>
+#include <deque>
+#include <mutex>
+#include <optional>
 #include <sstream>
+#include <vector>
 
 #include "server/eval_plan.h"
 #include "server/model_table.h"
@@ -43,6 +48,43 @@ Status ParseBody(const grpc::ByteBuffer *body, google::protobuf::Message *out,
   if (ok) return Status::Ok();
   return Status::InvalidArgument(what + ": the " + std::to_string(bytes) +
                                  "-byte body does not parse as a " + out->GetTypeName() +
+                                 " (truncated, or not this message); check that client and "
+                                 "server use the same proto/glint/v1/glint.proto");
+}
+
+// Clears every field of `m` but the one named `keep`, and its unknown fields (through reflection,
+// so fields added to the contract later are cleared too).
+void ClearAllBut(google::protobuf::Message *m, const char *keep) {
+  const google::protobuf::Reflection *reflection = m->GetReflection();
+  std::vector<const google::protobuf::FieldDescriptor *> fields;
+  reflection->ListFields(*m, &fields);
+  for (const google::protobuf::FieldDescriptor *f : fields)
+    if (f->name() != keep) reflection->ClearField(m, f);
+  reflection->MutableUnknownFields(m)->Clear();
+}
+
+// Parses a stream chunk into a message used before, keeping the capacity of its query arrays
+// (issue 12): Clear() (which ParseFrom calls) deletes the nested request with its arrays, and
+// parsing into fresh arrays regrows them by doubling and faults in their pages for every chunk.
+// Everything else is cleared first, so the merge below sees an empty message, as a parse would.
+Status ParseChunkReusing(const grpc::ByteBuffer *body, glint::v1::EvaluateChunk *chunk,
+                         const std::string &what) {
+  ClearAllBut(chunk, "request");
+  glint::v1::EvaluateRequest *request = chunk->mutable_request();
+  ClearAllBut(request, "queries");
+  request->mutable_queries()->Clear();  // repeated fields keep their capacity
+  auto *raw = const_cast<grpc::ByteBuffer *>(body);
+  const size_t bytes = raw->Length();
+  bool ok = false;
+  {
+    grpc::ProtoBufferReader reader(raw);
+    google::protobuf::io::CodedInputStream input(&reader);
+    ok = chunk->MergeFromCodedStream(&input) && input.ConsumedEntireMessage();
+  }
+  raw->Clear();
+  if (ok) return Status::Ok();
+  return Status::InvalidArgument(what + ": the " + std::to_string(bytes) +
+                                 "-byte body does not parse as a " + chunk->GetTypeName() +
                                  " (truncated, or not this message); check that client and "
                                  "server use the same proto/glint/v1/glint.proto");
 }
@@ -227,105 +269,232 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   return reactor;
 }
 
-// One chunk in flight at a time: read, evaluate on a worker, write, read the
-// next. Results therefore leave in chunk order, and the reactor is finished
-// only when nothing is outstanding, so `delete this` in OnDone is safe.
+// A pipelined stream (issue 12): while chunk k evaluates on a worker, chunk k+1 is read and
+// parsed on gRPC's thread and the result of chunk k-1 is written. Chunks still evaluate one at a
+// time and in order, so results leave in chunk order and a later chunk's settings apply from
+// that chunk on. At most kDepth chunks are held (read, not yet answered), which bounds a
+// stream's memory to kDepth chunks and their results.
+// Every action on the call (StartRead, StartWrite, submitting a job, Finish) is decided under
+// mu_ and carried out after it is released: a reaction may run on another thread at once.
+// Finish comes only when no job and no write is outstanding, so `delete this` in OnDone is safe
+// (a read may still be outstanding: it then completes with ok = false).
+// On a failure the chunks before it are still evaluated and answered (as before pipelining,
+// when a chunk was read only after the previous one's result had been written); the stream then
+// ends with the failure's status.
 class GlintServiceImpl::StreamReactor
     : public grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> {
  public:
+  static constexpr size_t kDepth = 3;
+
   StreamReactor(GlintServiceImpl *service, grpc::CallbackServerContext *ctx)
       : service_(service), ctx_(ctx), start_(Clock::now()) {
     // Refused before the first chunk's body is read where that is already known.
     if (service_->shutting_down_) {
-      Fail(ToGrpcStatus(service_->Admit({}, 0)));
-      return;
+      std::lock_guard<std::mutex> lock(mu_);
+      failure_ = ToGrpcStatus(service_->Admit({}, 0));
     }
-    StartRead(&raw_chunk_);
+    Pump();
   }
 
   void OnReadDone(bool ok) override {
-    if (!ok) {
-      // No more chunks: the client half-closed (every chunk read has been answered, since one is
-      // read only after the previous one's result was written) or the call was cancelled.
-      if (ctx_->IsCancelled()) {
-        return Fail(grpc::Status(grpc::StatusCode::CANCELLED,
-                                 "chunk " + std::to_string(next_index_) + ": call cancelled"));
+    std::shared_ptr<Chunk> chunk;
+    grpc::Status failed;
+    if (ok) {
+      // Only one read is ever outstanding: raw_chunk_ and the read-side counters are ours here.
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        if (!spare_.empty()) {
+          chunk = std::move(spare_.back());
+          spare_.pop_back();
+        }
       }
-      std::ostringstream line;
-      line << "EvaluateStream chunks=" << next_index_ << " n=" << next_query_
-           << " total_ms=" << MsSince(start_) << " ok";
-      service_->LogLine(line.str());
-      Finish(grpc::Status::OK);
-      return;
+      if (!chunk) chunk = std::make_shared<Chunk>();
+      failed = Accept(&chunk);
     }
-    if (Status s = ParseBody(&raw_chunk_, &chunk_, "chunk " + std::to_string(next_index_)); !s.ok())
-      return Fail(ToGrpcStatus(s));
-    if (chunk_.chunk_index() != next_index_) {
-      return Fail(ToGrpcStatus(
-          Status::InvalidArgument("chunk_index: got " + std::to_string(chunk_.chunk_index()) +
-                                  "; expected " + std::to_string(next_index_))));
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      reading_ = false;
+      if (!ok) {
+        reads_done_ = true;
+        // No more chunks: the client half-closed, or the call was cancelled.
+        if (ctx_->IsCancelled() && !failure_)
+          failure_ = grpc::Status(grpc::StatusCode::CANCELLED,
+                                  "chunk " + std::to_string(read_index_) + ": call cancelled");
+      } else if (!failed.ok()) {
+        if (!failure_) failure_ = failed;
+      } else if (!failure_) {
+        waiting_.push_back(std::move(chunk));
+      }
     }
-    if (chunk_.request().has_material() || next_index_ == 0) {
-      // The first chunk sets material, lights, precision and seed; a later
-      // chunk that carries a material replaces them.
-      settings_ = chunk_.request();
-      settings_.clear_queries();
-      Status s = ValidateSettings(settings_, service_->options().limits);
-      if (!s.ok()) return Fail(ChunkStatus(next_index_, s));
-    } else if (Status s = ValidateLaterChunkSettings(chunk_.request()); !s.ok()) {
-      return Fail(ChunkStatus(next_index_, s));
-    }
-    if (Status s = service_->Admit(settings_, chunk_.request().queries().count()); !s.ok())
-      return Fail(ChunkStatus(next_index_, s));
-    submitted_ = Clock::now();
-    bool queued = service_->scheduler().TrySubmit([this](int worker) -> Scheduler::Respond {
-      if (Metrics *m = service_->options().metrics) m->ObserveQueueWait(MsSince(submitted_) / 1e3);
-      result_.Clear();
-      result_.set_chunk_index(next_index_);
-      result_.set_first_query(next_query_);
-      Status s = service_->RunBatch(worker, settings_, chunk_.request().queries(), next_query_,
-                                    true, result_.mutable_result(), nullptr, ctx_);
-      // The engine's own code (INTERNAL for a device failure, INVALID_ARGUMENT for a bad
-      // query, ...), exactly as the unary path would return it.
-      if (!s.ok()) return [this, st = ChunkStatus(next_index_, s)] { Fail(st); };
-      next_query_ += chunk_.request().queries().count();
-      ++next_index_;
-      chunk_.Clear();
-      grpc::Status ser = SerializeReply(result_, &raw_result_);
-      result_.Clear();
-      if (!ser.ok()) return [this, ser] { Fail(ser); };
-      return [this] { StartWrite(&raw_result_); };
-    });
-    if (!queued) Fail(ToGrpcStatus(OverloadStatus(service_->scheduler())));
+    Pump();
   }
 
   void OnWriteDone(bool ok) override {
-    if (!ok) {
-      Finish(grpc::Status(grpc::StatusCode::CANCELLED, "client went away"));
-      return;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      writing_ = false;
+      to_write_.pop_front();
+      if (!ok) {
+        write_failed_ = true;
+        if (!failure_) failure_ = grpc::Status(grpc::StatusCode::CANCELLED, "client went away");
+        to_write_.clear();
+        waiting_.clear();
+      }
     }
-    StartRead(&raw_chunk_);
+    Pump();
   }
 
   void OnDone() override { delete this; }
 
  private:
-  void Fail(const grpc::Status &s) {
-    service_->LogLine("EvaluateStream refused at chunk " + std::to_string(next_index_) + ": " +
-                      s.error_message());
-    Finish(s);
+  // A parsed chunk with the settings in force for it.
+  struct Chunk {
+    glint::v1::EvaluateChunk message;
+    std::shared_ptr<const glint::v1::EvaluateRequest> settings;
+    uint64_t index = 0, first_query = 0;
+    Clock::time_point queued;
+  };
+
+  // Parses and checks the chunk just read (index, settings, admission) on gRPC's thread.
+  grpc::Status Accept(std::shared_ptr<Chunk> *chunk) {
+    Chunk &c = **chunk;
+    if (Status s =
+            ParseChunkReusing(&raw_chunk_, &c.message, "chunk " + std::to_string(read_index_));
+        !s.ok())
+      return ToGrpcStatus(s);
+    if (c.message.chunk_index() != read_index_) {
+      return ToGrpcStatus(Status::InvalidArgument("chunk_index: got " +
+                                                  std::to_string(c.message.chunk_index()) +
+                                                  "; expected " + std::to_string(read_index_)));
+    }
+    if (c.message.request().has_material() || read_index_ == 0) {
+      // The first chunk sets material, lights, precision and seed; a later
+      // chunk that carries a material replaces them.
+      auto settings = std::make_shared<glint::v1::EvaluateRequest>(c.message.request());
+      settings->clear_queries();
+      Status s = ValidateSettings(*settings, service_->options().limits);
+      if (!s.ok()) return ChunkStatus(read_index_, s);
+      settings_ = std::move(settings);
+    } else if (Status s = ValidateLaterChunkSettings(c.message.request()); !s.ok()) {
+      return ChunkStatus(read_index_, s);
+    }
+    const uint32_t count = c.message.request().queries().count();
+    if (Status s = service_->Admit(*settings_, count); !s.ok()) return ChunkStatus(read_index_, s);
+    c.settings = settings_;
+    c.index = read_index_++;
+    c.first_query = read_query_;
+    read_query_ += count;
+    return grpc::Status::OK;
+  }
+
+  // Decides under mu_ what to start next, then starts it.
+  void Pump() {
+    for (;;) {
+      bool read = false, finish = false;
+      const grpc::ByteBuffer *write = nullptr;
+      std::shared_ptr<Chunk> submit;
+      grpc::Status status;
+      uint64_t answered = 0;
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        if (finished_) return;
+        answered = answered_;
+        const size_t held = waiting_.size() + (computing_ ? 1 : 0) + to_write_.size();
+        if (!reading_ && !reads_done_ && !failure_ && held < kDepth) read = reading_ = true;
+        if (!computing_ && !waiting_.empty()) {
+          submit = std::move(waiting_.front());
+          waiting_.pop_front();
+          computing_ = true;
+        }
+        if (!writing_ && !to_write_.empty()) {
+          write = &to_write_.front();
+          writing_ = true;
+        }
+        const bool idle = waiting_.empty() && !computing_ && to_write_.empty() && !writing_;
+        if (idle && (failure_ || reads_done_)) {
+          finish = finished_ = true;
+          status = failure_ ? *failure_ : grpc::Status::OK;
+        }
+      }
+      if (finish) {
+        if (status.ok()) {
+          std::ostringstream line;
+          line << "EvaluateStream chunks=" << read_index_ << " n=" << read_query_
+               << " total_ms=" << MsSince(start_) << " ok";
+          service_->LogLine(line.str());
+        } else {
+          service_->LogLine("EvaluateStream refused at chunk " + std::to_string(answered) + ": " +
+                            status.error_message());
+        }
+        Finish(status);
+        return;
+      }
+      if (read) StartRead(&raw_chunk_);
+      if (write) StartWrite(write);
+      if (!submit) return;
+      if (Submit(std::move(submit))) return;
+      // Queue full: record the refusal and decide again.
+      std::lock_guard<std::mutex> lock(mu_);
+      computing_ = false;
+      if (!failure_) failure_ = ToGrpcStatus(OverloadStatus(service_->scheduler()));
+      waiting_.clear();
+    }
+  }
+
+  // Evaluates `chunk` on a worker; its result (or failure) is handed back under mu_.
+  bool Submit(std::shared_ptr<Chunk> chunk) {
+    chunk->queued = Clock::now();
+    return service_->scheduler().TrySubmit([this, chunk](int worker) -> Scheduler::Respond {
+      if (Metrics *m = service_->options().metrics)
+        m->ObserveQueueWait(MsSince(chunk->queued) / 1e3);
+      glint::v1::EvaluateChunkResult result;
+      result.set_chunk_index(chunk->index);
+      result.set_first_query(chunk->first_query);
+      // The engine's own code (INTERNAL for a device failure, INVALID_ARGUMENT for a bad
+      // query, ...), exactly as the unary path would return it.
+      Status s =
+          service_->RunBatch(worker, *chunk->settings, chunk->message.request().queries(),
+                             chunk->first_query, true, result.mutable_result(), nullptr, ctx_);
+      grpc::Status status = ChunkStatus(chunk->index, s);
+      grpc::ByteBuffer reply;
+      if (status.ok()) status = SerializeReply(result, &reply);
+      return [this, chunk, status, reply = std::move(reply)]() mutable {
+        {
+          std::lock_guard<std::mutex> lock(mu_);
+          computing_ = false;
+          // Its arrays' memory serves a later chunk (ParseChunkReusing).
+          if (spare_.size() < kDepth) spare_.push_back(std::move(chunk));
+          if (status.ok() && !write_failed_) {
+            // Also after a later chunk failed to read: this chunk came before it.
+            to_write_.push_back(std::move(reply));
+            ++answered_;
+          } else if (!status.ok()) {
+            if (!failure_) failure_ = status;
+            waiting_.clear();  // the chunks after a failed one are not evaluated
+          }
+        }
+        Pump();
+      };
+    });
   }
 
   GlintServiceImpl *service_;
   grpc::CallbackServerContext *ctx_;
   Clock::time_point start_;
-  Clock::time_point submitted_;  // when the current chunk was queued (queue-wait metric)
-  grpc::ByteBuffer raw_chunk_, raw_result_;
-  glint::v1::EvaluateChunk chunk_;
-  glint::v1::EvaluateRequest settings_;
-  glint::v1::EvaluateChunkResult result_;
-  uint64_t next_index_ = 0;
-  uint64_t next_query_ = 0;
+  grpc::ByteBuffer raw_chunk_;  // target of the one outstanding read
+  // Read side (touched only by the one reaction that handles a read).
+  std::shared_ptr<const glint::v1::EvaluateRequest> settings_;
+  uint64_t read_index_ = 0;
+  uint64_t read_query_ = 0;
+
+  std::mutex mu_;
+  bool reading_ = false, reads_done_ = false, computing_ = false, writing_ = false;
+  bool finished_ = false, write_failed_ = false;
+  std::optional<grpc::Status> failure_;
+  std::deque<std::shared_ptr<Chunk>> waiting_;  // parsed, in order, not yet submitted
+  std::vector<std::shared_ptr<Chunk>> spare_;   // evaluated chunks whose arrays are reused
+  std::deque<grpc::ByteBuffer> to_write_;       // serialized results in order; front in flight
+  uint64_t answered_ = 0;                       // results queued for writing
 };
 
 grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> *GlintServiceImpl::EvaluateStream(

@@ -13,7 +13,7 @@ ServiceOptions Options(const DeviceEngine *engine) {
 
 }  // namespace
 
-LoopbackService::LoopbackService(DeviceEngine *engine)
+LoopbackService::LoopbackService(DeviceEngine *engine, glint::client::ClientOptions client_options)
     : scheduler_(1, 4), service_(engine, &scheduler_, Options(engine)) {
   grpc::ServerBuilder builder;
   int port = 0;
@@ -28,7 +28,7 @@ LoopbackService::LoopbackService(DeviceEngine *engine)
     return;
   }
   address_ = "127.0.0.1:" + std::to_string(port);
-  client_ = std::make_unique<glint::client::GlintClient>(address_);
+  client_ = std::make_unique<glint::client::GlintClient>(address_, client_options);
 }
 
 LoopbackService::~LoopbackService() {

@@ -20,7 +20,7 @@ namespace glint::bench {
 class LoopbackService {
  public:
   // Serves on `engine` (one worker: the caller must not use the engine while a call runs).
-  explicit LoopbackService(DeviceEngine *engine);
+  explicit LoopbackService(DeviceEngine *engine, glint::client::ClientOptions client_options = {});
   ~LoopbackService();
   bool ok() const { return server_ != nullptr; }
   const std::string &address() const { return address_; }

@@ -32,7 +32,7 @@ Percentiles are nearest-rank (the smallest latency with at least p% of the sampl
 it); refused = RESOURCE_EXHAUSTED (queue full), errors = every other failure. Requests are never
 retried. Only ADDR is contacted.
 
-  --server ADDR        gRPC target, e.g. 127.0.0.1:50051
+  --server ADDR        gRPC target, e.g. 127.0.0.1:50051, or replicas a:1,b:2 (round robin)
   --concurrency LIST   comma-separated levels, each 1..1024 (default 1)
   --batch N            queries per request, 1..16777216 (default 256)
   --duration S         seconds per level, (0, 3600] (default 5)

@@ -55,7 +55,7 @@ Waits until the server's grpc.health.v1 status is SERVING (at most --timeout-ms,
 then prints its capabilities (device, limits, supported models). Exits 1 and says why when the
 server is unreachable or not SERVING in time.
 
-  --server ADDR     gRPC target, e.g. 127.0.0.1:50051 or dns:///glint:50051
+  --server ADDR     gRPC target, e.g. 127.0.0.1:50051 or dns:///glint:50051, or a list a:1,b:2
   --timeout-ms MS   how long to wait for SERVING (default 5000)
 )";
 
@@ -67,7 +67,7 @@ constexpr const char *kEvalUsage =
 Evaluates every query of Q.csv and writes the reflected radiance (RGB per query, in input
 order). Batches larger than the server's limits are streamed in chunks automatically.
 
-  --server ADDR       gRPC target, e.g. 127.0.0.1:50051
+  --server ADDR       gRPC target, e.g. 127.0.0.1:50051, or replicas a:1,b:2 (chunks round robin)
   --material M.json   glint.v1.Material in proto3 JSON, e.g.
                       {"model": "SMOOTH", "ndf": "GGX", "alpha_x": 0.3, "alpha_y": 0.1,
                        "schlick": {"f0": [0.9, 0.6, 0.3]}}

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "client/lib/glint_client.h"
+#include "client/lib/server_list.h"
 #include "client/preview/image_io.h"
 #include "server/normal_map_decode.h"
 #include "tools/normal_map/normal_map_gen.h"
@@ -171,12 +172,16 @@ int RunUpload(int argc, char **argv) {
     client::ClientOptions options;
     options.security = client::LoadChannelSecurity(security["tls-ca"], security["tls-cert"],
                                                    security["tls-key"], security["token-file"]);
-    client::GlintClient client(server, options);
-    bool uploaded = false;
-    const std::string digest = EnsureUploaded(client, file, &uploaded);
+    // A --server list: every replica must hold the map (a chunk may go to any of them).
+    std::string digest;
+    for (const std::string &one : client::SplitServerList(server)) {
+      client::GlintClient client(one, options);
+      bool uploaded = false;
+      digest = EnsureUploaded(client, file, &uploaded);
+      std::fprintf(stderr, "glint upload: %s %s\n", file.c_str(),
+                   uploaded ? ("uploaded to " + one).c_str() : ("already held by " + one).c_str());
+    }
     std::printf("%s\n", digest.c_str());
-    std::fprintf(stderr, "glint upload: %s %s\n", file.c_str(),
-                 uploaded ? "uploaded" : "already held by the server");
     return 0;
   } catch (const std::exception &e) {
     std::fprintf(stderr, "glint: %s\n", e.what());
@@ -186,9 +191,11 @@ int RunUpload(int argc, char **argv) {
 
 void AttachNormalMap(const std::string &server, const client::ClientOptions &options,
                      const std::string &path, glint::v1::Material *material) {
-  client::GlintClient client(server, options);
-  bool uploaded = false;
-  material->mutable_normal_map()->set_digest(EnsureUploaded(client, path, &uploaded));
+  for (const std::string &one : client::SplitServerList(server)) {  // every replica of a list
+    client::GlintClient client(one, options);
+    bool uploaded = false;
+    material->mutable_normal_map()->set_digest(EnsureUploaded(client, path, &uploaded));
+  }
 }
 
 }  // namespace glint::cli

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <condition_variable>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -11,6 +12,8 @@
 #include <thread>
 #include <utility>
 
+#include "client/lib/chunk_encoding.h"
+#include "client/lib/server_list.h"
 #include "grpc/health/v1/health.grpc.pb.h"
 
 namespace glint::client {
@@ -122,6 +125,9 @@ std::shared_ptr<grpc::Channel> MakeChannel(const std::string &address, int max_m
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
   args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 1000);
+  // A --server list: one subchannel per replica, each call to the next ready one.
+  const ServerTarget target = ParseServerList(address);
+  if (target.round_robin) args.SetLoadBalancingPolicyName("round_robin");
   std::shared_ptr<grpc::ChannelCredentials> credentials = grpc::InsecureChannelCredentials();
   if (security.tls) {
     grpc::SslCredentialsOptions ssl;
@@ -130,7 +136,7 @@ std::shared_ptr<grpc::Channel> MakeChannel(const std::string &address, int max_m
     ssl.pem_private_key = security.tls_key_pem;
     credentials = grpc::SslCredentials(ssl);
   }
-  return grpc::CreateCustomChannel(address, credentials, args);
+  return grpc::CreateCustomChannel(target.target, credentials, args);
 }
 
 QueryBatch SliceQueries(const QueryBatch &batch, uint32_t begin, uint32_t end) {
@@ -215,7 +221,8 @@ GlintClient::GlintClient(const std::string &address, ClientOptions options)
     : address_(address),
       options_(options),
       channel_(MakeChannel(address, options.max_message_bytes, options.security)),
-      stub_(glint::v1::GlintService::NewStub(channel_)) {}
+      stub_(glint::v1::GlintService::NewStub(channel_)),
+      servers_(ParseServerList(address).servers) {}
 
 GlintClient::GlintClient(std::shared_ptr<grpc::Channel> channel, ClientOptions options)
     : address_("(channel)"),
@@ -366,7 +373,10 @@ grpc::Status GlintClient::EvaluateOnce(const glint::v1::EvaluateRequest &request
   const uint32_t count = queries.count();
   const uint64_t request_bytes = request.ByteSizeLong();
   const uint64_t response_bytes = uint64_t{count} * kResponseBytesPerQuery + kEnvelopeBytes;
-  if (count <= max_batch && request_bytes <= budget && response_bytes <= budget) {
+  // A server list spreads a batch of at least kSpreadMinQueries per server over them.
+  constexpr uint32_t kSpreadMinQueries = 4096;
+  const bool spread = servers_ > 1 && count >= kSpreadMinQueries * servers_;
+  if (!spread && count <= max_batch && request_bytes <= budget && response_bytes <= budget) {
     grpc::Status status = EvaluateUnary(request, radiance, info, deadline);
     if (status.ok() && progress) progress(count, count);
     return status;
@@ -390,7 +400,14 @@ grpc::Status GlintClient::EvaluateOnce(const glint::v1::EvaluateRequest &request
   }
   const size_t per_query = std::max(BytesPerQuery(queries), kResponseBytesPerQuery);
   const uint64_t by_bytes = std::max<uint64_t>(1, (chunk_budget_total - overhead) / per_query);
-  const auto chunk_queries = static_cast<uint32_t>(std::min<uint64_t>(by_bytes, max_batch));
+  auto chunk_queries = static_cast<uint32_t>(std::min<uint64_t>(by_bytes, max_batch));
+  if (spread) {
+    // At least two chunks per server, so a faster one can take more of them.
+    const uint64_t even = (uint64_t{count} + 2 * servers_ - 1) / (2 * servers_);
+    chunk_queries = static_cast<uint32_t>(
+        std::max<uint64_t>(kSpreadMinQueries / 2, std::min<uint64_t>(chunk_queries, even)));
+    return EvaluateSpread(request, chunk_queries, radiance, progress, info, deadline);
+  }
   return EvaluateStreamed(request, chunk_queries, radiance, progress, info, deadline);
 }
 
@@ -418,6 +435,115 @@ grpc::Status GlintClient::EvaluateUnary(const glint::v1::EvaluateRequest &reques
   return grpc::Status::OK;
 }
 
+grpc::Status GlintClient::EvaluateSpread(const glint::v1::EvaluateRequest &request,
+                                         uint32_t chunk_queries, std::vector<float> *radiance,
+                                         const ProgressFn &progress, EvaluateInfo *info,
+                                         std::chrono::system_clock::time_point deadline) {
+  const uint32_t count = request.queries().count();
+  const uint64_t chunks = (uint64_t{count} + chunk_queries - 1) / chunk_queries;
+  info->streamed = false;
+  info->chunks = chunks;
+  info->chunk_queries = chunk_queries;
+  info->servers = servers_;
+  // Every chunk is a whole request: the settings, then its slice of the queries.
+  glint::v1::EvaluateRequest settings;
+  *settings.mutable_material() = request.material();
+  *settings.mutable_lights() = request.lights();
+  settings.set_precision(request.precision());
+  settings.set_seed(request.seed());
+  settings.set_area_method(request.area_method());
+  settings.set_area_samples(request.area_samples());
+
+  std::vector<float> out(uint64_t{count} * 3);
+  std::mutex mutex;
+  std::condition_variable changed;
+  uint64_t next = 0, finished = 0, done_queries = 0;
+  int running = 0;
+  grpc::Status failure;
+  std::string device;
+  // Two calls in flight per server: one computing while the next one's bytes travel.
+  const int threads = static_cast<int>(std::min<uint64_t>(chunks, 2 * servers_));
+  auto work = [&] {
+    for (;;) {
+      uint64_t k = 0;
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (!failure.ok() || next >= chunks) break;
+        k = next++;
+      }
+      const auto begin = static_cast<uint32_t>(k * chunk_queries);
+      const auto end =
+          static_cast<uint32_t>(std::min<uint64_t>(uint64_t{begin} + chunk_queries, count));
+      glint::v1::EvaluateRequest part = settings;
+      grpc::Status status;
+      try {
+        *part.mutable_queries() = SliceQueries(request.queries(), begin, end);
+      } catch (const std::exception &e) {
+        status = grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, e.what());
+      }
+      glint::v1::EvaluateResponse response;
+      // Each chunk retried on its own: a replica that goes away costs only its chunks, which
+      // round_robin then sends to the others.
+      if (status.ok())
+        status = CallWithRetries(options_.retry, SteadyDeadline(deadline), [&] {
+          grpc::ClientContext context;
+          PrepareContext(&context);
+          SetDeadline(&context, deadline);
+          response.Clear();
+          return stub_->Evaluate(&context, part, &response);
+        });
+      if (status.ok() &&
+          static_cast<uint64_t>(response.radiance_size()) != uint64_t{end - begin} * 3)
+        status = grpc::Status(grpc::StatusCode::INTERNAL,
+                              "server returned " + std::to_string(response.radiance_size()) +
+                                  " radiance floats for the " + std::to_string(end - begin) +
+                                  " queries of chunk " + std::to_string(k));
+      if (status.ok())
+        std::copy(response.radiance().begin(), response.radiance().end(),
+                  out.begin() + static_cast<std::ptrdiff_t>(uint64_t{begin} * 3));
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!status.ok()) {
+        if (failure.ok()) failure = status;
+      } else {
+        ++finished;
+        done_queries += end - begin;
+        if (device.empty()) device = response.stats().device();
+      }
+      changed.notify_all();
+    }
+    std::lock_guard<std::mutex> lock(mutex);
+    --running;
+    changed.notify_all();
+  };
+  std::vector<std::thread> pool;
+  running = threads;
+  for (int t = 0; t < threads; ++t) pool.emplace_back(work);
+  // Progress on the calling thread, as results arrive.
+  {
+    std::unique_lock<std::mutex> lock(mutex);
+    uint64_t reported = 0;
+    while (running > 0) {
+      changed.wait(lock);
+      if (progress && done_queries != reported) {
+        reported = done_queries;
+        lock.unlock();
+        progress(reported, count);
+        lock.lock();
+      }
+    }
+  }
+  for (std::thread &t : pool) t.join();
+  if (!failure.ok()) return failure;
+  if (finished != chunks) {
+    return grpc::Status(
+        grpc::StatusCode::DATA_LOSS,
+        std::to_string(finished) + " of " + std::to_string(chunks) + " chunks answered");
+  }
+  info->device = device;
+  *radiance = std::move(out);
+  return grpc::Status::OK;
+}
+
 grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &request,
                                            uint32_t chunk_queries, std::vector<float> *radiance,
                                            const ProgressFn &progress, EvaluateInfo *info,
@@ -432,9 +558,20 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
   grpc::ClientContext context;
   PrepareContext(&context);
   SetDeadline(&context, deadline);
-  std::unique_ptr<
-      grpc::ClientReaderWriter<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult>>
-      stream = stub_->EvaluateStream(&context);
+  // Chunks are encoded straight from the request's arrays (client/lib/chunk_encoding.h: one copy
+  // of the queries instead of a sliced message plus its serialisation).
+  std::unique_ptr<RawChunkStream> stream = OpenRawChunkStream(channel_.get(), &context);
+  std::string settings;
+  {
+    glint::v1::EvaluateRequest first;
+    *first.mutable_material() = request.material();
+    *first.mutable_lights() = request.lights();
+    first.set_precision(request.precision());
+    first.set_seed(request.seed());
+    first.set_area_method(request.area_method());
+    first.set_area_samples(request.area_samples());
+    settings = first.SerializeAsString();
+  }
 
   // Writer and reader run concurrently: with both sides' HTTP/2 windows full, a client that only
   // reads after writing everything would wait for a server that waits for it. Chunks are built
@@ -443,22 +580,14 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
   std::string writer_error;
   std::thread writer([&] {
     try {
+      static const std::string kNoSettings;
       for (uint64_t k = 0; k < chunks; ++k) {
-        glint::v1::EvaluateChunk chunk;
-        chunk.set_chunk_index(k);
-        glint::v1::EvaluateRequest *part = chunk.mutable_request();
-        if (k == 0) {
-          *part->mutable_material() = request.material();
-          *part->mutable_lights() = request.lights();
-          part->set_precision(request.precision());
-          part->set_seed(request.seed());
-          part->set_area_method(request.area_method());
-          part->set_area_samples(request.area_samples());
-        }
         const auto begin = static_cast<uint32_t>(k * chunk_queries);
         const auto end =
             static_cast<uint32_t>(std::min<uint64_t>(uint64_t{begin} + chunk_queries, count));
-        *part->mutable_queries() = SliceQueries(request.queries(), begin, end);
+        // The first chunk carries every setting; the others only queries.
+        const grpc::ByteBuffer chunk =
+            EncodeChunk(k, k == 0 ? settings : kNoSettings, request.queries(), begin, end);
         // false: the call is over (server error or our own cancel); Finish says why.
         if (!stream->Write(chunk)) return;
       }

@@ -54,7 +54,9 @@ struct ClientOptions {
   // Upper bound on the serialized size of one message (a unary request or a stream chunk).
   // Several MiB keeps per-message latency and memory small while amortising per-message
   // overhead (PLATFORM-NOTES: "keep messages to a few MiB and stream larger batches").
-  size_t max_chunk_bytes = 8u << 20;
+  // 4 MiB: on loopback (bench_transport, issue 12) 1-4 MiB chunks took the least CPU per query
+  // (16-32 MiB ones about 40% more: larger allocations fault in fresh pages).
+  size_t max_chunk_bytes = 4u << 20;
   // Extra cap on queries per message (0 = only the server's max_batch). Tests use it to force
   // many small chunks against a server with a large max_batch.
   uint32_t max_chunk_queries = 0;
@@ -77,13 +79,18 @@ struct EvaluateInfo {
   uint32_t chunk_queries = 0;  // queries per chunk (the last one may be smaller)
   std::string device;          // from the server's EvaluateStats, if it reported one
   int attempts = 0;            // 1 + retries
+  // Servers of a `--server a,b,c` list the chunks were spread over (as separate unary calls
+  // that the channel's round_robin policy sends to the next ready server); 1 otherwise.
+  size_t servers = 1;
 };
 
 // One channel to one server (or one load-balanced target). Thread-safe: concurrent calls,
 // including concurrent Evaluate, share the channel and the capabilities cache.
 class GlintClient {
  public:
-  // `address` is any gRPC target: "127.0.0.1:50051", "dns:///glint:50051", "unix:/path".
+  // `address` is any gRPC target: "127.0.0.1:50051", "dns:///glint:50051", "unix:/path", or a
+  // comma-separated list of host:port replicas (client/lib/server_list.h: one round_robin
+  // channel; Evaluate spreads a large batch's chunks over them).
   explicit GlintClient(const std::string &address, ClientOptions options = {});
   // For tests and callers that want their own channel arguments or credentials.
   GlintClient(std::shared_ptr<grpc::Channel> channel, ClientOptions options = {});
@@ -93,6 +100,8 @@ class GlintClient {
   // load tool's streams).
   const std::shared_ptr<grpc::Channel> &channel() const { return channel_; }
   const ClientOptions &options() const { return options_; }
+  // Addresses in the `--server` list this client was made with (1 for one address or a channel).
+  size_t servers() const { return servers_; }
   // Adds what every call of this client carries (the bearer token, when one is configured).
   void PrepareContext(grpc::ClientContext *context) const;
 
@@ -132,6 +141,12 @@ class GlintClient {
   grpc::Status EvaluateUnary(const glint::v1::EvaluateRequest &request,
                              std::vector<float> *radiance, EvaluateInfo *info,
                              std::chrono::system_clock::time_point deadline);
+  // Chunks of `chunk_queries` as concurrent unary calls over a server list's round_robin
+  // channel, each retried on its own; results written by position, so bit-identical to one
+  // server.
+  grpc::Status EvaluateSpread(const glint::v1::EvaluateRequest &request, uint32_t chunk_queries,
+                              std::vector<float> *radiance, const ProgressFn &progress,
+                              EvaluateInfo *info, std::chrono::system_clock::time_point deadline);
   grpc::Status EvaluateStreamed(const glint::v1::EvaluateRequest &request, uint32_t chunk_queries,
                                 std::vector<float> *radiance, const ProgressFn &progress,
                                 EvaluateInfo *info, std::chrono::system_clock::time_point deadline);
@@ -140,6 +155,7 @@ class GlintClient {
   ClientOptions options_;
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<glint::v1::GlintService::Stub> stub_;
+  size_t servers_ = 1;  // addresses in a --server list
   std::mutex caps_mutex_;
   std::optional<glint::v1::Capabilities> caps_;
 };

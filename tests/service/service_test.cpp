@@ -746,3 +746,81 @@ TEST(ServiceWarmUp, HealthIsNotServingUntilTheKernelsAreWarm) {
 }
 
 }  // namespace
+
+namespace {
+
+// The pipelined stream (issue 12) evaluates chunk k while it reads k+1 and reuses the memory of
+// evaluated chunks for later ones. A stream whose settings and arrays change from chunk to chunk
+// (probes with wi and uv, then a new material with a light and no wi, then a world frame, then
+// fewer arrays) must answer every chunk exactly as a unary call of that chunk's settings and
+// queries: nothing of an earlier chunk (an array, a setting) may leak into a later one.
+TEST_F(ServiceTest, StreamChunksWithChangingSettingsAndArraysMatchUnaryOneByOne) {
+  EvaluateRequest probe = Request(1);
+  probe.clear_queries();
+  EvaluateRequest lit = probe;
+  lit.mutable_material()->clear_schlick();
+  for (float v : {0.2f, 0.4f, 1.4f}) lit.mutable_material()->mutable_conductor()->add_eta(v);
+  for (float v : {3.9f, 2.4f, 1.8f}) lit.mutable_material()->mutable_conductor()->add_k(v);
+  auto *d = lit.add_lights()->mutable_directional();
+  for (float v : {0.6f, 0.0f, 0.8f}) d->add_direction(v);
+  for (float v : {1.0f, 2.0f, 3.0f}) d->add_irradiance(v);
+  lit.set_seed(77);
+  struct Part {
+    const EvaluateRequest *settings;  // null: queries only (the last settings apply)
+    glint::v1::QueryBatch queries;
+  };
+  auto drop_uv = [](glint::v1::QueryBatch q) {
+    q.clear_uv();
+    q.clear_footprint();
+    return q;
+  };
+  std::vector<Part> parts = {
+      {&probe, glint::test::RandomQueries(300, true, false, 11)},
+      {nullptr, glint::test::RandomQueries(200, true, false, 12)},
+      {nullptr, drop_uv(glint::test::RandomQueries(250, true, false, 13))},
+      {&lit, glint::test::RandomQueries(310, false, false, 14)},
+      {nullptr, drop_uv(glint::test::RandomQueries(100, false, false, 15))},
+      {&probe, glint::test::RandomQueries(290, true, true, 16)},
+      {nullptr, drop_uv(glint::test::RandomQueries(120, true, false, 17))},
+      {nullptr, glint::test::RandomQueries(5, true, false, 18)},
+  };
+  grpc::ClientContext ctx;
+  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+  auto stream = stub_->EvaluateStream(&ctx);
+  std::vector<EvaluateChunkResult> results;
+  std::thread reader([&] {
+    EvaluateChunkResult res;
+    while (stream->Read(&res)) results.push_back(res);
+  });
+  for (size_t k = 0; k < parts.size(); ++k) {
+    EvaluateChunk c;
+    c.set_chunk_index(k);
+    if (parts[k].settings) *c.mutable_request() = *parts[k].settings;
+    *c.mutable_request()->mutable_queries() = parts[k].queries;
+    if (!stream->Write(c)) break;
+  }
+  stream->WritesDone();
+  reader.join();
+  const grpc::Status s = stream->Finish();
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  ASSERT_EQ(results.size(), parts.size());
+  const EvaluateRequest *settings = nullptr;
+  uint64_t first = 0;
+  for (size_t k = 0; k < parts.size(); ++k) {
+    if (parts[k].settings) settings = parts[k].settings;
+    EvaluateRequest one = *settings;
+    *one.mutable_queries() = parts[k].queries;
+    EvaluateResponse want;
+    ASSERT_TRUE(Unary(one, &want).ok()) << k;
+    EXPECT_EQ(results[k].chunk_index(), k);
+    EXPECT_EQ(results[k].first_query(), first);
+    first += parts[k].queries.count();
+    ASSERT_EQ(results[k].result().radiance_size(), want.radiance_size()) << k;
+    EXPECT_EQ(std::memcmp(results[k].result().radiance().data(), want.radiance().data(),
+                          sizeof(float) * size_t(want.radiance_size())),
+              0)
+        << "chunk " << k;
+  }
+}
+
+}  // namespace

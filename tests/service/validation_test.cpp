@@ -446,3 +446,49 @@ TEST(Validation, BinomialRefusalsNameTheFieldAndWhatIsNeeded) {
 
 }  // namespace
 }  // namespace glint
+
+namespace glint {
+namespace {
+
+// The batch-wide fast acceptance of ValidateQueries (issue 12) never accepts what the documented
+// per-query rule refuses: a length with |length - 1| > unit_tolerance, or a value that is not
+// finite, anywhere in a large batch. The rule is evaluated here on its own (in double) for every
+// float z within 40 ulps of the band's edges 1 +- tol, as query 700 of 1000 with wo = (0, 0, z).
+TEST(Validation, FastAcceptanceAgreesWithThePerQueryRuleAtTheToleranceEdges) {
+  const ValidationLimits limits;
+  const double tol = limits.unit_tolerance;
+  for (double edge : {1.0 + tol, 1.0 - tol}) {
+    float z = std::nextafter(float(edge), 0.0f);
+    for (int k = 0; k < 40; ++k) z = std::nextafter(z, 0.0f);
+    for (int k = 0; k < 80; ++k, z = std::nextafter(z, 2.0f)) {
+      EvaluateRequest r = GoodProbe(1000);
+      auto *wo = r.mutable_queries()->mutable_wo();
+      wo->Set(3 * 700 + 0, 0.0f);
+      wo->Set(3 * 700 + 1, 0.0f);
+      wo->Set(3 * 700 + 2, z);
+      const bool rule = std::fabs(double(z) - 1.0) <= tol;
+      const Status s = Validate(r, limits);
+      EXPECT_EQ(s.ok(), rule) << "z = " << z << ": " << s.message();
+      if (!rule) {
+        EXPECT_NE(s.message().find("queries.wo[700]"), std::string::npos) << s.message();
+      }
+    }
+  }
+  const float inf = std::numeric_limits<float>::infinity();
+  for (float bad : {std::nanf(""), inf, -inf}) {
+    EvaluateRequest r = GoodProbe(1000);
+    auto *q = r.mutable_queries();
+    for (uint32_t i = 0; i < 1000; ++i) q->add_uv(0.5f), q->add_uv(0.5f);
+    q->set_uv(2 * 999 + 1, bad);
+    Status s = Validate(r, limits);
+    EXPECT_FALSE(s.ok()) << bad;
+    EXPECT_NE(s.message().find("queries.uv[999]"), std::string::npos) << s.message();
+    r = GoodProbe(1000);
+    r.mutable_queries()->mutable_wi()->Set(3 * 10 + 1, bad);
+    s = Validate(r, limits);
+    EXPECT_NE(s.message().find("queries.wi[10]"), std::string::npos) << s.message();
+  }
+}
+
+}  // namespace
+}  // namespace glint

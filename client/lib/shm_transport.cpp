@@ -236,6 +236,11 @@ grpc::Status EvaluateWithTransport(GlintClient &client, Transport transport,
       return session.Evaluate(request, radiance, progress, info);
     }
     if (transport == Transport::kShm) return s;
+    // Unreachable: TCP would fail the same way (after its own retries); say so once.
+    if (s.error_code() == grpc::StatusCode::UNAVAILABLE ||
+        s.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED ||
+        s.error_code() == grpc::StatusCode::UNAUTHENTICATED)
+      return s;
     // auto: the server cannot open our objects (another host behind a loopback proxy, shared
     // memory disabled, an older server): the arrays go over the connection instead.
   }

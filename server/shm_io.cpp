@@ -32,6 +32,9 @@ std::vector<Block> Blocks(const glint::v1::SharedMemoryIo &io) {
           {[](Q *q) { return q->mutable_tangent(); }, 3, io.frame()}};
 }
 
+// Scratch memory a worker keeps between shared-memory calls: 1M probes with a frame.
+constexpr size_t kKeepBytes = size_t(80) << 20;
+
 Status Truncated(const std::string &field, const ShmRegion &region, const char *what) {
   return Status::InvalidArgument(field + ": region \"" + region.info().name() +
                                  "\" lost pages during the call (its object " +
@@ -133,10 +136,22 @@ Status GlintServiceImpl::RunShared(int worker, const glint::v1::EvaluateRequest 
   if (!options_.shm)
     return Status::FailedPrecondition("shared_memory: this server has no shared-memory support");
   const glint::v1::SharedMemoryIo &io = settings.shared_memory();
+  // Per worker thread and reused: the arrays keep their capacity across calls (Clear), so a
+  // steady stream of large calls does not page-fault fresh memory in every call (measured: a
+  // fifth of the time of a 1M-probe call). Released after a call larger than kKeepBytes.
+  thread_local glint::v1::QueryBatch queries;
+  thread_local std::vector<float> scratch;
+  struct Release {
+    ~Release() {
+      if (size_t(queries.ByteSizeLong()) + scratch.capacity() * sizeof(float) > kKeepBytes) {
+        glint::v1::QueryBatch().Swap(&queries);
+        std::vector<float>().swap(scratch);
+      }
+    }
+  } release;
   SharedMemoryCall call;
   // At the time of the call, not of admission: the fstat inside sees truncation up to now.
   Status s = ResolveSharedMemoryCall(*options_.shm, owner, io, &call);
-  glint::v1::QueryBatch queries;
   if (s.ok()) s = LoadSharedQueries(call, io, &queries);
   if (s.ok()) s = ValidateQueries(queries, settings.lights_size() > 0, options_.limits, 0, false);
   if (s.ok()) s = ValidateQueriesForModel(queries, settings, 0);
@@ -146,11 +161,11 @@ Status GlintServiceImpl::RunShared(int worker, const glint::v1::EvaluateRequest 
   if (!s.ok()) return s;
   if (kernel) *kernel = plan.spec.Describe();
   const auto start = std::chrono::steady_clock::now();
-  std::unique_ptr<float[]> private_out;
+  const bool direct = options_.shm->limits().direct_output;
   float *out = call.output;
-  if (!options_.shm->limits().direct_output) {
-    private_out.reset(new float[size_t(call.count) * 3]);
-    out = private_out.get();
+  if (!direct) {
+    scratch.resize(size_t(call.count) * 3);
+    out = scratch.data();
   } else if (Status again =
                  call.out->CheckRange(io.output_offset(), uint64_t(call.count) * 3 * sizeof(float),
                                       "shared_memory.output_offset");
@@ -162,7 +177,7 @@ Status GlintServiceImpl::RunShared(int worker, const glint::v1::EvaluateRequest 
   slicing.target_ms = options_.slice_ms;
   slicing.stop = [this, ctx] { return StopReason(ctx); };
   s = EvaluateSliced(engine_, worker, plan, queries, out, slicing);
-  if (s.ok() && private_out) s = StoreSharedRadiance(call, out);
+  if (s.ok() && !direct) s = StoreSharedRadiance(call, out);
   response->set_count(call.count);
   response->mutable_stats()->set_compute_ms(
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());

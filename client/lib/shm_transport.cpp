@@ -1,6 +1,7 @@
 #include "client/lib/shm_transport.h"
 
 #include <fcntl.h>
+#include <google/protobuf/util/field_mask_util.h>
 #include <sys/mman.h>
 #include <unistd.h>
 
@@ -139,12 +140,15 @@ void ShmSession::Close() {
 }
 
 grpc::Status ShmSession::Prepare(const glint::v1::QueryBatch &q, uint32_t count) {
-  glint::v1::Capabilities caps;
-  if (grpc::Status s = client_->GetCapabilities(&caps); !s.ok()) return s;
-  if (caps.max_shared_memory_regions() == 0)
-    return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
-                        "the server offers no shared memory (Capabilities)");
-  const uint32_t chunk = std::min(count, std::max<uint32_t>(caps.max_batch(), 1));
+  if (max_batch_ == 0) {  // once per session: the server's limits do not change under it
+    glint::v1::Capabilities caps;
+    if (grpc::Status s = client_->GetCapabilities(&caps); !s.ok()) return s;
+    if (caps.max_shared_memory_regions() == 0)
+      return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
+                          "the server offers no shared memory (Capabilities)");
+    max_batch_ = std::max<uint32_t>(caps.max_batch(), 1);
+  }
+  const uint32_t chunk = std::min(count, max_batch_);
   const size_t in_bytes = SharedMemoryInputBytes(q, chunk);
   const size_t bytes = OutputOffset(in_bytes) + size_t(chunk) * 3 * sizeof(float);
   if (buffer_ && buffer_->size() >= bytes) {
@@ -180,13 +184,19 @@ grpc::Status ShmSession::Evaluate(const glint::v1::EvaluateRequest &request,
                                   EvaluateInfo *info) {
   const glint::v1::QueryBatch &q = request.queries();
   const uint32_t n = q.count();
-  radiance->assign(size_t(n) * 3, 0.0f);
+  radiance->resize(size_t(n) * 3);  // every element is written below
   if (n == 0) return grpc::Status::OK;
   if (grpc::Status s = Prepare(q, n); !s.ok()) return s;
   auto stub = glint::v1::GlintService::NewStub(client_->channel());
   // The settings once; each call carries them and a SharedMemoryIo naming this region.
-  glint::v1::EvaluateRequest call = request;
-  call.clear_queries();
+  // Every field but the queries (a copy of those would cost as much as the transfer saved).
+  glint::v1::EvaluateRequest call;
+  google::protobuf::FieldMask settings;
+  const google::protobuf::Descriptor *d = request.GetDescriptor();
+  for (int i = 0; i < d->field_count(); ++i)
+    if (d->field(i)->name() != "queries") settings.add_paths(d->field(i)->name());
+  google::protobuf::util::FieldMaskUtil::MergeMessageTo(
+      request, settings, google::protobuf::util::FieldMaskUtil::MergeOptions(), &call);
   const size_t out_offset = OutputOffset(SharedMemoryInputBytes(q, chunk_));
   uint64_t calls = 0;
   for (uint32_t begin = 0; begin < n; begin += chunk_) {

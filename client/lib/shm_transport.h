@@ -79,6 +79,7 @@ class ShmSession {
   std::unique_ptr<ShmBuffer> buffer_;
   std::string name_;  // registered region name, "" when none
   uint32_t chunk_ = 0;
+  uint32_t max_batch_ = 0;  // the server's (Capabilities), fetched by the first Prepare
 };
 
 // Evaluates over `transport`: kTcp = GlintClient::Evaluate; kShm = an ShmSession for this call

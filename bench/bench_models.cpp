@@ -8,6 +8,11 @@
 //   end_to_end  glintd's service in this process on loopback through the client library
 //               (protobuf + gRPC both ways; fp32, each model's first variant per light set),
 //               on the batch the device row of the same run timed,
+//   shared_memory  the same service through same-host shared memory (client/lib/
+//               shm_transport.h: a region registered once; each timed call packs the queries
+//               into it, sends the small request, the server copies them out, evaluates, writes
+//               the radiance back, the client copies it out; same rows as end_to_end;
+//               --shm-direct-output: the kernels write the region directly),
 // in fp32 and fp64. One row per measurement:
 //   evals_per_s      queries / median seconds of --repeat runs; the batch (the shared queries
 //                    tiled) grows until one run takes >= the minimum time or reaches 2^20 queries,
@@ -25,7 +30,8 @@
 //   build/bench/bench_models --quick --json bench/results/quick.json   # < 3 min, warm cache
 //   build/bench/bench_models --json results.json                       # every variant, longer
 // Flags: --quick | --tiny (seconds; the ctest smoke run), --models A,B, --lights a,b,
-// --precisions fp32,fp64, --paths device,host,end_to_end, --repeat R, --min-time S,
+// --precisions fp32,fp64, --paths device,host,end_to_end,shared_memory, --repeat R, --min-time S,
+// --shm-direct-output,
 // --note TEXT (stored in the JSON's machine note), --cache-dir DIR.
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/message.h>
@@ -66,7 +72,8 @@ struct Options {
   uint32_t max_batch = 1u << 20;
   double min_time = 0.2;
   int repeat = 5;
-  bool area_truth_tiny = false;  // --tiny: REFERENCE at 16 nodes, a smoke value, not a truth
+  bool area_truth_tiny = false;    // --tiny: REFERENCE at 16 nodes, a smoke value, not a truth
+  bool shm_direct_output = false;  // --shm-direct-output (glintd's flag) on shared_memory rows
   std::set<std::string> models, lights, precisions, paths;
   std::string json, note, cache_dir = DefaultCacheDir();
   std::string command;
@@ -92,7 +99,7 @@ struct Row {
   uint32_t batch = 0;           // queries per timed run
   uint32_t error_queries = 0;
   uint32_t nonfinite = 0;
-  std::string transport;  // end_to_end: unary or stream
+  std::string transport;  // end_to_end: unary or stream; shared_memory: shm or shm-direct
 };
 
 struct Skipped {
@@ -193,15 +200,18 @@ bool Driver::Eval(const std::string &path, const glint::v1::EvaluateRequest &req
   glint::v1::EvaluateRequest r = request;
   *r.mutable_queries() = Tile(request.queries(), n);
   out->assign(3 * size_t(n), 0.0f);
-  if (path == "end_to_end") {
-    if (!service_) service_ = std::make_unique<LoopbackService>(engine_);
+  if (path == "end_to_end" || path == "shared_memory") {
+    if (!service_)
+      service_ = std::make_unique<LoopbackService>(engine_, glint::client::ClientOptions{},
+                                                   o_.shm_direct_output);
     if (!service_->ok()) {
       *why = "could not start the loopback service";
       return false;
     }
     glint::client::EvaluateInfo info;
-    grpc::Status s = service_->Evaluate(r, out, &info);
-    if (!s.ok()) *why = "end_to_end: " + s.error_message();
+    grpc::Status s = path == "end_to_end" ? service_->Evaluate(r, out, &info)
+                                          : service_->EvaluateShared(r, out, &info);
+    if (!s.ok()) *why = path + ": " + s.error_message();
     return s.ok();
   }
   const EvalPlan plan = ResolvedPlan(r, r.queries());
@@ -231,6 +241,15 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
       *seconds = std::chrono::duration<double>(Clock::now() - t0).count();
       row->transport = info.streamed ? "stream" : "unary";
       if (!s.ok()) *why = "end_to_end: " + s.error_message(), ok = false;
+      return ok;
+    }
+    if (path == "shared_memory") {
+      glint::client::EvaluateInfo info;
+      const auto t0 = Clock::now();
+      grpc::Status s = service_->EvaluateShared(r, &o, &info);
+      *seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+      row->transport = o_.shm_direct_output ? "shm-direct" : "shm";
+      if (!s.ok()) *why = "shared_memory: " + s.error_message(), ok = false;
       return ok;
     }
     const EvalPlan plan = ResolvedPlan(r, r.queries());
@@ -317,7 +336,7 @@ const std::vector<double> &Driver::SmoothReference(const std::string &key,
 
 void Driver::Errors(const Model &model, const ModelBenchCase &c, Lights lights,
                     const glint::v1::EvaluateRequest &request, const std::string &path, Row *row) {
-  if (path == "end_to_end") return;  // the same numbers as the device path
+  if (path == "end_to_end" || path == "shared_memory") return;  // the device path's numbers
   std::string why;
   std::vector<float> out;
   const std::string light_key = std::string(model.name) + "|" + LightsName(lights);
@@ -414,9 +433,11 @@ void Driver::Run() {
                 {model->name, v.name, LightsName(lights), PrecisionName(fp64), s.message()});
             continue;
           }
-          for (const char *path : {"device", "host", "end_to_end"}) {
+          for (const char *path : {"device", "host", "end_to_end", "shared_memory"}) {
             if (!Selected(o_.paths, path)) continue;
-            if (std::string(path) == "end_to_end" && (fp64 || !first_variant)) continue;
+            const bool service =
+                std::string(path) == "end_to_end" || std::string(path) == "shared_memory";
+            if (service && (fp64 || !first_variant)) continue;
             Row row;
             row.model = model->name;
             row.variant = v.name;
@@ -487,8 +508,8 @@ int Main(int argc, char **argv) {
     std::fprintf(stderr,
                  "usage: bench_models [--quick | --tiny] [--json PATH] [--models A,B] "
                  "[--lights probe,directional_point,quad,four_quads] [--precisions fp32,fp64] "
-                 "[--paths device,host,end_to_end] [--repeat R] [--min-time S] [--note TEXT] "
-                 "[--cache-dir DIR]\n");
+                 "[--paths device,host,end_to_end,shared_memory] [--repeat R] [--min-time S] "
+                 "[--note TEXT] [--cache-dir DIR] [--shm-direct-output]\n");
     return 2;
   };
   int repeat = 0;
@@ -501,6 +522,8 @@ int Main(int argc, char **argv) {
       o.mode = "quick";
     } else if (a == "--tiny") {
       o.mode = "tiny";
+    } else if (a == "--shm-direct-output") {
+      o.shm_direct_output = true;
     } else if (has_value && a == "--json") {
       o.json = argv[++i];
       shown += " " + o.json;
@@ -537,7 +560,7 @@ int Main(int argc, char **argv) {
       {&o.models, known_models},
       {&o.lights, known_lights},
       {&o.precisions, {"fp32", "fp64"}},
-      {&o.paths, {"device", "host", "end_to_end"}}};
+      {&o.paths, {"device", "host", "end_to_end", "shared_memory"}}};
   for (const auto &[given, known] : filters)
     for (const std::string &name : *given)
       if (!known.count(name)) {

@@ -27,7 +27,7 @@ ROW_KEYS = ["model", "variant", "lights", "precision", "path", "evals_per_s", "r
 NUMBER_KEYS = ["evals_per_s", "ratio_to_smooth", "error_mean", "error_p95", "error_max"]
 LIGHTS = ["probe", "directional_point", "quad", "four_quads"]
 PRECISIONS = ["fp32", "fp64"]
-PATHS = ["device", "host", "end_to_end"]
+PATHS = ["device", "host", "end_to_end", "shared_memory"]
 SKIP = 77
 
 

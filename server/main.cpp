@@ -41,6 +41,7 @@ struct Flags {
   double max_query_cost = glint::CostLimits().max_query_cost;
   double slice_ms = 50;
   double shutdown_grace = 10;
+  glint::ShmLimits shm;  // --max-shm-regions, --max-shm-mb, --shm-direct-output
 };
 
 const char kUsage[] =
@@ -74,6 +75,11 @@ const char kUsage[] =
     "  --shutdown-grace S   on SIGTERM/SIGINT: health NOT_SERVING, new work UNAVAILABLE, work in\n"
     "                       flight may finish for S seconds, then is cancelled at its next\n"
     "                       slice; exit 0 (default 10)\n"
+    "  --max-shm-regions N  shared-memory regions per client token (or per server without\n"
+    "                       --auth-tokens); 0 disables shared memory (default 16)\n"
+    "  --max-shm-mb N       registered shared-memory MiB per token / server (default 4096)\n"
+    "  --shm-direct-output  kernels write radiance straight into the output region (no copy);\n"
+    "                       a client that truncates its region mid-call then crashes glintd\n"
     "  --list-devices       print the OpenCL devices and exit\n"
     "  --quiet              no per-request log lines\n"
     "memory: peak RSS <= idle RSS + M x (3 x (max-pending + calls being received) + 2 x\n"
@@ -154,6 +160,12 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->slice_ms = real("--slice-ms", 1, 60000);
     else if (a == "--shutdown-grace")
       f->shutdown_grace = real("--shutdown-grace", 0, 3600);
+    else if (a == "--max-shm-regions")
+      f->shm.max_regions = uint32_t(number("--max-shm-regions", 0, 1 << 16));
+    else if (a == "--max-shm-mb")
+      f->shm.max_bytes = uint64_t(number("--max-shm-mb", 1, 1 << 24)) << 20;
+    else if (a == "--shm-direct-output")
+      f->shm.direct_output = true;
     else if (a == "--list-devices")
       f->list_devices = true;
     else if (a == "--quiet")
@@ -245,6 +257,8 @@ int main(int argc, char **argv) {
   }
   options.metrics = ops.metrics();
   options.auth = ops.auth();
+  glint::ShmRegistry shm_regions(flags.shm);  // unmapped when main returns (after Shutdown)
+  options.shm = &shm_regions;
   glint::GlintServiceImpl service(engine.get(), &scheduler, options);
   std::vector<glint::KServeModel> kserve_models;
   if (glint::Status s =
@@ -310,7 +324,11 @@ int main(int argc, char **argv) {
   health.SetServing(true);
   kserve.SetReady(true);
   std::string host = flags.listen.substr(0, flags.listen.rfind(':'));
-  std::fprintf(stderr, "glintd: SERVING on %s:%d\n", host.c_str(), port);
+  // A unix socket has no port (gRPC reports 1): the path is the address.
+  if (flags.listen.rfind("unix", 0) == 0)
+    std::fprintf(stderr, "glintd: SERVING on %s\n", flags.listen.c_str());
+  else
+    std::fprintf(stderr, "glintd: SERVING on %s:%d\n", host.c_str(), port);
   if (!flags.port_file.empty()) {
     std::string tmp = flags.port_file + ".tmp";
     { std::ofstream(tmp) << port << "\n"; }
@@ -344,6 +362,7 @@ int main(int argc, char **argv) {
     while (scheduler.pending() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(1));
+  shm_regions.Clear();
   std::fprintf(stderr, "glintd: stopped after %.2f s\n", since());
   return 0;
 }

@@ -15,6 +15,7 @@
 #include "server/eval_plan.h"
 #include "server/model_table.h"
 #include "server/normal_map_store.h"
+#include "server/shm_io.h"
 #include "server/sliced_eval.h"
 
 namespace glint {
@@ -237,7 +238,11 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
                                                                 : Status::Ok();
   if (s.ok()) s = ParseBody(body, &reactor->request, "request");
   if (s.ok()) s = ValidateSettings(*request, options_.limits);
-  if (s.ok()) s = Admit(*request, request->queries().count());
+  // Shared memory (server/shm_io.h): the query count is in the request, the queries in a region.
+  const bool shared = request->has_shared_memory();
+  if (s.ok() && shared) s = CheckSharedMemoryRequest(*request);
+  if (s.ok())
+    s = Admit(*request, shared ? request->shared_memory().count() : request->queries().count());
   if (!s.ok()) {
     LogLine("Evaluate n=" + std::to_string(request->queries().count()) +
             " refused: " + s.message());
@@ -250,11 +255,15 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
         if (options_.metrics) options_.metrics->ObserveQueueWait(queue_ms / 1e3);
         std::string kernel = "-";
         Status st =
-            RunBatch(worker, *request, request->queries(), 0, false, response, &kernel, ctx);
+            request->has_shared_memory()
+                ? RunShared(worker, *request, ShmOwner(options_.auth, *ctx), response, &kernel, ctx)
+                : RunBatch(worker, *request, request->queries(), 0, false, response, &kernel, ctx);
         response->mutable_stats()->set_queue_ms(queue_ms);
         std::ostringstream line;
-        line << "Evaluate n=" << request->queries().count() << " model=" << ModelName(*request)
-             << " kernel=" << kernel << " queue_ms=" << queue_ms
+        line << "Evaluate n="
+             << (request->has_shared_memory() ? request->shared_memory().count()
+                                              : request->queries().count())
+             << " model=" << ModelName(*request) << " kernel=" << kernel << " queue_ms=" << queue_ms
              << " compute_ms=" << response->stats().compute_ms()
              << (st.ok() ? " ok" : " refused: " + st.message());
         LogLine(line.str());
@@ -378,6 +387,10 @@ class GlintServiceImpl::StreamReactor
     } else if (Status s = ValidateLaterChunkSettings(c.message.request()); !s.ok()) {
       return ChunkStatus(read_index_, s);
     }
+    if (c.message.request().has_shared_memory())
+      return ChunkStatus(read_index_,
+                         Status::InvalidArgument("request.shared_memory: only unary Evaluate reads "
+                                                 "shared memory; a region needs no stream"));
     const uint32_t count = c.message.request().queries().count();
     if (Status s = service_->Admit(*settings_, count); !s.ok()) return ChunkStatus(read_index_, s);
     c.settings = settings_;
@@ -547,6 +560,10 @@ grpc::ServerUnaryReactor *GlintServiceImpl::GetCapabilities(grpc::CallbackServer
   c->set_max_normal_map_upload_bytes(nm.max_upload_bytes);
   c->set_max_normal_map_texels(nm.max_texels);
   c->set_normal_map_budget_bytes(nm.budget_bytes);
+  if (options_.shm) {
+    c->set_max_shared_memory_regions(options_.shm->limits().max_regions);
+    c->set_max_shared_memory_bytes(options_.shm->limits().max_bytes);
+  }
   reactor->Finish(grpc::Status::OK);
   return reactor;
 }

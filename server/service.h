@@ -15,6 +15,7 @@
 #include "server/metrics.h"
 #include "server/request_cost.h"
 #include "server/scheduler.h"
+#include "server/shm_regions.h"
 #include "server/validation.h"
 
 namespace glint {
@@ -27,6 +28,7 @@ struct ServiceOptions {
   const TokenAuth *auth = nullptr;  // --auth-tokens; null: every call is let through
   CostLimits cost;                  // --max-request-cost, --max-query-cost
   double slice_ms = 50;             // target duration of one query slice (server/sliced_eval.h)
+  ShmRegistry *shm = nullptr;       // shared-memory regions (server/shm_regions.h); null: none
 };
 
 // The methods are registered raw (grpc::ByteBuffer in and out) and the handlers parse the
@@ -44,7 +46,11 @@ using GlintRawService = glint::v1::GlintService::WithRawCallbackMethod_Evaluate<
                 glint::v1::GlintService::WithCallbackMethod_UploadNormalMap<
                     glint::v1::GlintService::WithCallbackMethod_ListNormalMaps<
                         glint::v1::GlintService::WithCallbackMethod_DeleteNormalMap<
-                            glint::v1::GlintService::Service>>>>>>>;
+                            glint::v1::GlintService::WithCallbackMethod_RegisterSharedMemory<
+                                glint::v1::GlintService::WithCallbackMethod_ListSharedMemory<
+                                    glint::v1::GlintService::
+                                        WithCallbackMethod_UnregisterSharedMemory<
+                                            glint::v1::GlintService::Service>>>>>>>>>>;
 
 // Evaluates on the OpenCL engine, or on the host path when engine is null.
 class GlintServiceImpl final : public GlintRawService {
@@ -78,6 +84,23 @@ class GlintServiceImpl final : public GlintRawService {
   grpc::ServerUnaryReactor *DeleteNormalMap(grpc::CallbackServerContext *ctx,
                                             const glint::v1::DeleteNormalMapRequest *request,
                                             glint::v1::DeleteNormalMapResponse *response) override;
+
+  // Same-host shared-memory regions (server/shm_rpc.cpp, server/shm_regions.h).
+  grpc::ServerUnaryReactor *RegisterSharedMemory(
+      grpc::CallbackServerContext *ctx, const glint::v1::RegisterSharedMemoryRequest *request,
+      glint::v1::RegisterSharedMemoryResponse *response) override;
+  grpc::ServerUnaryReactor *ListSharedMemory(
+      grpc::CallbackServerContext *ctx, const glint::v1::ListSharedMemoryRequest *request,
+      glint::v1::ListSharedMemoryResponse *response) override;
+  grpc::ServerUnaryReactor *UnregisterSharedMemory(
+      grpc::CallbackServerContext *ctx, const glint::v1::UnregisterSharedMemoryRequest *request,
+      glint::v1::UnregisterSharedMemoryResponse *response) override;
+  // RunBatch for a request with shared_memory (server/shm_io.cpp): the queries are copied out
+  // of the caller's (`owner`'s) input region, the radiance goes into its output region, and
+  // `response` gets count and stats only.
+  Status RunShared(int worker, const glint::v1::EvaluateRequest &request, const std::string &owner,
+                   glint::v1::EvaluateResponse *response, std::string *kernel = nullptr,
+                   grpc::CallbackServerContext *ctx = nullptr);
 
   // Validates `queries` against `settings` (already validated) and evaluates
   // them on `worker`'s queue, filling response->radiance. `kernel`, if given, receives

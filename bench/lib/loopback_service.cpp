@@ -4,17 +4,27 @@ namespace glint::bench {
 
 namespace {
 
-ServiceOptions Options(const DeviceEngine *engine) {
+ServiceOptions Options(const DeviceEngine *engine, ShmRegistry *shm) {
   ServiceOptions o;
+  o.shm = shm;
   o.log_requests = false;
   o.limits.fp64_available = engine->info().fp64;
   return o;
 }
 
+ShmLimits BenchShmLimits(bool direct_output) {
+  ShmLimits l;
+  l.direct_output = direct_output;
+  return l;
+}
+
 }  // namespace
 
-LoopbackService::LoopbackService(DeviceEngine *engine, glint::client::ClientOptions client_options)
-    : scheduler_(1, 4), service_(engine, &scheduler_, Options(engine)) {
+LoopbackService::LoopbackService(DeviceEngine *engine, glint::client::ClientOptions client_options,
+                                 bool shm_direct_output)
+    : shm_(BenchShmLimits(shm_direct_output)),
+      scheduler_(1, 4),
+      service_(engine, &scheduler_, Options(engine, &shm_)) {
   grpc::ServerBuilder builder;
   int port = 0;
   builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
@@ -32,6 +42,7 @@ LoopbackService::LoopbackService(DeviceEngine *engine, glint::client::ClientOpti
 }
 
 LoopbackService::~LoopbackService() {
+  session_.reset();  // unregisters while the server still runs
   client_.reset();
   if (server_) server_->Shutdown();
 }
@@ -40,6 +51,13 @@ grpc::Status LoopbackService::Evaluate(const glint::v1::EvaluateRequest &request
                                        std::vector<float> *radiance,
                                        glint::client::EvaluateInfo *info) {
   return client_->Evaluate(request, radiance, {}, info);
+}
+
+grpc::Status LoopbackService::EvaluateShared(const glint::v1::EvaluateRequest &request,
+                                             std::vector<float> *radiance,
+                                             glint::client::EvaluateInfo *info) {
+  if (!session_) session_ = std::make_unique<glint::client::ShmSession>(client_.get());
+  return session_->Evaluate(request, radiance, {}, info);
 }
 
 }  // namespace glint::bench

@@ -11,16 +11,20 @@
 #include <vector>
 
 #include "client/lib/glint_client.h"
+#include "client/lib/shm_transport.h"
 #include "server/device_engine.h"
 #include "server/scheduler.h"
 #include "server/service.h"
+#include "server/shm_regions.h"
 
 namespace glint::bench {
 
 class LoopbackService {
  public:
   // Serves on `engine` (one worker: the caller must not use the engine while a call runs).
-  explicit LoopbackService(DeviceEngine *engine, glint::client::ClientOptions client_options = {});
+  // `shm_direct_output`: glintd --shm-direct-output for the shared-memory path.
+  explicit LoopbackService(DeviceEngine *engine, glint::client::ClientOptions client_options = {},
+                           bool shm_direct_output = false);
   ~LoopbackService();
   bool ok() const { return server_ != nullptr; }
   const std::string &address() const { return address_; }
@@ -28,13 +32,21 @@ class LoopbackService {
   // One Evaluate through the client library; info says whether it streamed.
   grpc::Status Evaluate(const glint::v1::EvaluateRequest &request, std::vector<float> *radiance,
                         glint::client::EvaluateInfo *info = nullptr);
+  // The same through same-host shared memory (the `shared_memory` path): one region registered
+  // on first use and reused (client/lib/shm_transport.h ShmSession); the timed call packs the
+  // queries into it, sends the small request, and copies the radiance out.
+  grpc::Status EvaluateShared(const glint::v1::EvaluateRequest &request,
+                              std::vector<float> *radiance,
+                              glint::client::EvaluateInfo *info = nullptr);
 
  private:
+  ShmRegistry shm_;
   Scheduler scheduler_;
   GlintServiceImpl service_;
   std::unique_ptr<grpc::Server> server_;
   std::string address_;
   std::unique_ptr<glint::client::GlintClient> client_;
+  std::unique_ptr<glint::client::ShmSession> session_;
 };
 
 }  // namespace glint::bench

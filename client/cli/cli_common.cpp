@@ -163,11 +163,13 @@ std::optional<double> EvaluateWithProgress(glint::client::GlintClient &client,
                                            const glint::v1::EvaluateRequest &request,
                                            std::vector<float> *rgb,
                                            glint::client::EvaluateInfo *info,
-                                           const std::string &server) {
+                                           const std::string &server,
+                                           glint::client::Transport transport, std::string *used) {
   ProgressBar bar;
   const auto start = std::chrono::steady_clock::now();
-  grpc::Status status = client.Evaluate(
-      request, rgb, [&](uint64_t done, uint64_t total) { bar.Update(done, total); }, info);
+  grpc::Status status = glint::client::EvaluateWithTransport(
+      client, transport, request, rgb,
+      [&](uint64_t done, uint64_t total) { bar.Update(done, total); }, info, used);
   const std::chrono::duration<double> elapsed = std::chrono::steady_clock::now() - start;
   bar.Finish();
   if (!status.ok()) {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "client/lib/glint_client.h"
+#include "client/lib/shm_transport.h"
 
 namespace glint::cli {
 
@@ -91,12 +92,13 @@ int ReportRpcError(const std::string &what, const grpc::Status &status, const st
 void FillSettings(const Options &options, glint::v1::EvaluateRequest *request);
 
 // Evaluates with a progress bar and returns the wall time in seconds, or nullopt after
-// reporting an RPC error.
-std::optional<double> EvaluateWithProgress(glint::client::GlintClient &client,
-                                           const glint::v1::EvaluateRequest &request,
-                                           std::vector<float> *rgb,
-                                           glint::client::EvaluateInfo *info,
-                                           const std::string &server);
+// reporting an RPC error. `transport` (--transport, client/lib/shm_transport.h) picks arrays over
+// the connection or same-host shared memory; `used` receives "tcp" or "shm".
+std::optional<double> EvaluateWithProgress(
+    glint::client::GlintClient &client, const glint::v1::EvaluateRequest &request,
+    std::vector<float> *rgb, glint::client::EvaluateInfo *info, const std::string &server,
+    glint::client::Transport transport = glint::client::Transport::kTcp,
+    std::string *used = nullptr);
 
 // "unary" or "stream (N chunks of <= M queries)".
 std::string Transport(const glint::client::EvaluateInfo &info);

@@ -63,6 +63,7 @@ constexpr const char *kEvalUsage =
     R"(usage: glint eval --server ADDR --material M.json [--lights L.json] --queries Q.csv
                   --out OUT.{csv,npy,exr} [--precision fp32|fp64] [--seed N] [--width W] [--half]
                   [--area-method ltc|reference|lecocq|lecocq-pearson|mc] [--samples N]
+                  [--transport auto|tcp|shm]
 
 Evaluates every query of Q.csv and writes the reflected radiance (RGB per query, in input
 order). Batches larger than the server's limits are streamed in chunks automatically.
@@ -89,6 +90,10 @@ order). Batches larger than the server's limits are streamed in chunks automatic
   --half              .exr only: store half floats instead of float32
   --normal-map FILE   NORMAL_MAP model: use FILE (EXR / PNG) as material.normal_map.digest,
                       uploading it when the server does not hold it
+  --transport T       tcp: query and radiance arrays over the connection; shm: through a
+                      POSIX shared-memory region the server maps (same host only); auto
+                      (default): shm when --server is loopback or unix: and the server
+                      accepts the region, else tcp
 
 A progress bar is drawn on stderr when it is a terminal; a one-line summary goes to stdout.
 )";
@@ -191,7 +196,15 @@ int RunEval(const Options &options) {
   GlintClient client(server, ConnectionOptions(options));
   std::vector<float> rgb;
   glint::client::EvaluateInfo info;
-  const std::optional<double> seconds = EvaluateWithProgress(client, request, &rgb, &info, server);
+  glint::client::Transport transport;
+  try {
+    transport = glint::client::ParseTransport(options.Get("transport", "auto"));
+  } catch (const std::invalid_argument &e) {
+    throw UsageError{e.what()};
+  }
+  std::string used;
+  const std::optional<double> seconds =
+      EvaluateWithProgress(client, request, &rgb, &info, server, transport, &used);
   if (!seconds) return kExitFailure;
 
   switch (format) {
@@ -211,7 +224,12 @@ int RunEval(const Options &options) {
   }
   const double rate = *seconds > 0.0 ? static_cast<double>(count) / *seconds : 0.0;
   std::printf("glint eval: %u queries in %.3f s (%.0f queries/s) via %s -> %s\n", count, *seconds,
-              rate, Transport(info).c_str(), out.c_str());
+              rate,
+              used == "shm" ? ("shared memory (" + std::to_string(info.chunks) +
+                               " calls of <= " + std::to_string(info.chunk_queries) + " queries)")
+                                  .c_str()
+                            : Transport(info).c_str(),
+              out.c_str());
   return kExitOk;
 }
 
@@ -231,7 +249,7 @@ int main(int argc, char **argv) {
       {"eval",
        kEvalUsage,
        {"server", "material", "lights", "queries", "out", "precision", "seed", "width",
-        "area-method", "samples", "normal-map"},
+        "area-method", "samples", "normal-map", "transport"},
        {"half"},
        RunEval},
       {"preview", kPreviewUsage, kPreviewOptions, {"half"}, RunPreview},

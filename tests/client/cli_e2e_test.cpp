@@ -13,6 +13,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -325,6 +326,10 @@ class CliEndToEnd : public ::testing::Test {
                                      "--material", material, "--queries", queries,
                                      "--out",      out};
     args.insert(args.end(), extra.begin(), extra.end());
+    // The arrays over the connection unless the test picks a transport (the summary lines
+    // checked here name unary and stream transports; loopback would default to shared memory).
+    if (std::find(extra.begin(), extra.end(), "--transport") == extra.end())
+      args.insert(args.end(), {"--transport", "tcp"});
     return RunProcess(*dir_, args);
   }
 
@@ -385,6 +390,31 @@ TempDir *CliEndToEnd::dir_ = nullptr;
 Glintd *CliEndToEnd::unary_server_ = nullptr;
 Glintd *CliEndToEnd::stream_server_ = nullptr;
 std::string *CliEndToEnd::start_error_ = nullptr;
+
+// --transport shm and auto on a loopback server: the shared-memory path (client/lib/
+// shm_transport.h), several calls on the small server, bit-identical to the arrays over TCP.
+TEST_F(CliEndToEnd, SharedMemoryTransportMatchesTcp) {
+  const int count = 600;  // 3 calls of 256 on the small server
+  WriteFile(dir_->File("shm.csv"), QueriesCsv(count, true, 4));
+  std::vector<std::vector<float>> results;
+  for (const char *transport : {"tcp", "shm", "auto"}) {
+    const std::string out = dir_->File(std::string("shm_") + transport + ".npy");
+    const RunResult r =
+        Eval(*stream_server_, dir_->File("shm.csv"), out, false, {"--transport", transport});
+    ASSERT_EQ(r.exit_code, 0) << Describe(r);
+    if (std::string(transport) != "tcp") {
+      EXPECT_NE(r.out.find("via shared memory (3 calls of <= 256 queries)"), std::string::npos)
+          << r.out;
+    }
+    results.push_back(ReadRadianceNpy(out, count));
+  }
+  EXPECT_TRUE(BitEqual(results[0], results[1])) << "shared memory differs from tcp";
+  EXPECT_TRUE(BitEqual(results[0], results[2]));
+  const RunResult bad = Eval(*stream_server_, dir_->File("shm.csv"), dir_->File("x.npy"), false,
+                             {"--transport", "udp"});
+  EXPECT_EQ(bad.exit_code, 2) << Describe(bad);
+  EXPECT_NE(bad.err.find("--transport udp"), std::string::npos) << bad.err;
+}
 
 TEST_F(CliEndToEnd, InfoReportsServingAndLimits) {
   const RunResult r = RunProcess(*dir_, {kGlint, "info", "--server", stream_server_->address()});

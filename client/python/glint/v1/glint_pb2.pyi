@@ -235,7 +235,7 @@ class QueryBatch(_message.Message):
     def __init__(self, count: _Optional[int] = ..., uv: _Optional[_Iterable[float]] = ..., footprint: _Optional[_Iterable[float]] = ..., wo: _Optional[_Iterable[float]] = ..., wi: _Optional[_Iterable[float]] = ..., position: _Optional[_Iterable[float]] = ..., normal: _Optional[_Iterable[float]] = ..., tangent: _Optional[_Iterable[float]] = ...) -> None: ...
 
 class EvaluateRequest(_message.Message):
-    __slots__ = ("material", "lights", "queries", "precision", "seed", "area_method", "area_samples")
+    __slots__ = ("material", "lights", "queries", "precision", "seed", "area_method", "area_samples", "shared_memory")
     MATERIAL_FIELD_NUMBER: _ClassVar[int]
     LIGHTS_FIELD_NUMBER: _ClassVar[int]
     QUERIES_FIELD_NUMBER: _ClassVar[int]
@@ -243,6 +243,7 @@ class EvaluateRequest(_message.Message):
     SEED_FIELD_NUMBER: _ClassVar[int]
     AREA_METHOD_FIELD_NUMBER: _ClassVar[int]
     AREA_SAMPLES_FIELD_NUMBER: _ClassVar[int]
+    SHARED_MEMORY_FIELD_NUMBER: _ClassVar[int]
     material: Material
     lights: _containers.RepeatedCompositeFieldContainer[Light]
     queries: QueryBatch
@@ -250,7 +251,8 @@ class EvaluateRequest(_message.Message):
     seed: int
     area_method: AreaMethod
     area_samples: int
-    def __init__(self, material: _Optional[_Union[Material, _Mapping]] = ..., lights: _Optional[_Iterable[_Union[Light, _Mapping]]] = ..., queries: _Optional[_Union[QueryBatch, _Mapping]] = ..., precision: _Optional[_Union[Precision, str]] = ..., seed: _Optional[int] = ..., area_method: _Optional[_Union[AreaMethod, str]] = ..., area_samples: _Optional[int] = ...) -> None: ...
+    shared_memory: SharedMemoryIo
+    def __init__(self, material: _Optional[_Union[Material, _Mapping]] = ..., lights: _Optional[_Iterable[_Union[Light, _Mapping]]] = ..., queries: _Optional[_Union[QueryBatch, _Mapping]] = ..., precision: _Optional[_Union[Precision, str]] = ..., seed: _Optional[int] = ..., area_method: _Optional[_Union[AreaMethod, str]] = ..., area_samples: _Optional[int] = ..., shared_memory: _Optional[_Union[SharedMemoryIo, _Mapping]] = ...) -> None: ...
 
 class EvaluateStats(_message.Message):
     __slots__ = ("queue_ms", "compute_ms", "device")
@@ -295,7 +297,7 @@ class GetCapabilitiesRequest(_message.Message):
     def __init__(self) -> None: ...
 
 class Capabilities(_message.Message):
-    __slots__ = ("server_version", "device_name", "device_vendor", "device_opencl_version", "driver_version", "platform_name", "compute_units", "fp64", "models", "ndfs", "fresnel_kinds", "light_kinds", "max_batch", "max_message_bytes", "max_lights", "max_pending_requests", "unit_vector_tolerance", "max_normal_map_upload_bytes", "max_normal_map_texels", "normal_map_budget_bytes")
+    __slots__ = ("server_version", "device_name", "device_vendor", "device_opencl_version", "driver_version", "platform_name", "compute_units", "fp64", "models", "ndfs", "fresnel_kinds", "light_kinds", "max_batch", "max_message_bytes", "max_lights", "max_pending_requests", "unit_vector_tolerance", "max_normal_map_upload_bytes", "max_normal_map_texels", "normal_map_budget_bytes", "max_shared_memory_regions", "max_shared_memory_bytes")
     SERVER_VERSION_FIELD_NUMBER: _ClassVar[int]
     DEVICE_NAME_FIELD_NUMBER: _ClassVar[int]
     DEVICE_VENDOR_FIELD_NUMBER: _ClassVar[int]
@@ -316,6 +318,8 @@ class Capabilities(_message.Message):
     MAX_NORMAL_MAP_UPLOAD_BYTES_FIELD_NUMBER: _ClassVar[int]
     MAX_NORMAL_MAP_TEXELS_FIELD_NUMBER: _ClassVar[int]
     NORMAL_MAP_BUDGET_BYTES_FIELD_NUMBER: _ClassVar[int]
+    MAX_SHARED_MEMORY_REGIONS_FIELD_NUMBER: _ClassVar[int]
+    MAX_SHARED_MEMORY_BYTES_FIELD_NUMBER: _ClassVar[int]
     server_version: str
     device_name: str
     device_vendor: str
@@ -336,7 +340,9 @@ class Capabilities(_message.Message):
     max_normal_map_upload_bytes: int
     max_normal_map_texels: int
     normal_map_budget_bytes: int
-    def __init__(self, server_version: _Optional[str] = ..., device_name: _Optional[str] = ..., device_vendor: _Optional[str] = ..., device_opencl_version: _Optional[str] = ..., driver_version: _Optional[str] = ..., platform_name: _Optional[str] = ..., compute_units: _Optional[int] = ..., fp64: bool = ..., models: _Optional[_Iterable[str]] = ..., ndfs: _Optional[_Iterable[str]] = ..., fresnel_kinds: _Optional[_Iterable[str]] = ..., light_kinds: _Optional[_Iterable[str]] = ..., max_batch: _Optional[int] = ..., max_message_bytes: _Optional[int] = ..., max_lights: _Optional[int] = ..., max_pending_requests: _Optional[int] = ..., unit_vector_tolerance: _Optional[float] = ..., max_normal_map_upload_bytes: _Optional[int] = ..., max_normal_map_texels: _Optional[int] = ..., normal_map_budget_bytes: _Optional[int] = ...) -> None: ...
+    max_shared_memory_regions: int
+    max_shared_memory_bytes: int
+    def __init__(self, server_version: _Optional[str] = ..., device_name: _Optional[str] = ..., device_vendor: _Optional[str] = ..., device_opencl_version: _Optional[str] = ..., driver_version: _Optional[str] = ..., platform_name: _Optional[str] = ..., compute_units: _Optional[int] = ..., fp64: bool = ..., models: _Optional[_Iterable[str]] = ..., ndfs: _Optional[_Iterable[str]] = ..., fresnel_kinds: _Optional[_Iterable[str]] = ..., light_kinds: _Optional[_Iterable[str]] = ..., max_batch: _Optional[int] = ..., max_message_bytes: _Optional[int] = ..., max_lights: _Optional[int] = ..., max_pending_requests: _Optional[int] = ..., unit_vector_tolerance: _Optional[float] = ..., max_normal_map_upload_bytes: _Optional[int] = ..., max_normal_map_texels: _Optional[int] = ..., normal_map_budget_bytes: _Optional[int] = ..., max_shared_memory_regions: _Optional[int] = ..., max_shared_memory_bytes: _Optional[int] = ...) -> None: ...
 
 class SampleRequest(_message.Message):
     __slots__ = ("material", "queries", "samples_per_query", "seed", "precision")
@@ -411,3 +417,75 @@ class DeleteNormalMapRequest(_message.Message):
 class DeleteNormalMapResponse(_message.Message):
     __slots__ = ()
     def __init__(self) -> None: ...
+
+class RegisterSharedMemoryRequest(_message.Message):
+    __slots__ = ("name", "key", "offset", "byte_size")
+    NAME_FIELD_NUMBER: _ClassVar[int]
+    KEY_FIELD_NUMBER: _ClassVar[int]
+    OFFSET_FIELD_NUMBER: _ClassVar[int]
+    BYTE_SIZE_FIELD_NUMBER: _ClassVar[int]
+    name: str
+    key: str
+    offset: int
+    byte_size: int
+    def __init__(self, name: _Optional[str] = ..., key: _Optional[str] = ..., offset: _Optional[int] = ..., byte_size: _Optional[int] = ...) -> None: ...
+
+class RegisterSharedMemoryResponse(_message.Message):
+    __slots__ = ()
+    def __init__(self) -> None: ...
+
+class SharedMemoryRegion(_message.Message):
+    __slots__ = ("name", "key", "offset", "byte_size")
+    NAME_FIELD_NUMBER: _ClassVar[int]
+    KEY_FIELD_NUMBER: _ClassVar[int]
+    OFFSET_FIELD_NUMBER: _ClassVar[int]
+    BYTE_SIZE_FIELD_NUMBER: _ClassVar[int]
+    name: str
+    key: str
+    offset: int
+    byte_size: int
+    def __init__(self, name: _Optional[str] = ..., key: _Optional[str] = ..., offset: _Optional[int] = ..., byte_size: _Optional[int] = ...) -> None: ...
+
+class ListSharedMemoryRequest(_message.Message):
+    __slots__ = ()
+    def __init__(self) -> None: ...
+
+class ListSharedMemoryResponse(_message.Message):
+    __slots__ = ("regions",)
+    REGIONS_FIELD_NUMBER: _ClassVar[int]
+    regions: _containers.RepeatedCompositeFieldContainer[SharedMemoryRegion]
+    def __init__(self, regions: _Optional[_Iterable[_Union[SharedMemoryRegion, _Mapping]]] = ...) -> None: ...
+
+class UnregisterSharedMemoryRequest(_message.Message):
+    __slots__ = ("name",)
+    NAME_FIELD_NUMBER: _ClassVar[int]
+    name: str
+    def __init__(self, name: _Optional[str] = ...) -> None: ...
+
+class UnregisterSharedMemoryResponse(_message.Message):
+    __slots__ = ()
+    def __init__(self) -> None: ...
+
+class SharedMemoryIo(_message.Message):
+    __slots__ = ("count", "input_region", "input_offset", "input_byte_size", "uv", "footprint", "wi", "frame", "output_region", "output_offset")
+    COUNT_FIELD_NUMBER: _ClassVar[int]
+    INPUT_REGION_FIELD_NUMBER: _ClassVar[int]
+    INPUT_OFFSET_FIELD_NUMBER: _ClassVar[int]
+    INPUT_BYTE_SIZE_FIELD_NUMBER: _ClassVar[int]
+    UV_FIELD_NUMBER: _ClassVar[int]
+    FOOTPRINT_FIELD_NUMBER: _ClassVar[int]
+    WI_FIELD_NUMBER: _ClassVar[int]
+    FRAME_FIELD_NUMBER: _ClassVar[int]
+    OUTPUT_REGION_FIELD_NUMBER: _ClassVar[int]
+    OUTPUT_OFFSET_FIELD_NUMBER: _ClassVar[int]
+    count: int
+    input_region: str
+    input_offset: int
+    input_byte_size: int
+    uv: bool
+    footprint: bool
+    wi: bool
+    frame: bool
+    output_region: str
+    output_offset: int
+    def __init__(self, count: _Optional[int] = ..., input_region: _Optional[str] = ..., input_offset: _Optional[int] = ..., input_byte_size: _Optional[int] = ..., uv: bool = ..., footprint: bool = ..., wi: bool = ..., frame: bool = ..., output_region: _Optional[str] = ..., output_offset: _Optional[int] = ...) -> None: ...

@@ -69,6 +69,21 @@ class GlintServiceStub(object):
                 request_serializer=glint_dot_v1_dot_glint__pb2.DeleteNormalMapRequest.SerializeToString,
                 response_deserializer=glint_dot_v1_dot_glint__pb2.DeleteNormalMapResponse.FromString,
                 _registered_method=True)
+        self.RegisterSharedMemory = channel.unary_unary(
+                '/glint.v1.GlintService/RegisterSharedMemory',
+                request_serializer=glint_dot_v1_dot_glint__pb2.RegisterSharedMemoryRequest.SerializeToString,
+                response_deserializer=glint_dot_v1_dot_glint__pb2.RegisterSharedMemoryResponse.FromString,
+                _registered_method=True)
+        self.ListSharedMemory = channel.unary_unary(
+                '/glint.v1.GlintService/ListSharedMemory',
+                request_serializer=glint_dot_v1_dot_glint__pb2.ListSharedMemoryRequest.SerializeToString,
+                response_deserializer=glint_dot_v1_dot_glint__pb2.ListSharedMemoryResponse.FromString,
+                _registered_method=True)
+        self.UnregisterSharedMemory = channel.unary_unary(
+                '/glint.v1.GlintService/UnregisterSharedMemory',
+                request_serializer=glint_dot_v1_dot_glint__pb2.UnregisterSharedMemoryRequest.SerializeToString,
+                response_deserializer=glint_dot_v1_dot_glint__pb2.UnregisterSharedMemoryResponse.FromString,
+                _registered_method=True)
 
 
 class GlintServiceServicer(object):
@@ -120,6 +135,26 @@ class GlintServiceServicer(object):
         context.set_details('Method not implemented!')
         raise NotImplementedError('Method not implemented!')
 
+    def RegisterSharedMemory(self, request, context):
+        """Same-host shared memory (SharedMemoryIo): register a window of a POSIX
+        shared-memory object, list the caller's regions, unregister one or all.
+        """
+        context.set_code(grpc.StatusCode.UNIMPLEMENTED)
+        context.set_details('Method not implemented!')
+        raise NotImplementedError('Method not implemented!')
+
+    def ListSharedMemory(self, request, context):
+        """Missing associated documentation comment in .proto file."""
+        context.set_code(grpc.StatusCode.UNIMPLEMENTED)
+        context.set_details('Method not implemented!')
+        raise NotImplementedError('Method not implemented!')
+
+    def UnregisterSharedMemory(self, request, context):
+        """Missing associated documentation comment in .proto file."""
+        context.set_code(grpc.StatusCode.UNIMPLEMENTED)
+        context.set_details('Method not implemented!')
+        raise NotImplementedError('Method not implemented!')
+
 
 def add_GlintServiceServicer_to_server(servicer, server):
     rpc_method_handlers = {
@@ -157,6 +192,21 @@ def add_GlintServiceServicer_to_server(servicer, server):
                     servicer.DeleteNormalMap,
                     request_deserializer=glint_dot_v1_dot_glint__pb2.DeleteNormalMapRequest.FromString,
                     response_serializer=glint_dot_v1_dot_glint__pb2.DeleteNormalMapResponse.SerializeToString,
+            ),
+            'RegisterSharedMemory': grpc.unary_unary_rpc_method_handler(
+                    servicer.RegisterSharedMemory,
+                    request_deserializer=glint_dot_v1_dot_glint__pb2.RegisterSharedMemoryRequest.FromString,
+                    response_serializer=glint_dot_v1_dot_glint__pb2.RegisterSharedMemoryResponse.SerializeToString,
+            ),
+            'ListSharedMemory': grpc.unary_unary_rpc_method_handler(
+                    servicer.ListSharedMemory,
+                    request_deserializer=glint_dot_v1_dot_glint__pb2.ListSharedMemoryRequest.FromString,
+                    response_serializer=glint_dot_v1_dot_glint__pb2.ListSharedMemoryResponse.SerializeToString,
+            ),
+            'UnregisterSharedMemory': grpc.unary_unary_rpc_method_handler(
+                    servicer.UnregisterSharedMemory,
+                    request_deserializer=glint_dot_v1_dot_glint__pb2.UnregisterSharedMemoryRequest.FromString,
+                    response_serializer=glint_dot_v1_dot_glint__pb2.UnregisterSharedMemoryResponse.SerializeToString,
             ),
     }
     generic_handler = grpc.method_handlers_generic_handler(
@@ -348,6 +398,87 @@ class GlintService(object):
             '/glint.v1.GlintService/DeleteNormalMap',
             glint_dot_v1_dot_glint__pb2.DeleteNormalMapRequest.SerializeToString,
             glint_dot_v1_dot_glint__pb2.DeleteNormalMapResponse.FromString,
+            options,
+            channel_credentials,
+            insecure,
+            call_credentials,
+            compression,
+            wait_for_ready,
+            timeout,
+            metadata,
+            _registered_method=True)
+
+    @staticmethod
+    def RegisterSharedMemory(request,
+            target,
+            options=(),
+            channel_credentials=None,
+            call_credentials=None,
+            insecure=False,
+            compression=None,
+            wait_for_ready=None,
+            timeout=None,
+            metadata=None):
+        return grpc.experimental.unary_unary(
+            request,
+            target,
+            '/glint.v1.GlintService/RegisterSharedMemory',
+            glint_dot_v1_dot_glint__pb2.RegisterSharedMemoryRequest.SerializeToString,
+            glint_dot_v1_dot_glint__pb2.RegisterSharedMemoryResponse.FromString,
+            options,
+            channel_credentials,
+            insecure,
+            call_credentials,
+            compression,
+            wait_for_ready,
+            timeout,
+            metadata,
+            _registered_method=True)
+
+    @staticmethod
+    def ListSharedMemory(request,
+            target,
+            options=(),
+            channel_credentials=None,
+            call_credentials=None,
+            insecure=False,
+            compression=None,
+            wait_for_ready=None,
+            timeout=None,
+            metadata=None):
+        return grpc.experimental.unary_unary(
+            request,
+            target,
+            '/glint.v1.GlintService/ListSharedMemory',
+            glint_dot_v1_dot_glint__pb2.ListSharedMemoryRequest.SerializeToString,
+            glint_dot_v1_dot_glint__pb2.ListSharedMemoryResponse.FromString,
+            options,
+            channel_credentials,
+            insecure,
+            call_credentials,
+            compression,
+            wait_for_ready,
+            timeout,
+            metadata,
+            _registered_method=True)
+
+    @staticmethod
+    def UnregisterSharedMemory(request,
+            target,
+            options=(),
+            channel_credentials=None,
+            call_credentials=None,
+            insecure=False,
+            compression=None,
+            wait_for_ready=None,
+            timeout=None,
+            metadata=None):
+        return grpc.experimental.unary_unary(
+            request,
+            target,
+            '/glint.v1.GlintService/UnregisterSharedMemory',
+            glint_dot_v1_dot_glint__pb2.UnregisterSharedMemoryRequest.SerializeToString,
+            glint_dot_v1_dot_glint__pb2.UnregisterSharedMemoryResponse.FromString,
             options,
             channel_credentials,
             insecure,

@@ -1,0 +1,261 @@
+#include "client/lib/shm_transport.h"
+
+#include <fcntl.h>
+#include <google/protobuf/util/field_mask_util.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <random>
+#include <stdexcept>
+
+namespace glint::client {
+namespace {
+
+using Floats = google::protobuf::RepeatedField<float>;
+
+// The input blocks in SharedMemoryIo order with their floats per query.
+struct Block {
+  const Floats *array;
+  uint32_t per;
+};
+
+std::vector<Block> Blocks(const glint::v1::QueryBatch &q) {
+  return {{&q.uv(), 2},       {&q.footprint(), 4}, {&q.wo(), 3},     {&q.wi(), 3},
+          {&q.position(), 3}, {&q.normal(), 3},    {&q.tangent(), 3}};
+}
+
+uint32_t FloatsPerQuery(const glint::v1::QueryBatch &q) {
+  uint32_t floats = 0;
+  for (const Block &b : Blocks(q))
+    if (!b.array->empty()) floats += b.per;
+  return floats;
+}
+
+// Output after the input, at a 64-byte boundary.
+size_t OutputOffset(size_t input_bytes) {
+  return (input_bytes + 63) / 64 * 64;
+}
+
+std::string UniqueSuffix() {
+  static std::atomic<uint64_t> counter{0};
+  std::random_device rd;
+  return std::to_string(getpid()) + "-" + std::to_string(counter++) + "-" +
+         std::to_string(uint64_t(rd()) << 32 | rd());
+}
+
+}  // namespace
+
+Transport ParseTransport(const std::string &name) {
+  if (name == "auto") return Transport::kAuto;
+  if (name == "tcp") return Transport::kTcp;
+  if (name == "shm") return Transport::kShm;
+  throw std::invalid_argument("--transport " + name + ": expected auto, tcp or shm");
+}
+
+bool IsSameHostAddress(const std::string &address) {
+  if (address.rfind("unix:", 0) == 0 || address.rfind("unix-abstract:", 0) == 0) return true;
+  std::string host = address;
+  for (const char *scheme : {"ipv4:", "ipv6:", "dns:///", "dns:"})
+    if (host.rfind(scheme, 0) == 0) host = host.substr(std::strlen(scheme));
+  if (host.find(',') != std::string::npos) return false;  // several servers
+  if (!host.empty() && host.front() == '[') {
+    host = host.substr(
+        1, host.find(']') == std::string::npos ? std::string::npos : host.find(']') - 1);
+  } else if (std::count(host.begin(), host.end(), ':') == 1) {
+    host = host.substr(0, host.find(':'));
+  }
+  return host.rfind("127.", 0) == 0 || host == "::1" || host == "localhost";
+}
+
+std::unique_ptr<ShmBuffer> ShmBuffer::Create(size_t bytes, std::string *error) {
+  std::unique_ptr<ShmBuffer> b(new ShmBuffer());
+  b->key_ = "/glint-" + UniqueSuffix();
+  const int fd = shm_open(b->key_.c_str(), O_RDWR | O_CREAT | O_EXCL, 0600);
+  if (fd < 0) {
+    *error = "shm_open(" + b->key_ + "): " + std::strerror(errno);
+    return nullptr;
+  }
+  void *map = MAP_FAILED;
+  if (ftruncate(fd, off_t(bytes)) == 0)
+    map = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  if (map == MAP_FAILED) *error = "ftruncate/mmap of " + b->key_ + ": " + std::strerror(errno);
+  close(fd);  // the mapping keeps the object
+  if (map == MAP_FAILED) {
+    shm_unlink(b->key_.c_str());
+    return nullptr;
+  }
+  b->data_ = static_cast<uint8_t *>(map);
+  b->size_ = bytes;
+  return b;
+}
+
+ShmBuffer::~ShmBuffer() {
+  if (data_) munmap(data_, size_);
+  shm_unlink(key_.c_str());
+}
+
+size_t SharedMemoryInputBytes(const glint::v1::QueryBatch &q, uint32_t count) {
+  return size_t(count) * FloatsPerQuery(q) * sizeof(float);
+}
+
+void PackSharedQueries(const glint::v1::QueryBatch &q, uint32_t begin, uint32_t end, uint8_t *dst,
+                       glint::v1::SharedMemoryIo *io) {
+  io->set_count(end - begin);
+  io->set_uv(!q.uv().empty());
+  io->set_footprint(!q.footprint().empty());
+  io->set_wi(!q.wi().empty());
+  io->set_frame(!q.normal().empty());
+  uint8_t *at = dst;
+  for (const Block &b : Blocks(q)) {
+    if (b.array->empty()) continue;
+    const size_t bytes = size_t(end - begin) * b.per * sizeof(float);
+    std::memcpy(at, b.array->data() + size_t(begin) * b.per, bytes);
+    at += bytes;
+  }
+  io->set_input_byte_size(uint64_t(at - dst));
+}
+
+ShmSession::~ShmSession() {
+  Close();
+}
+
+void ShmSession::Close() {
+  if (!name_.empty()) {
+    auto stub = glint::v1::GlintService::NewStub(client_->channel());
+    grpc::ClientContext ctx;
+    client_->PrepareContext(&ctx);
+    ctx.set_deadline(std::chrono::system_clock::now() + client_->options().rpc_timeout);
+    glint::v1::UnregisterSharedMemoryRequest r;
+    r.set_name(name_);
+    glint::v1::UnregisterSharedMemoryResponse out;
+    stub->UnregisterSharedMemory(&ctx, r, &out);  // best effort: the server may be gone
+    name_.clear();
+  }
+  buffer_.reset();  // unmaps and unlinks
+  chunk_ = 0;
+}
+
+grpc::Status ShmSession::Prepare(const glint::v1::QueryBatch &q, uint32_t count) {
+  if (max_batch_ == 0) {  // once per session: the server's limits do not change under it
+    glint::v1::Capabilities caps;
+    if (grpc::Status s = client_->GetCapabilities(&caps); !s.ok()) return s;
+    if (caps.max_shared_memory_regions() == 0)
+      return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
+                          "the server offers no shared memory (Capabilities)");
+    max_batch_ = std::max<uint32_t>(caps.max_batch(), 1);
+  }
+  const uint32_t chunk = std::min(count, max_batch_);
+  const size_t in_bytes = SharedMemoryInputBytes(q, chunk);
+  const size_t bytes = OutputOffset(in_bytes) + size_t(chunk) * 3 * sizeof(float);
+  if (buffer_ && buffer_->size() >= bytes) {
+    chunk_ = std::max(chunk_, chunk);
+    return grpc::Status::OK;
+  }
+  Close();
+  std::string error;
+  buffer_ = ShmBuffer::Create(bytes, &error);
+  if (!buffer_) return grpc::Status(grpc::StatusCode::INTERNAL, error);
+  auto stub = glint::v1::GlintService::NewStub(client_->channel());
+  grpc::ClientContext ctx;
+  client_->PrepareContext(&ctx);
+  ctx.set_deadline(std::chrono::system_clock::now() + client_->options().rpc_timeout);
+  glint::v1::RegisterSharedMemoryRequest r;
+  r.set_name("glint-" + UniqueSuffix());
+  r.set_key(buffer_->key());
+  r.set_offset(0);
+  r.set_byte_size(bytes);
+  glint::v1::RegisterSharedMemoryResponse out;
+  grpc::Status s = stub->RegisterSharedMemory(&ctx, r, &out);
+  if (!s.ok()) {
+    buffer_.reset();
+    return s;
+  }
+  name_ = r.name();
+  chunk_ = chunk;
+  return grpc::Status::OK;
+}
+
+grpc::Status ShmSession::Evaluate(const glint::v1::EvaluateRequest &request,
+                                  std::vector<float> *radiance, ProgressFn progress,
+                                  EvaluateInfo *info) {
+  const glint::v1::QueryBatch &q = request.queries();
+  const uint32_t n = q.count();
+  radiance->resize(size_t(n) * 3);  // every element is written below
+  if (n == 0) return grpc::Status::OK;
+  if (grpc::Status s = Prepare(q, n); !s.ok()) return s;
+  auto stub = glint::v1::GlintService::NewStub(client_->channel());
+  // The settings once; each call carries them and a SharedMemoryIo naming this region.
+  // Every field but the queries (a copy of those would cost as much as the transfer saved).
+  glint::v1::EvaluateRequest call;
+  google::protobuf::FieldMask settings;
+  const google::protobuf::Descriptor *d = request.GetDescriptor();
+  for (int i = 0; i < d->field_count(); ++i)
+    if (d->field(i)->name() != "queries") settings.add_paths(d->field(i)->name());
+  google::protobuf::util::FieldMaskUtil::MergeMessageTo(
+      request, settings, google::protobuf::util::FieldMaskUtil::MergeOptions(), &call);
+  const size_t out_offset = OutputOffset(SharedMemoryInputBytes(q, chunk_));
+  uint64_t calls = 0;
+  for (uint32_t begin = 0; begin < n; begin += chunk_) {
+    const uint32_t end = std::min(n, begin + chunk_);
+    glint::v1::SharedMemoryIo *io = call.mutable_shared_memory();
+    PackSharedQueries(q, begin, end, buffer_->data(), io);
+    io->set_input_region(name_);
+    io->set_input_offset(0);
+    io->set_output_region(name_);
+    io->set_output_offset(out_offset);
+    grpc::ClientContext ctx;
+    client_->PrepareContext(&ctx);
+    if (client_->options().evaluate_timeout.count() > 0)
+      ctx.set_deadline(std::chrono::system_clock::now() + client_->options().evaluate_timeout);
+    glint::v1::EvaluateResponse response;
+    grpc::Status s = stub->Evaluate(&ctx, call, &response);
+    if (!s.ok()) return s;
+    if (response.count() != end - begin)
+      return grpc::Status(grpc::StatusCode::INTERNAL,
+                          "shared-memory Evaluate answered " + std::to_string(response.count()) +
+                              " queries; expected " + std::to_string(end - begin));
+    std::memcpy(radiance->data() + size_t(begin) * 3, buffer_->data() + out_offset,
+                size_t(end - begin) * 3 * sizeof(float));
+    ++calls;
+    if (info) info->device = response.stats().device();
+    if (progress) progress(end, n);
+  }
+  if (info) {
+    info->streamed = false;
+    info->chunks = calls;
+    info->chunk_queries = chunk_;
+    info->attempts = 1;
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status EvaluateWithTransport(GlintClient &client, Transport transport,
+                                   const glint::v1::EvaluateRequest &request,
+                                   std::vector<float> *radiance, ProgressFn progress,
+                                   EvaluateInfo *info, std::string *used) {
+  if (transport == Transport::kShm ||
+      (transport == Transport::kAuto && IsSameHostAddress(client.address()))) {
+    ShmSession session(&client);
+    grpc::Status s = session.Prepare(request.queries(), std::max(request.queries().count(), 1u));
+    if (s.ok()) {
+      if (used) *used = "shm";
+      return session.Evaluate(request, radiance, progress, info);
+    }
+    if (transport == Transport::kShm) return s;
+    // Unreachable: TCP would fail the same way (after its own retries); say so once.
+    if (s.error_code() == grpc::StatusCode::UNAVAILABLE ||
+        s.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED ||
+        s.error_code() == grpc::StatusCode::UNAUTHENTICATED)
+      return s;
+    // auto: the server cannot open our objects (another host behind a loopback proxy, shared
+    // memory disabled, an older server): the arrays go over the connection instead.
+  }
+  if (used) *used = "tcp";
+  return client.Evaluate(request, radiance, progress, info);
+}
+
+}  // namespace glint::client

@@ -1,0 +1,93 @@
+// Same-host shared-memory transport of the client library (glint.proto SharedMemoryIo): the
+// client creates a POSIX shared-memory object (shm_open + ftruncate + mmap), registers it with
+// glintd, packs the queries into it, and the server writes the radiance back into it; only the
+// small request and response messages cross the socket. `--transport auto|tcp|shm` on
+// `glint eval` picks it (EvaluateWithTransport).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "client/lib/glint_client.h"
+#include "glint/v1/glint.pb.h"
+
+namespace glint::client {
+
+enum class Transport { kAuto, kTcp, kShm };
+
+// "auto", "tcp" or "shm"; throws std::invalid_argument naming the value otherwise.
+Transport ParseTransport(const std::string &name);
+
+// True when a server at `address` runs on this host: "unix:" / "unix-abstract:" targets and
+// loopback hosts (127.0.0.0/8, [::1], localhost), with or without an "ipv4:"/"ipv6:"/"dns:///"
+// scheme. Only such servers can open our shared-memory objects.
+bool IsSameHostAddress(const std::string &address);
+
+// A POSIX shared-memory object this process created (O_CREAT | O_EXCL, mode 0600, a name that
+// includes the pid and a random part), mapped read-write; unmapped and unlinked on destruction.
+class ShmBuffer {
+ public:
+  static std::unique_ptr<ShmBuffer> Create(size_t bytes, std::string *error);
+  ~ShmBuffer();
+  ShmBuffer(const ShmBuffer &) = delete;
+  ShmBuffer &operator=(const ShmBuffer &) = delete;
+  const std::string &key() const { return key_; }  // the shm_open name, "/glint-<pid>-..."
+  uint8_t *data() const { return data_; }
+  size_t size() const { return size_; }
+
+ private:
+  ShmBuffer() = default;
+  std::string key_;
+  uint8_t *data_ = nullptr;
+  size_t size_ = 0;
+};
+
+// Packs queries [begin, end) of `q` into `dst` in the SharedMemoryIo layout (blocks uv,
+// footprint, wo, wi, position, normal, tangent, each present array contiguous); fills the
+// layout flags and input_byte_size of `io`. `dst` must hold SharedMemoryInputBytes bytes.
+void PackSharedQueries(const glint::v1::QueryBatch &q, uint32_t begin, uint32_t end, uint8_t *dst,
+                       glint::v1::SharedMemoryIo *io);
+size_t SharedMemoryInputBytes(const glint::v1::QueryBatch &q, uint32_t count);
+
+// One registered region reused across calls (the server maps it once): each Evaluate packs its
+// queries into the region, sends a request naming it as input and output, and copies the
+// radiance out. Batches over the server's max_batch go as several calls. A larger batch than
+// the region holds replaces it by a larger one. The destructor unregisters and unlinks.
+class ShmSession {
+ public:
+  explicit ShmSession(GlintClient *client) : client_(client) {}
+  ~ShmSession();
+  ShmSession(const ShmSession &) = delete;
+  ShmSession &operator=(const ShmSession &) = delete;
+
+  // Creates and registers a region for `count` queries shaped like `q` (Evaluate does this when
+  // needed; call it to learn early whether the server accepts shared memory).
+  grpc::Status Prepare(const glint::v1::QueryBatch &q, uint32_t count);
+  grpc::Status Evaluate(const glint::v1::EvaluateRequest &request, std::vector<float> *radiance,
+                        ProgressFn progress = {}, EvaluateInfo *info = nullptr);
+  // Unregisters and unlinks now (the destructor does it otherwise).
+  void Close();
+
+  const ShmBuffer *buffer() const { return buffer_.get(); }
+  const std::string &region_name() const { return name_; }
+
+ private:
+  GlintClient *client_;
+  std::unique_ptr<ShmBuffer> buffer_;
+  std::string name_;  // registered region name, "" when none
+  uint32_t chunk_ = 0;
+  uint32_t max_batch_ = 0;  // the server's (Capabilities), fetched by the first Prepare
+};
+
+// Evaluates over `transport`: kTcp = GlintClient::Evaluate; kShm = an ShmSession for this call
+// (its errors returned); kAuto = shared memory when the address is on this host and the server
+// accepts the registration, else TCP. `used` (optional) receives "shm" or "tcp".
+grpc::Status EvaluateWithTransport(GlintClient &client, Transport transport,
+                                   const glint::v1::EvaluateRequest &request,
+                                   std::vector<float> *radiance, ProgressFn progress = {},
+                                   EvaluateInfo *info = nullptr, std::string *used = nullptr);
+
+}  // namespace glint::client

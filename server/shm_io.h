@@ -1,0 +1,49 @@
+// Evaluate with queries and results in shared memory (glint.proto SharedMemoryIo): the layout
+// arithmetic, the checks made before a call is queued, and the copies in and out of the
+// mapping. GlintServiceImpl::RunShared (server/shm_io.cpp) runs such a call.
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "glint/v1/glint.pb.h"
+#include "server/auth.h"
+#include "server/shm_regions.h"
+#include "server/status.h"
+
+namespace glint {
+
+// The owner of the caller's regions: its authorization header when the server checks tokens
+// (held in memory only, never logged), else "" (one namespace for the whole server).
+std::string ShmOwner(const TokenAuth *auth, const grpc::ServerContextBase &context);
+
+// Floats per query of the input blocks that `io` says are present (wo always: 3).
+uint32_t SharedMemoryFloatsPerQuery(const glint::v1::SharedMemoryIo &io);
+
+// What can be checked before queueing: queries empty, count > 0, region names, input_byte_size
+// equal to the layout's size. INVALID_ARGUMENT naming the shared_memory field.
+Status CheckSharedMemoryRequest(const glint::v1::EvaluateRequest &request);
+
+// The two regions of a call, looked up for `owner` and their ranges checked against the
+// objects' current sizes (fstat) at the time of the call.
+struct SharedMemoryCall {
+  std::shared_ptr<const ShmRegion> in, out;  // held until the call is done
+  const uint8_t *input = nullptr;
+  float *output = nullptr;
+  uint32_t count = 0;
+};
+Status ResolveSharedMemoryCall(const ShmRegistry &registry, const std::string &owner,
+                               const glint::v1::SharedMemoryIo &io, SharedMemoryCall *call);
+
+// Copies the input blocks into `queries` (a QueryBatch like one sent over the wire: the same
+// validation and kernels then apply), under the SIGBUS guard.
+Status LoadSharedQueries(const SharedMemoryCall &call, const glint::v1::SharedMemoryIo &io,
+                         glint::v1::QueryBatch *queries);
+
+// Copies 3 * count floats of radiance into the output region, under the SIGBUS guard.
+Status StoreSharedRadiance(const SharedMemoryCall &call, const float *rgb);
+
+}  // namespace glint

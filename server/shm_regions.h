@@ -1,0 +1,86 @@
+// Same-host shared memory (README "Shared memory", glint.proto SharedMemoryIo), after Triton's
+// system shared-memory extension: a client creates a POSIX shared-memory object, registers a
+// window of it, and names the region in Evaluate instead of sending arrays.
+//
+// The registry maps each registered window once (MAP_SHARED, read-write) and keeps the object's
+// descriptor, so a later size check (fstat) sees the object as it is now even after the client
+// unlinked its name. Regions belong to an owner: the caller's bearer token when the server has
+// --auth-tokens, else the whole server (every loopback client shares one namespace). A region in
+// use by a running call stays mapped until that call is done, even when unregistered meanwhile.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "glint/v1/glint.pb.h"
+#include "server/status.h"
+
+namespace glint {
+
+struct ShmLimits {
+  uint32_t max_regions = 16;               // per owner; 0 disables shared memory
+  uint64_t max_bytes = uint64_t(4) << 30;  // registered window bytes per owner
+  // The kernels write the radiance straight into the output region (CL_MEM_USE_HOST_PTR on the
+  // mapping) instead of into private memory copied out under the SIGBUS guard. Faster, but a
+  // client that shrinks the object while its call runs then crashes the server (SIGBUS in a
+  // device thread, which no guard can catch).
+  bool direct_output = false;
+};
+
+// One registered window, mapped. Immutable once made; unmapped when the last holder lets go.
+class ShmRegion {
+ public:
+  ~ShmRegion();
+  const glint::v1::SharedMemoryRegion &info() const { return info_; }
+  uint8_t *data() const { return window_; }
+  // OK when the window [offset, offset + bytes) of this region still lies inside the object
+  // (fstat now: the client may have truncated it since registration). `field` names the request
+  // field in the message.
+  Status CheckRange(uint64_t offset, uint64_t bytes, const std::string &field) const;
+
+ private:
+  friend class ShmRegistry;
+  ShmRegion() = default;
+  glint::v1::SharedMemoryRegion info_;
+  int fd_ = -1;
+  void *map_ = nullptr;  // page-aligned start of the mapping
+  size_t map_bytes_ = 0;
+  uint8_t *window_ = nullptr;  // map_ + (offset % page size)
+};
+
+class ShmRegistry {
+ public:
+  explicit ShmRegistry(ShmLimits limits = {}) : limits_(limits) {}
+  const ShmLimits &limits() const { return limits_; }
+
+  // Opens, checks and maps the window. INVALID_ARGUMENT names the field (name, key, offset,
+  // byte_size); NOT_FOUND when no object has that key; ALREADY-registered names are refused
+  // (INVALID_ARGUMENT); RESOURCE_EXHAUSTED beyond the owner's limits.
+  Status Register(const std::string &owner, const glint::v1::RegisterSharedMemoryRequest &r);
+  std::vector<glint::v1::SharedMemoryRegion> List(const std::string &owner) const;
+  // `name` empty: every region of the owner. NOT_FOUND for an unknown name.
+  Status Unregister(const std::string &owner, const std::string &name);
+  // The owner's region `name` (NOT_FOUND naming `field` otherwise).
+  Status Find(const std::string &owner, const std::string &name, const std::string &field,
+              std::shared_ptr<const ShmRegion> *out) const;
+  // Drops every region (shutdown); mappings in use by a call go when the call is done.
+  void Clear();
+  uint64_t total_bytes() const;
+
+ private:
+  ShmLimits limits_;
+  mutable std::mutex mutex_;
+  // owner -> name -> region
+  std::map<std::string, std::map<std::string, std::shared_ptr<const ShmRegion>>> regions_;
+};
+
+// Checks a region name ([A-Za-z0-9._-], 1-64 characters) and a key (shm_open: a leading '/', no
+// other '/', 2-255 characters, no NUL).
+Status ValidateRegionName(const std::string &name, const std::string &field);
+Status ValidateShmKey(const std::string &key, const std::string &field);
+
+}  // namespace glint

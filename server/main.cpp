@@ -41,6 +41,8 @@ struct Flags {
   double max_query_cost = glint::CostLimits().max_query_cost;
   double slice_ms = 50;
   double shutdown_grace = 10;
+  long batch_delay_us = 0;     // dynamic batching (server/scheduler.h, server/batch_eval.h)
+  long batch_max_queries = 0;  // 0: off
 };
 
 const char kUsage[] =
@@ -74,6 +76,13 @@ const char kUsage[] =
     "  --shutdown-grace S   on SIGTERM/SIGINT: health NOT_SERVING, new work UNAVAILABLE, work in\n"
     "                       flight may finish for S seconds, then is cancelled at its next\n"
     "                       slice; exit 0 (default 10)\n"
+    "  --batch-max-queries Q  dynamic batching: concurrent unary Evaluate calls of at most Q/2\n"
+    "                       queries with identical settings (material, lights, precision, seed,\n"
+    "                       area method and samples, same query arrays) share one device launch\n"
+    "                       of up to Q queries; results bit-identical to unbatched (default 0: "
+    "off)\n"
+    "  --batch-delay-us N   with batching: wait up to N us after a request arrives for others to\n"
+    "                       share its launch (default 0: only those already queued)\n"
     "  --list-devices       print the OpenCL devices and exit\n"
     "  --quiet              no per-request log lines\n"
     "memory: peak RSS <= idle RSS + M x (3 x (max-pending + calls being received) + 2 x\n"
@@ -154,6 +163,10 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->slice_ms = real("--slice-ms", 1, 60000);
     else if (a == "--shutdown-grace")
       f->shutdown_grace = real("--shutdown-grace", 0, 3600);
+    else if (a == "--batch-max-queries")
+      f->batch_max_queries = number("--batch-max-queries", 0, 1 << 24);
+    else if (a == "--batch-delay-us")
+      f->batch_delay_us = number("--batch-delay-us", 0, 1000000);
     else if (a == "--list-devices")
       f->list_devices = true;
     else if (a == "--quiet")
@@ -246,6 +259,13 @@ int main(int argc, char **argv) {
   options.metrics = ops.metrics();
   options.auth = ops.auth();
   glint::GlintServiceImpl service(engine.get(), &scheduler, options);
+  if (flags.batch_max_queries > 0) {
+    scheduler.EnableBatching(
+        {std::chrono::microseconds(flags.batch_delay_us), uint32_t(flags.batch_max_queries)},
+        [&service](int worker, const glint::Scheduler::Members &members) {
+          return service.RunEvaluateBatch(worker, members);
+        });
+  }
   std::vector<glint::KServeModel> kserve_models;
   if (glint::Status s =
           glint::LoadKServeModels(flags.models, flags.model_dirs, options.limits, &kserve_models);

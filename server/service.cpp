@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "server/eval_plan.h"
+#include "server/metadata_admission.h"
 #include "server/model_table.h"
 #include "server/normal_map_store.h"
 #include "server/sliced_eval.h"
@@ -193,6 +194,8 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   // Full already: refused before the body is parsed (no second copy of it in memory).
   Status s = scheduler_->pending() >= scheduler_->max_pending() ? OverloadStatus(*scheduler_)
                                                                 : Status::Ok();
+  // The client's claim (query count, model) before the body is parsed.
+  if (s.ok()) s = AdmitFromMetadata(*ctx, options_.limits, /*per_message=*/true);
   if (s.ok()) s = ParseBody(body, &reactor->request, "request");
   if (s.ok()) s = ValidateSettings(*request, options_.limits);
   if (s.ok()) s = Admit(*request, request->queries().count());
@@ -202,8 +205,12 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
     reactor->Finish(ToGrpcStatus(s));
     return reactor;
   }
-  bool queued =
-      scheduler_->TrySubmit([this, ctx, reactor, request, response, received](int worker) {
+  // Batchable: the scheduler may run it in one launch with others (RunEvaluateBatch) instead.
+  auto member = MakeEvaluateMember(ctx, request, response, received, [reactor](const Status &st) {
+    reactor->Finish(ToGrpcStatus(st));
+  });
+  bool queued = scheduler_->TrySubmit(
+      [this, ctx, reactor, request, response, received](int worker) {
         const double queue_ms = MsSince(received);
         if (options_.metrics) options_.metrics->ObserveQueueWait(queue_ms / 1e3);
         std::string kernel = "-";
@@ -218,7 +225,8 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
         LogLine(line.str());
         if (!st.ok()) response->Clear();
         return [reactor, st] { reactor->Finish(ToGrpcStatus(st)); };
-      });
+      },
+      std::move(member));
   if (!queued) {
     Status busy = OverloadStatus(*scheduler_);
     LogLine("Evaluate n=" + std::to_string(request->queries().count()) + " " + busy.message());
@@ -238,6 +246,17 @@ class GlintServiceImpl::StreamReactor
     // Refused before the first chunk's body is read where that is already known.
     if (service_->shutting_down_) {
       Fail(ToGrpcStatus(service_->Admit({}, 0)));
+      return;
+    }
+    // A full server, or a refused claim in the call metadata: before the first chunk is read.
+    if (service_->scheduler().pending() >= service_->scheduler().max_pending()) {
+      Status busy = OverloadStatus(service_->scheduler());
+      Fail(ToGrpcStatus(Status::ResourceExhausted(
+          busy.message() + " (refused on opening the stream, before its first chunk was read)")));
+      return;
+    }
+    if (Status s = AdmitFromMetadata(*ctx_, service_->options().limits, false); !s.ok()) {
+      Fail(ToGrpcStatus(s));
       return;
     }
     StartRead(&raw_chunk_);
@@ -378,6 +397,11 @@ grpc::ServerUnaryReactor *GlintServiceImpl::GetCapabilities(grpc::CallbackServer
   c->set_max_normal_map_upload_bytes(nm.max_upload_bytes);
   c->set_max_normal_map_texels(nm.max_texels);
   c->set_normal_map_budget_bytes(nm.budget_bytes);
+  c->set_max_request_cost(options_.cost.max_request_cost);
+  c->set_max_query_cost(options_.cost.max_query_cost);
+  c->set_slice_ms(options_.slice_ms);
+  c->set_batch_delay_us(uint32_t(scheduler_->batching().delay.count()));
+  c->set_batch_max_queries(scheduler_->batching().max_queries);
   reactor->Finish(grpc::Status::OK);
   return reactor;
 }

@@ -245,6 +245,15 @@ void SetDeadline(grpc::ClientContext *context, std::chrono::system_clock::time_p
   if (deadline != std::chrono::system_clock::time_point::max()) context->set_deadline(deadline);
 }
 
+// The call's query count (a stream's total) and model as call metadata, so that glintd can
+// refuse an over-limit or overloaded call before parsing (unary) or reading (stream) its body
+// (server/metadata_admission.h, which names the same keys).
+void AddAdmissionMetadata(const glint::v1::EvaluateRequest &request, grpc::ClientContext *context) {
+  context->AddMetadata("glint-query-count", std::to_string(request.queries().count()));
+  if (glint::v1::Model_IsValid(request.material().model()))
+    context->AddMetadata("glint-model", glint::v1::Model_Name(request.material().model()));
+}
+
 }  // namespace
 
 grpc::Status GlintClient::GetCapabilities(glint::v1::Capabilities *capabilities) {
@@ -400,6 +409,7 @@ grpc::Status GlintClient::EvaluateUnary(const glint::v1::EvaluateRequest &reques
   grpc::ClientContext context;
   PrepareContext(&context);
   SetDeadline(&context, deadline);
+  AddAdmissionMetadata(request, &context);
   glint::v1::EvaluateResponse response;
   grpc::Status status = stub_->Evaluate(&context, request, &response);
   if (!status.ok()) return status;
@@ -432,6 +442,7 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
   grpc::ClientContext context;
   PrepareContext(&context);
   SetDeadline(&context, deadline);
+  AddAdmissionMetadata(request, &context);
   std::unique_ptr<
       grpc::ClientReaderWriter<glint::v1::EvaluateChunk, glint::v1::EvaluateChunkResult>>
       stream = stub_->EvaluateStream(&context);

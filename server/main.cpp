@@ -91,7 +91,8 @@ const char kUsage[] =
     "  queries and radiance; a call being received holds its body (gRPC reads a\n"
     "  whole unary body before any handler runs, so those are bounded by the clients, not by\n"
     "  these flags); a full server refuses before parsing (README 'Limits, cancellation and\n"
-    "  shutdown')\n";
+    "  shutdown'); with --batch-max-queries Q, M is at least Q x 96 bytes (a launch holds its\n"
+    "  batch's concatenated queries, <= 84 bytes each, and radiance)\n";
 
 std::string DefaultCacheDir() {
   if (const char *d = std::getenv("GLINT_CACHE_DIR")) return d;

@@ -41,7 +41,9 @@ struct Flags {
   double max_query_cost = glint::CostLimits().max_query_cost;
   double slice_ms = 50;
   double shutdown_grace = 10;
-  glint::ShmLimits shm;  // --max-shm-regions, --max-shm-mb, --shm-direct-output
+  glint::ShmLimits shm;        // --max-shm-regions, --max-shm-mb, --shm-direct-output
+  long batch_delay_us = 0;     // dynamic batching (server/scheduler.h, server/batch_eval.h)
+  long batch_max_queries = 0;  // 0: off
 };
 
 const char kUsage[] =
@@ -80,6 +82,13 @@ const char kUsage[] =
     "  --max-shm-mb N       registered shared-memory MiB per token / server (default 4096)\n"
     "  --shm-direct-output  kernels write radiance straight into the output region (no copy);\n"
     "                       a client that truncates its region mid-call then crashes glintd\n"
+    "  --batch-max-queries Q  dynamic batching: concurrent unary Evaluate calls of at most Q/2\n"
+    "                       queries with identical settings (material, lights, precision, seed,\n"
+    "                       area method and samples, same query arrays) share one device launch\n"
+    "                       of up to Q queries; results bit-identical to unbatched (default 0: "
+    "off)\n"
+    "  --batch-delay-us N   with batching: wait up to N us after a request arrives for others to\n"
+    "                       share its launch (default 0: only those already queued)\n"
     "  --list-devices       print the OpenCL devices and exit\n"
     "  --quiet              no per-request log lines\n"
     "memory: peak RSS <= idle RSS + M x (3 x (max-pending + calls being received) + 2 x\n"
@@ -88,7 +97,8 @@ const char kUsage[] =
     "  queries and radiance; a call being received holds its body (gRPC reads a\n"
     "  whole unary body before any handler runs, so those are bounded by the clients, not by\n"
     "  these flags); a full server refuses before parsing (README 'Limits, cancellation and\n"
-    "  shutdown')\n";
+    "  shutdown'); with --batch-max-queries Q, M is at least Q x 96 bytes (a launch holds its\n"
+    "  batch's concatenated queries, <= 84 bytes each, and radiance)\n";
 
 std::string DefaultCacheDir() {
   if (const char *d = std::getenv("GLINT_CACHE_DIR")) return d;
@@ -166,6 +176,10 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->shm.max_bytes = uint64_t(number("--max-shm-mb", 1, 1 << 24)) << 20;
     else if (a == "--shm-direct-output")
       f->shm.direct_output = true;
+    else if (a == "--batch-max-queries")
+      f->batch_max_queries = number("--batch-max-queries", 0, 1 << 24);
+    else if (a == "--batch-delay-us")
+      f->batch_delay_us = number("--batch-delay-us", 0, 1000000);
     else if (a == "--list-devices")
       f->list_devices = true;
     else if (a == "--quiet")
@@ -260,6 +274,13 @@ int main(int argc, char **argv) {
   glint::ShmRegistry shm_regions(flags.shm);  // unmapped when main returns (after Shutdown)
   options.shm = &shm_regions;
   glint::GlintServiceImpl service(engine.get(), &scheduler, options);
+  if (flags.batch_max_queries > 0) {
+    scheduler.EnableBatching(
+        {std::chrono::microseconds(flags.batch_delay_us), uint32_t(flags.batch_max_queries)},
+        [&service](int worker, const glint::Scheduler::Members &members) {
+          return service.RunEvaluateBatch(worker, members);
+        });
+  }
   std::vector<glint::KServeModel> kserve_models;
   if (glint::Status s =
           glint::LoadKServeModels(flags.models, flags.model_dirs, options.limits, &kserve_models);

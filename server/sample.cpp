@@ -6,6 +6,7 @@
 #include "server/eval_plan.h"
 #include "server/host_path.h"
 #include "server/model_table.h"
+#include "server/request_cost.h"
 
 namespace glint {
 
@@ -51,7 +52,8 @@ Status ValidateSampleRequest(const glint::v1::SampleRequest &r, const Validation
 }
 
 Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleRequest &request,
-                 const ValidationLimits &limits, glint::v1::SampleResponse *response) {
+                 const ValidationLimits &limits, glint::v1::SampleResponse *response,
+                 const SliceOptions *slicing) {
   glint::v1::EvaluateRequest settings;
   Status s = ValidateSampleRequest(request, limits, &settings);
   if (!s.ok()) return s;
@@ -63,12 +65,26 @@ Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleReques
   s = ResolveRequestTable(settings.material(), &plan);
   if (!s.ok()) return s;
   std::vector<float> raw(samples * kSampleFloats);
-  if (engine) {
-    s = engine->Sample(worker, plan, q, k, raw.data());
-    if (!s.ok()) return s;
+  // Queries [begin, begin + size) write samples [begin K, (begin + size) K): the sample keys do
+  // not depend on a query's index in the batch (kernels/sample.h), so slicing is bit-identical.
+  auto run = [&](const glint::v1::QueryBatch &part, float *out) -> Status {
+    if (engine) return engine->Sample(worker, plan, part, k, out);
+    HostSample(plan, part, k, out);
+    return Status::Ok();
+  };
+  if (!slicing) {
+    s = run(q, raw.data());
   } else {
-    HostSample(plan, q, k, raw.data());
+    SliceOptions options = *slicing;
+    options.per_query_cost = EstimateRequestCost(settings, 1).per_query * double(k);
+    glint::v1::QueryBatch part;
+    s = RunInSlices(q.count(), engine != nullptr, options, [&](uint32_t begin, uint32_t size) {
+      if (begin == 0 && size == q.count()) return run(q, raw.data());
+      CopyQuerySlice(q, begin, begin + size, &part);
+      return run(part, raw.data() + size_t(begin) * k * kSampleFloats);
+    });
   }
+  if (!s.ok()) return s;
   response->set_count(q.count());
   response->set_samples_per_query(k);
   auto *wi = response->mutable_wi();

@@ -7,6 +7,7 @@
 
 #include "glint/v1/glint.pb.h"
 #include "server/device_engine.h"
+#include "server/sliced_eval.h"
 #include "server/status.h"
 #include "server/validation.h"
 
@@ -23,8 +24,12 @@ Status ValidateSampleRequest(const glint::v1::SampleRequest &request,
                              const ValidationLimits &limits, glint::v1::EvaluateRequest *settings);
 
 // Validates and samples: fills response's wi, pdf and weight (not its stats). `engine` null:
-// the host path. `worker` is the engine queue to run on.
+// the host path. `worker` is the engine queue to run on. Runs in query slices as Evaluate does
+// (server/sliced_eval.h; `slicing`'s per_query_cost is replaced by the request's own: the
+// model's cost of one evaluation x samples_per_query) and returns slicing.stop's status when
+// that stops it between slices; null: one launch.
 Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleRequest &request,
-                 const ValidationLimits &limits, glint::v1::SampleResponse *response);
+                 const ValidationLimits &limits, glint::v1::SampleResponse *response,
+                 const SliceOptions *slicing = nullptr);
 
 }  // namespace glint

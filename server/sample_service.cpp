@@ -18,25 +18,34 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Sample(grpc::CallbackServerContext *
     reactor->Finish(denied);
     return reactor;
   }
+  if (shutting_down_) {
+    reactor->Finish(ToGrpcStatus(Admit({}, 0)));
+    return reactor;
+  }
   const auto received = Clock::now();
-  bool queued = scheduler_->TrySubmit([this, reactor, request, response, received](int worker) {
-    const auto start = Clock::now();
-    Status st = RunSample(engine_, worker, *request, options_.limits, response);
-    const auto ms = [](Clock::time_point a, Clock::time_point b) {
-      return std::chrono::duration<double, std::milli>(b - a).count();
-    };
-    response->mutable_stats()->set_queue_ms(ms(received, start));
-    response->mutable_stats()->set_compute_ms(ms(start, Clock::now()));
-    response->mutable_stats()->set_device(DeviceName());
-    std::ostringstream line;
-    line << "Sample n=" << request->queries().count() << " k=" << request->samples_per_query()
-         << " queue_ms=" << response->stats().queue_ms()
-         << " compute_ms=" << response->stats().compute_ms()
-         << (st.ok() ? " ok" : " refused: " + st.message());
-    LogLine(line.str());
-    if (!st.ok()) response->Clear();
-    return [reactor, st] { reactor->Finish(ToGrpcStatus(st)); };
-  });
+  bool queued =
+      scheduler_->TrySubmit([this, ctx, reactor, request, response, received](int worker) {
+        const auto start = Clock::now();
+        // In query slices, stopping between them for cancellation, deadline or shutdown.
+        SliceOptions slicing;
+        slicing.target_ms = options_.slice_ms;
+        slicing.stop = [this, ctx] { return StopReason(ctx); };
+        Status st = RunSample(engine_, worker, *request, options_.limits, response, &slicing);
+        const auto ms = [](Clock::time_point a, Clock::time_point b) {
+          return std::chrono::duration<double, std::milli>(b - a).count();
+        };
+        response->mutable_stats()->set_queue_ms(ms(received, start));
+        response->mutable_stats()->set_compute_ms(ms(start, Clock::now()));
+        response->mutable_stats()->set_device(DeviceName());
+        std::ostringstream line;
+        line << "Sample n=" << request->queries().count() << " k=" << request->samples_per_query()
+             << " queue_ms=" << response->stats().queue_ms()
+             << " compute_ms=" << response->stats().compute_ms()
+             << (st.ok() ? " ok" : " refused: " + st.message());
+        LogLine(line.str());
+        if (!st.ok()) response->Clear();
+        return [reactor, st] { reactor->Finish(ToGrpcStatus(st)); };
+      });
   if (!queued) {
     Status busy = OverloadStatus(*scheduler_);
     LogLine("Sample n=" + std::to_string(request->queries().count()) + " " + busy.message());

@@ -17,13 +17,52 @@ Scheduler::~Scheduler() {
 }
 
 bool Scheduler::TrySubmit(Job job) {
+  return TrySubmit(std::move(job), nullptr);
+}
+
+bool Scheduler::TrySubmit(Job job, std::shared_ptr<BatchMember> member) {
+  if (!batching_.max_queries) member.reset();
+  const bool gathering = member && batching_.delay.count() > 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (stopping_ || queue_.size() + running_ >= max_pending_) return false;
-    queue_.push_back(std::move(job));
+    queue_.push_back({std::move(job), std::move(member), std::chrono::steady_clock::now()});
   }
-  wake_.notify_one();
+  // A worker waiting for more members of a batch must hear of this one too, and an idle
+  // worker must not miss it because the waiting one took the notification.
+  if (gathering)
+    wake_.notify_all();
+  else
+    wake_.notify_one();
   return true;
+}
+
+void Scheduler::EnableBatching(BatchOptions options, BatchJob run) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  batching_ = options;
+  batch_job_ = std::move(run);
+}
+
+void Scheduler::Gather(std::unique_lock<std::mutex> &lock, const Entry &first,
+                       std::vector<Entry> *batch) {
+  uint64_t queries = first.member->queries;
+  const auto until = first.submitted + batching_.delay;
+  for (;;) {
+    for (auto it = queue_.begin(); it != queue_.end() && queries < batching_.max_queries;) {
+      if (it->member && it->member->key == first.member->key &&
+          queries + it->member->queries <= batching_.max_queries) {
+        queries += it->member->queries;
+        batch->push_back(std::move(*it));
+        it = queue_.erase(it);
+        ++running_;
+      } else {
+        ++it;
+      }
+    }
+    if (queries >= batching_.max_queries || stopping_ || std::chrono::steady_clock::now() >= until)
+      return;
+    wake_.wait_until(lock, until);
+  }
 }
 
 size_t Scheduler::pending() const {
@@ -33,21 +72,35 @@ size_t Scheduler::pending() const {
 
 void Scheduler::WorkerLoop(int worker) {
   for (;;) {
-    Job job;
+    Entry first;
+    std::vector<Entry> more;  // members gathered with `first`
     {
       std::unique_lock<std::mutex> lock(mutex_);
       wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
       if (queue_.empty()) return;  // stopping and drained
-      job = std::move(queue_.front());
+      first = std::move(queue_.front());
       queue_.pop_front();
       ++running_;
+      if (first.member) Gather(lock, first, &more);
     }
-    Respond respond = job(worker);
+    if (more.empty()) {
+      Respond respond = first.job(worker);
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        --running_;
+      }
+      if (respond) respond();
+      continue;
+    }
+    Members members{first.member};
+    for (Entry &e : more) members.push_back(e.member);
+    std::vector<Respond> responds = batch_job_(worker, members);
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      --running_;
+      running_ -= members.size();
     }
-    if (respond) respond();
+    for (Respond &respond : responds)
+      if (respond) respond();
   }
 }
 

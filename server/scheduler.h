@@ -5,13 +5,24 @@
 // A job computes, then returns how to answer its client; the worker frees the
 // job's slot *before* answering, so a client that sends its next request on
 // receipt of the last answer never finds the slot still taken by its own work.
+//
+// Dynamic batching (EnableBatching): a job submitted with a BatchMember may run together with
+// other queued members of the same key in one call of the batch job, which answers each of
+// them. Every member keeps its own pending slot (queued or running), so --max-pending and the
+// memory bound count requests whether batched or not. A worker that takes a member gathers
+// the queued members of its key, oldest first, up to max_queries queries in all, and waits up
+// to `delay` after the first one's submission for more while the batch is not full. A member
+// gathered alone runs its own job, exactly as without batching.
 #pragma once
 
+#include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <deque>
 #include <functional>
+#include <memory>
 #include <mutex>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -22,22 +33,53 @@ class Scheduler {
   using Respond = std::function<void()>;           // answers the client; may be empty
   using Job = std::function<Respond(int worker)>;  // computes on `worker`
 
+  // What the scheduler needs to know of a batchable job; the service derives its own member
+  // type (server/batch_eval.h) and the batch job casts back.
+  struct BatchMember {
+    virtual ~BatchMember() = default;
+    std::string key;       // members with equal keys may share one launch
+    uint32_t queries = 0;  // this member's share of BatchOptions::max_queries
+  };
+  using Members = std::vector<std::shared_ptr<BatchMember>>;
+  // Runs `members` (two or more, oldest first) together on `worker`; one Respond per member,
+  // in the same order.
+  using BatchJob = std::function<std::vector<Respond>(int worker, const Members &members)>;
+  struct BatchOptions {
+    std::chrono::microseconds delay{0};
+    uint32_t max_queries = 0;  // 0: batching off
+  };
+
   Scheduler(int workers, size_t max_pending);
   ~Scheduler();  // runs every queued job, then joins
   Scheduler(const Scheduler &) = delete;
   Scheduler &operator=(const Scheduler &) = delete;
 
   bool TrySubmit(Job job);
+  // As TrySubmit; with batching enabled, `member` (if not null) may be run by the batch job
+  // together with others instead of `job`.
+  bool TrySubmit(Job job, std::shared_ptr<BatchMember> member);
+  // Before any job is submitted.
+  void EnableBatching(BatchOptions options, BatchJob run);
+  const BatchOptions &batching() const { return batching_; }
   size_t pending() const;  // queued + running
   size_t max_pending() const { return max_pending_; }
 
  private:
+  struct Entry {
+    Job job;
+    std::shared_ptr<BatchMember> member;
+    std::chrono::steady_clock::time_point submitted;
+  };
   void WorkerLoop(int worker);
+  // Moves the queued members of `first`'s key into `batch` (under the lock; see the header).
+  void Gather(std::unique_lock<std::mutex> &lock, const Entry &first, std::vector<Entry> *batch);
 
   const size_t max_pending_;
+  BatchOptions batching_;
+  BatchJob batch_job_;
   mutable std::mutex mutex_;
   std::condition_variable wake_;
-  std::deque<Job> queue_;
+  std::deque<Entry> queue_;
   size_t running_ = 0;
   bool stopping_ = false;
   std::vector<std::thread> workers_;

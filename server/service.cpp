@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "server/eval_plan.h"
+#include "server/metadata_admission.h"
 #include "server/model_table.h"
 #include "server/normal_map_store.h"
 #include "server/shm_io.h"
@@ -236,6 +237,8 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   // Full already: refused before the body is parsed (no second copy of it in memory).
   Status s = scheduler_->pending() >= scheduler_->max_pending() ? OverloadStatus(*scheduler_)
                                                                 : Status::Ok();
+  // The client's claim (query count, model) before the body is parsed.
+  if (s.ok()) s = AdmitFromMetadata(*ctx, options_.limits, /*per_message=*/true);
   if (s.ok()) s = ParseBody(body, &reactor->request, "request");
   if (s.ok()) s = ValidateSettings(*request, options_.limits);
   // Shared memory (server/shm_io.h): the query count is in the request, the queries in a region.
@@ -249,8 +252,12 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
     reactor->Finish(ToGrpcStatus(s));
     return reactor;
   }
-  bool queued =
-      scheduler_->TrySubmit([this, ctx, reactor, request, response, received](int worker) {
+  // Batchable: the scheduler may run it in one launch with others (RunEvaluateBatch) instead.
+  auto member = MakeEvaluateMember(ctx, request, response, received, [reactor](const Status &st) {
+    reactor->Finish(ToGrpcStatus(st));
+  });
+  bool queued = scheduler_->TrySubmit(
+      [this, ctx, reactor, request, response, received](int worker) {
         const double queue_ms = MsSince(received);
         if (options_.metrics) options_.metrics->ObserveQueueWait(queue_ms / 1e3);
         std::string kernel = "-";
@@ -269,7 +276,8 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
         LogLine(line.str());
         if (!st.ok()) response->Clear();
         return [reactor, st] { reactor->Finish(ToGrpcStatus(st)); };
-      });
+      },
+      std::move(member));
   if (!queued) {
     Status busy = OverloadStatus(*scheduler_);
     LogLine("Evaluate n=" + std::to_string(request->queries().count()) + " " + busy.message());
@@ -297,10 +305,19 @@ class GlintServiceImpl::StreamReactor
 
   StreamReactor(GlintServiceImpl *service, grpc::CallbackServerContext *ctx)
       : service_(service), ctx_(ctx), start_(Clock::now()) {
-    // Refused before the first chunk's body is read where that is already known.
-    if (service_->shutting_down_) {
+    // Refused before the first chunk's body is read where that is already known: shutting
+    // down, a full server, or a refused claim in the call metadata.
+    {
       std::lock_guard<std::mutex> lock(mu_);
-      failure_ = ToGrpcStatus(service_->Admit({}, 0));
+      if (service_->shutting_down_) {
+        failure_ = ToGrpcStatus(service_->Admit({}, 0));
+      } else if (service_->scheduler().pending() >= service_->scheduler().max_pending()) {
+        Status busy = OverloadStatus(service_->scheduler());
+        failure_ = ToGrpcStatus(Status::ResourceExhausted(
+            busy.message() + " (refused on opening the stream, before its first chunk was read)"));
+      } else if (Status s = AdmitFromMetadata(*ctx_, service_->options().limits, false); !s.ok()) {
+        failure_ = ToGrpcStatus(s);
+      }
     }
     Pump();
   }
@@ -564,6 +581,11 @@ grpc::ServerUnaryReactor *GlintServiceImpl::GetCapabilities(grpc::CallbackServer
     c->set_max_shared_memory_regions(options_.shm->limits().max_regions);
     c->set_max_shared_memory_bytes(options_.shm->limits().max_bytes);
   }
+  c->set_max_request_cost(options_.cost.max_request_cost);
+  c->set_max_query_cost(options_.cost.max_query_cost);
+  c->set_slice_ms(options_.slice_ms);
+  c->set_batch_delay_us(uint32_t(scheduler_->batching().delay.count()));
+  c->set_batch_max_queries(scheduler_->batching().max_queries);
   reactor->Finish(grpc::Status::OK);
   return reactor;
 }

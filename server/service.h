@@ -6,6 +6,8 @@
 #include <grpcpp/grpcpp.h>
 
 #include <atomic>
+#include <chrono>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -116,6 +118,24 @@ class GlintServiceImpl final : public GlintRawService {
   Status Admit(const glint::v1::EvaluateRequest &settings, uint64_t query_count) const;
   // Why work for `ctx` must stop now (OK: go on).
   Status StopReason(grpc::CallbackServerContext *ctx) const;
+
+  // Dynamic batching (server/batch_service.cpp, server/batch_eval.h). A unary Evaluate call
+  // that may share a launch: null when batching is off or the request is not Batchable.
+  // `finish` answers the client.
+  struct EvaluateMember : Scheduler::BatchMember {
+    grpc::CallbackServerContext *ctx = nullptr;
+    const glint::v1::EvaluateRequest *request = nullptr;
+    glint::v1::EvaluateResponse *response = nullptr;
+    std::chrono::steady_clock::time_point received;
+    std::function<void(const Status &)> finish;
+  };
+  std::shared_ptr<Scheduler::BatchMember> MakeEvaluateMember(
+      grpc::CallbackServerContext *ctx, const glint::v1::EvaluateRequest *request,
+      glint::v1::EvaluateResponse *response, std::chrono::steady_clock::time_point received,
+      std::function<void(const Status &)> finish) const;
+  // The scheduler's batch job: validates each member, evaluates the valid ones in one launch,
+  // fills each response as RunBatch would (plus stats.batch_requests), logs, and answers.
+  std::vector<Scheduler::Respond> RunEvaluateBatch(int worker, const Scheduler::Members &members);
 
   Scheduler &scheduler() { return *scheduler_; }
   const ServiceOptions &options() const { return options_; }

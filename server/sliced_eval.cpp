@@ -34,19 +34,12 @@ void CopyQuerySlice(const glint::v1::QueryBatch &q, uint32_t begin, uint32_t end
   CopyRange(q.tangent(), 3, begin, end, out->mutable_tangent());
 }
 
-Status EvaluateSliced(DeviceEngine *engine, int worker, const EvalPlan &plan,
-                      const glint::v1::QueryBatch &queries, float *out_rgb,
-                      const SliceOptions &options, SliceStats *stats) {
-  auto run = [&](const glint::v1::QueryBatch &q, float *out) -> Status {
-    if (engine) return engine->Evaluate(worker, plan, q, out);
-    HostEvaluate(plan, q, out);
-    return Status::Ok();
-  };
-  const uint32_t n = queries.count();
+Status RunInSlices(uint32_t n, bool on_device, const SliceOptions &options,
+                   const std::function<Status(uint32_t begin, uint32_t size)> &run,
+                   SliceStats *stats) {
   // Queries per ms: first from the estimate, then measured.
   double rate = options.units_per_ms / std::max(options.per_query_cost, 1e-9);
-  if (!engine) rate /= 8;  // the host path is one scalar thread (bench_smooth: ~8x slower)
-  glint::v1::QueryBatch slice;
+  if (!on_device) rate /= 8;  // the host path is one scalar thread (bench_smooth: ~8x slower)
   uint32_t begin = 0;
   double done_ms = 0;
   int slices = 0;
@@ -64,24 +57,38 @@ Status EvaluateSliced(DeviceEngine *engine, int worker, const EvalPlan &plan,
     if (options.max_slice_queries) cap = std::min(cap, double(options.max_slice_queries));
     const uint32_t size = uint32_t(std::clamp(want, 1.0, cap));
     const auto t0 = Clock::now();
-    Status s;
-    if (begin == 0 && size == n) {
-      s = run(queries, out_rgb);  // the common case: one slice, no copy
-    } else {
-      CopyQuerySlice(queries, begin, begin + size, &slice);
-      s = run(slice, out_rgb + size_t(begin) * 3);
-    }
+    Status s = run(begin, size);
     if (!s.ok()) return s;
     if (stats && slices == 0) stats->first_slice_queries = size;
     ++slices;
     begin += size;
+    if (stats) stats->slices = slices;
     done_ms += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     // Measured rate over everything so far (at least 1 ms of it, so one fast slice's timer
     // noise does not blow the next slice up).
     rate = double(begin) / std::max(done_ms, 1.0);
   }
-  if (stats) stats->slices = slices;
   return Status::Ok();
+}
+
+Status EvaluateSliced(DeviceEngine *engine, int worker, const EvalPlan &plan,
+                      const glint::v1::QueryBatch &queries, float *out_rgb,
+                      const SliceOptions &options, SliceStats *stats) {
+  auto run = [&](const glint::v1::QueryBatch &q, float *out) -> Status {
+    if (engine) return engine->Evaluate(worker, plan, q, out);
+    HostEvaluate(plan, q, out);
+    return Status::Ok();
+  };
+  const uint32_t n = queries.count();
+  glint::v1::QueryBatch slice;
+  return RunInSlices(
+      n, engine != nullptr, options,
+      [&](uint32_t begin, uint32_t size) {
+        if (begin == 0 && size == n) return run(queries, out_rgb);  // one slice: no copy
+        CopyQuerySlice(queries, begin, begin + size, &slice);
+        return run(slice, out_rgb + size_t(begin) * 3);
+      },
+      stats);
 }
 
 }  // namespace glint

@@ -47,6 +47,13 @@ Status EvaluateSliced(DeviceEngine *engine, int worker, const EvalPlan &plan,
                       const glint::v1::QueryBatch &queries, float *out_rgb,
                       const SliceOptions &options, SliceStats *stats = nullptr);
 
+// The slice loop itself, for any per-query work (EvaluateSliced, and the Sample RPC's sample
+// pass, server/sample.cpp): calls run(begin, size) on consecutive ranges covering [0, n),
+// sized and stopped as above. A request estimated at no more than 4 slices is one range.
+Status RunInSlices(uint32_t n, bool on_device, const SliceOptions &options,
+                   const std::function<Status(uint32_t begin, uint32_t size)> &run,
+                   SliceStats *stats = nullptr);
+
 // Queries [begin, end) of `q` as a batch of their own (every present array sliced).
 void CopyQuerySlice(const glint::v1::QueryBatch &q, uint32_t begin, uint32_t end,
                     glint::v1::QueryBatch *out);

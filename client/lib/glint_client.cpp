@@ -7,6 +7,7 @@
 #include <condition_variable>
 #include <cstdlib>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -252,6 +253,15 @@ void SetDeadline(grpc::ClientContext *context, std::chrono::system_clock::time_p
   if (deadline != std::chrono::system_clock::time_point::max()) context->set_deadline(deadline);
 }
 
+// The call's query count (a stream's total) and model as call metadata, so that glintd can
+// refuse an over-limit or overloaded call before parsing (unary) or reading (stream) its body
+// (server/metadata_admission.h, which names the same keys).
+void AddAdmissionMetadata(const glint::v1::EvaluateRequest &request, grpc::ClientContext *context) {
+  context->AddMetadata("glint-query-count", std::to_string(request.queries().count()));
+  if (glint::v1::Model_IsValid(request.material().model()))
+    context->AddMetadata("glint-model", glint::v1::Model_Name(request.material().model()));
+}
+
 }  // namespace
 
 grpc::Status GlintClient::GetCapabilities(glint::v1::Capabilities *capabilities) {
@@ -417,6 +427,7 @@ grpc::Status GlintClient::EvaluateUnary(const glint::v1::EvaluateRequest &reques
   grpc::ClientContext context;
   PrepareContext(&context);
   SetDeadline(&context, deadline);
+  AddAdmissionMetadata(request, &context);
   glint::v1::EvaluateResponse response;
   grpc::Status status = stub_->Evaluate(&context, request, &response);
   if (!status.ok()) return status;
@@ -544,6 +555,35 @@ grpc::Status GlintClient::EvaluateSpread(const glint::v1::EvaluateRequest &reque
   return grpc::Status::OK;
 }
 
+// The first stream chunk's settings: every field of `request` but its queries, without copying
+// the queries. The fields are copied one by one; a field this list does not know yet (one added
+// to the proto later) makes it fall back to a whole copy with the queries cleared, so no setting
+// is ever dropped from a streamed request (it happened once to area_method).
+static std::string StreamSettings(const glint::v1::EvaluateRequest &request) {
+  using R = glint::v1::EvaluateRequest;
+  static const std::set<int> kCopied = {R::kMaterialFieldNumber,   R::kLightsFieldNumber,
+                                        R::kQueriesFieldNumber,    R::kPrecisionFieldNumber,
+                                        R::kSeedFieldNumber,       R::kAreaMethodFieldNumber,
+                                        R::kAreaSamplesFieldNumber};
+  std::vector<const google::protobuf::FieldDescriptor *> present;
+  request.GetReflection()->ListFields(request, &present);
+  for (const auto *field : present) {
+    if (kCopied.count(field->number()) == 0) {
+      R whole = request;
+      whole.clear_queries();
+      return whole.SerializeAsString();
+    }
+  }
+  R first;
+  *first.mutable_material() = request.material();
+  *first.mutable_lights() = request.lights();
+  first.set_precision(request.precision());
+  first.set_seed(request.seed());
+  first.set_area_method(request.area_method());
+  first.set_area_samples(request.area_samples());
+  return first.SerializeAsString();
+}
+
 grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &request,
                                            uint32_t chunk_queries, std::vector<float> *radiance,
                                            const ProgressFn &progress, EvaluateInfo *info,
@@ -558,20 +598,11 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
   grpc::ClientContext context;
   PrepareContext(&context);
   SetDeadline(&context, deadline);
+  AddAdmissionMetadata(request, &context);
   // Chunks are encoded straight from the request's arrays (client/lib/chunk_encoding.h: one copy
   // of the queries instead of a sliced message plus its serialisation).
   std::unique_ptr<RawChunkStream> stream = OpenRawChunkStream(channel_.get(), &context);
-  std::string settings;
-  {
-    glint::v1::EvaluateRequest first;
-    *first.mutable_material() = request.material();
-    *first.mutable_lights() = request.lights();
-    first.set_precision(request.precision());
-    first.set_seed(request.seed());
-    first.set_area_method(request.area_method());
-    first.set_area_samples(request.area_samples());
-    settings = first.SerializeAsString();
-  }
+  const std::string settings = StreamSettings(request);
 
   // Writer and reader run concurrently: with both sides' HTTP/2 windows full, a client that only
   // reads after writing everything would wait for a server that waits for it. Chunks are built

@@ -564,4 +564,273 @@ TEST(Memory, PeakRssStaysWithinTheConfiguredBoundUnderOverload) {
   EXPECT_TRUE(server->Alive());
 }
 
+// ---- Dynamic batching, metadata admission, capabilities, Sample slices (issue 12) ----
+
+namespace batching {
+
+v1::EvaluateResponse Call(v1::GlintService::Stub *stub, const v1::EvaluateRequest &r,
+                          grpc::Status *status,
+                          std::chrono::milliseconds timeout = std::chrono::seconds(120)) {
+  grpc::ClientContext ctx;
+  ctx.set_deadline(std::chrono::system_clock::now() + timeout);
+  v1::EvaluateResponse res;
+  *status = stub->Evaluate(&ctx, r, &res);
+  return res;
+}
+
+// Three batch keys (probes; a point light; a polygon by MONTE_CARLO, whose random numbers use
+// the seed), each request with its own queries and count, so a member given another's rows, or
+// rows shifted by one query, cannot match.
+std::vector<v1::EvaluateRequest> MixedRequests(int n) {
+  std::vector<v1::EvaluateRequest> out;
+  for (int i = 0; i < n; ++i) {
+    v1::EvaluateRequest r = SmoothRequest();
+    const int kind = i % 3;
+    if (kind == 1) AddPointLight(&r);
+    if (kind == 2) {
+      AddPolygonLight(&r, 4);
+      r.set_area_method(v1::MONTE_CARLO);
+      r.set_area_samples(8);
+      r.set_seed(77);
+    }
+    *r.mutable_queries() =
+        glint::test::RandomQueries(uint32_t(40 + 13 * i), kind == 0, false, uint32_t(500 + i));
+    out.push_back(r);
+  }
+  return out;
+}
+
+}  // namespace batching
+
+// The same requests sent one at a time (each alone in its launch: batch_requests 0) and all at
+// once (gathered: some launch serves several) give bit-identical radiance, request by request;
+// a member whose deadline passes while it waits is answered DEADLINE_EXCEEDED and the others
+// are unaffected. GetCapabilities reports the batching, slice and cost settings.
+TEST(Batching, ConcurrentRequestsAreBitIdenticalToUnbatchedEachWithItsOwnRows) {
+  glint::test::TempDir dir("glint_batching_test");
+  std::string error;
+  auto server = glint::test::Glintd::Start(
+      GlintdPath(), dir, "batching",
+      {"--workers", "1", "--max-pending", "64", "--batch-max-queries", "4096", "--batch-delay-us",
+       "50000", "--slice-ms", "40", "--max-request-cost", "5e10", "--max-query-cost", "2e6"},
+      &error);
+  ASSERT_NE(server, nullptr) << error;
+  auto stub = v1::GlintService::NewStub(
+      grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials()));
+  {
+    grpc::ClientContext ctx;
+    v1::Capabilities caps;
+    ASSERT_TRUE(stub->GetCapabilities(&ctx, {}, &caps).ok());
+    EXPECT_EQ(caps.batch_max_queries(), 4096u);
+    EXPECT_EQ(caps.batch_delay_us(), 50000u);
+    EXPECT_EQ(caps.slice_ms(), 40.0);
+    EXPECT_EQ(caps.max_request_cost(), 5e10);
+    EXPECT_EQ(caps.max_query_cost(), 2e6);
+    EXPECT_EQ(caps.max_pending_requests(), 64u);
+  }
+  const std::vector<v1::EvaluateRequest> requests = batching::MixedRequests(24);
+  std::vector<v1::EvaluateResponse> alone(requests.size());
+  for (size_t i = 0; i < requests.size(); ++i) {
+    grpc::Status s;
+    alone[i] = batching::Call(stub.get(), requests[i], &s);
+    ASSERT_TRUE(s.ok()) << i << ": " << s.error_message();
+    EXPECT_EQ(alone[i].stats().batch_requests(), 0u) << i << " ran alone";
+  }
+  std::vector<v1::EvaluateResponse> together(requests.size());
+  std::vector<grpc::Status> status(requests.size());
+  grpc::Status expired;
+  {
+    std::vector<std::thread> threads;
+    for (size_t i = 0; i < requests.size(); ++i)
+      threads.emplace_back(
+          [&, i] { together[i] = batching::Call(stub.get(), requests[i], &status[i]); });
+    // Waits in the batch gathering (50 ms delay) past its 5 ms deadline.
+    threads.emplace_back(
+        [&] { batching::Call(stub.get(), requests[0], &expired, std::chrono::milliseconds(5)); });
+    for (auto &t : threads) t.join();
+  }
+  uint32_t largest = 0;
+  for (size_t i = 0; i < requests.size(); ++i) {
+    ASSERT_TRUE(status[i].ok()) << i << ": " << status[i].error_message();
+    largest = std::max(largest, together[i].stats().batch_requests());
+    ASSERT_EQ(together[i].radiance_size(), alone[i].radiance_size()) << i;
+    EXPECT_EQ(std::memcmp(together[i].radiance().data(), alone[i].radiance().data(),
+                          sizeof(float) * size_t(alone[i].radiance_size())),
+              0)
+        << "request " << i << " (batched with " << together[i].stats().batch_requests() << ")";
+  }
+  std::printf("24 concurrent requests: the largest launch served %u of them\n", largest);
+  EXPECT_GE(largest, 2u) << "no launch served two requests: batching did not happen";
+  EXPECT_EQ(expired.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  EXPECT_TRUE(server->Alive());
+}
+
+// Metadata admission (server/metadata_admission.h). A 12 MB unary request (1M queries) to a
+// glintd with --max-batch 1000: with the client library's claim (glint-query-count) it is
+// refused from the metadata, before its body is parsed; without the claim, and with a lying
+// claim (10), the body check refuses it. A stream opened while the server is full is refused
+// before its 12 MB first chunk is read. Times are printed, not asserted (wall clock).
+TEST(MetadataAdmission, ClaimsRefuseEarlyAndALyingCountIsStillCaughtByTheBody) {
+  glint::test::TempDir dir("glint_metadata_test");
+  std::string error;
+  auto server = glint::test::Glintd::Start(GlintdPath(), dir, "metadata",
+                                           {"--workers", "1", "--max-pending", "1", "--max-batch",
+                                            "1000", "--max-message-mb", "16", "--slice-ms", "50"},
+                                           &error);
+  ASSERT_NE(server, nullptr) << error;
+  grpc::ChannelArguments args;
+  args.SetMaxSendMessageSize(16 << 20);
+  args.SetMaxReceiveMessageSize(16 << 20);
+  auto channel =
+      grpc::CreateCustomChannel(server->address(), grpc::InsecureChannelCredentials(), args);
+  auto stub = v1::GlintService::NewStub(channel);
+  v1::EvaluateRequest big = SmoothRequest();
+  AddPointLight(&big);
+  const uint32_t n = 1u << 20;
+  big.mutable_queries()->set_count(n);
+  for (uint32_t i = 0; i < n; ++i)
+    for (float v : {0.0f, 0.6f, 0.8f}) big.mutable_queries()->add_wo(v);
+  std::printf("request: %.1f MB\n", double(big.ByteSizeLong()) / 1048576.0);
+  struct Case {
+    const char *name;
+    const char *claim;  // nullptr: no metadata
+    bool from_metadata;
+  };
+  for (const Case &c : {Case{"claim 1048576", "1048576", true}, Case{"no claim", nullptr, false},
+                        Case{"lying claim 10", "10", false}}) {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    if (c.claim) {
+      ctx.AddMetadata("glint-query-count", c.claim);
+      ctx.AddMetadata("glint-model", "SMOOTH");
+    }
+    v1::EvaluateResponse res;
+    const auto t0 = Clock::now();
+    grpc::Status s = stub->Evaluate(&ctx, big, &res);
+    std::printf("%s: %.3f s: %s\n", c.name, SecondsSince(t0), s.error_message().c_str());
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << c.name;
+    EXPECT_EQ(s.error_message().find("call metadata glint-query-count") != std::string::npos,
+              c.from_metadata)
+        << c.name << ": " << s.error_message();
+    EXPECT_NE(s.error_message().find("1000"), std::string::npos) << s.error_message();
+  }
+  {  // A claim that is not a count, or a model that does not exist, is refused naming the key.
+    for (auto [key, value] :
+         {std::pair{"glint-query-count", "many"}, std::pair{"glint-model", "NO_SUCH_MODEL"}}) {
+      grpc::ClientContext ctx;
+      ctx.AddMetadata(key, value);
+      v1::EvaluateResponse res;
+      grpc::Status s = stub->Evaluate(&ctx, ProbeRequest(8), &res);
+      EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << key;
+      EXPECT_NE(s.error_message().find(key), std::string::npos) << s.error_message();
+    }
+  }
+  // Full (--max-pending 1, a long request running): a stream is refused on opening, its first
+  // chunk (12 MB) never read.
+  grpc::ClientContext long_ctx;
+  std::thread long_call([&] {
+    v1::EvaluateResponse res;
+    long_ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
+    stub->Evaluate(&long_ctx, LongRequest(600), &res);
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(800));
+  {
+    big.mutable_queries()->Clear();
+    const uint32_t m = 1000;  // --max-batch: a valid chunk, ~12 MB of lights-free padding below
+    *big.mutable_queries() = glint::test::RandomQueries(m, false, false, 3);
+    v1::EvaluateChunk chunk;
+    *chunk.mutable_request() = big;
+    // 12 MB: the chunk's request repeats the light list up to the message, far over max_lights,
+    // so only a server that reads it could tell; one that refuses on opening never does.
+    const size_t light_bytes = big.lights(0).ByteSizeLong() + 3;
+    for (size_t k = chunk.ByteSizeLong() / light_bytes; k < (12u << 20) / light_bytes; ++k)
+      *chunk.mutable_request()->add_lights() = big.lights(0);
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    const auto t0 = Clock::now();
+    auto stream = stub->EvaluateStream(&ctx);
+    stream->Write(chunk);
+    stream->WritesDone();
+    v1::EvaluateChunkResult r;
+    while (stream->Read(&r)) {
+    }
+    grpc::Status s = stream->Finish();
+    std::printf("stream to a full server: %.3f s: %s\n", SecondsSince(t0),
+                s.error_message().c_str());
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+    EXPECT_NE(s.error_message().find("before its first chunk was read"), std::string::npos)
+        << s.error_message();
+  }
+  long_ctx.TryCancel();
+  long_call.join();
+  EXPECT_TRUE(server->Alive());
+}
+
+}  // namespace
+
+namespace {
+
+// The Sample RPC runs in query slices too (server/sample.h): a big KEMPPINEN Sample (1024
+// queries x 1024 samples, ~15 s of one worker on this loaded 2-core machine if run to the end)
+// is cancelled by its client, or runs out of its deadline; a small Evaluate sent at that moment
+// must be answered once the slice in progress ends. Same bound and reasoning as the Evaluate
+// cancellation test above (--slice-ms 50, 40 slices = 2 s covers a tenfold load swing and
+// still fails an unsliced server, whose remaining ~14 s exceed it sevenfold).
+TEST(Cancellation, CancelledOrExpiredSampleFreesTheWorkerWithinASlice) {
+  glint::test::TempDir dir("glint_sample_cancel_test");
+  std::string error;
+  auto server = glint::test::Glintd::Start(
+      GlintdPath(), dir, "sample_cancel",
+      {"--workers", "1", "--max-pending", "4", "--slice-ms", "50"}, &error);
+  ASSERT_NE(server, nullptr) << error;
+  auto stub = v1::GlintService::NewStub(
+      grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials()));
+  v1::SampleRequest big;
+  {
+    auto *m = big.mutable_material();  // examples/materials/sparkle_kemppinen.json
+    m->set_model(v1::KEMPPINEN);
+    m->set_ndf(v1::GGX);
+    m->set_alpha_x(0.3f);
+    m->set_alpha_y(0.3f);
+    for (float f : {0.9f, 0.9f, 0.9f}) m->mutable_schlick()->add_f0(f);
+    auto *k = m->mutable_kemppinen();
+    k->set_density(1e6);
+    k->set_microroughness(0.02f);
+    k->set_filter_size(0.7f);
+    k->set_neighbors(4);
+    k->set_anisotropy(1.0f);
+    *big.mutable_queries() = glint::test::RandomQueries(1024, false, false, 21);
+    big.set_samples_per_query(1024);
+  }
+  constexpr double kBoundSeconds = 40 * 0.050;
+  for (bool use_deadline : {false, true}) {
+    grpc::ClientContext big_ctx;
+    big_ctx.set_deadline(std::chrono::system_clock::now() +
+                         std::chrono::milliseconds(use_deadline ? 800 : 60000));
+    grpc::Status big_status;
+    std::thread big_call([&] {
+      v1::SampleResponse res;
+      big_status = stub->Sample(&big_ctx, big, &res);
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(800));
+    const auto stopped = Clock::now();
+    if (!use_deadline) big_ctx.TryCancel();
+    big_call.join();
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
+    v1::EvaluateResponse res;
+    grpc::Status s = stub->Evaluate(&ctx, ProbeRequest(64, 11), &res);
+    const double waited = SecondsSince(stopped);
+    std::printf("%s: big Sample %s; the next small request answered %.3f s later\n",
+                use_deadline ? "deadline 0.8 s" : "cancelled at 0.8 s",
+                big_status.error_message().c_str(), waited);
+    EXPECT_EQ(big_status.error_code(),
+              use_deadline ? grpc::StatusCode::DEADLINE_EXCEEDED : grpc::StatusCode::CANCELLED);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    EXPECT_EQ(res.radiance_size(), 64 * 3);
+    EXPECT_LT(waited, kBoundSeconds) << "the worker kept sampling for the abandoned request";
+  }
+  EXPECT_TRUE(server->Alive());
+}
+
 }  // namespace

@@ -255,14 +255,16 @@ class EvaluateRequest(_message.Message):
     def __init__(self, material: _Optional[_Union[Material, _Mapping]] = ..., lights: _Optional[_Iterable[_Union[Light, _Mapping]]] = ..., queries: _Optional[_Union[QueryBatch, _Mapping]] = ..., precision: _Optional[_Union[Precision, str]] = ..., seed: _Optional[int] = ..., area_method: _Optional[_Union[AreaMethod, str]] = ..., area_samples: _Optional[int] = ..., shared_memory: _Optional[_Union[SharedMemoryIo, _Mapping]] = ...) -> None: ...
 
 class EvaluateStats(_message.Message):
-    __slots__ = ("queue_ms", "compute_ms", "device")
+    __slots__ = ("queue_ms", "compute_ms", "device", "batch_requests")
     QUEUE_MS_FIELD_NUMBER: _ClassVar[int]
     COMPUTE_MS_FIELD_NUMBER: _ClassVar[int]
     DEVICE_FIELD_NUMBER: _ClassVar[int]
+    BATCH_REQUESTS_FIELD_NUMBER: _ClassVar[int]
     queue_ms: float
     compute_ms: float
     device: str
-    def __init__(self, queue_ms: _Optional[float] = ..., compute_ms: _Optional[float] = ..., device: _Optional[str] = ...) -> None: ...
+    batch_requests: int
+    def __init__(self, queue_ms: _Optional[float] = ..., compute_ms: _Optional[float] = ..., device: _Optional[str] = ..., batch_requests: _Optional[int] = ...) -> None: ...
 
 class EvaluateResponse(_message.Message):
     __slots__ = ("count", "radiance", "stats")
@@ -297,7 +299,7 @@ class GetCapabilitiesRequest(_message.Message):
     def __init__(self) -> None: ...
 
 class Capabilities(_message.Message):
-    __slots__ = ("server_version", "device_name", "device_vendor", "device_opencl_version", "driver_version", "platform_name", "compute_units", "fp64", "models", "ndfs", "fresnel_kinds", "light_kinds", "max_batch", "max_message_bytes", "max_lights", "max_pending_requests", "unit_vector_tolerance", "max_normal_map_upload_bytes", "max_normal_map_texels", "normal_map_budget_bytes", "max_shared_memory_regions", "max_shared_memory_bytes")
+    __slots__ = ("server_version", "device_name", "device_vendor", "device_opencl_version", "driver_version", "platform_name", "compute_units", "fp64", "models", "ndfs", "fresnel_kinds", "light_kinds", "max_batch", "max_message_bytes", "max_lights", "max_pending_requests", "unit_vector_tolerance", "max_normal_map_upload_bytes", "max_normal_map_texels", "normal_map_budget_bytes", "max_shared_memory_regions", "max_shared_memory_bytes", "max_request_cost", "max_query_cost", "slice_ms", "batch_delay_us", "batch_max_queries")
     SERVER_VERSION_FIELD_NUMBER: _ClassVar[int]
     DEVICE_NAME_FIELD_NUMBER: _ClassVar[int]
     DEVICE_VENDOR_FIELD_NUMBER: _ClassVar[int]
@@ -320,6 +322,11 @@ class Capabilities(_message.Message):
     NORMAL_MAP_BUDGET_BYTES_FIELD_NUMBER: _ClassVar[int]
     MAX_SHARED_MEMORY_REGIONS_FIELD_NUMBER: _ClassVar[int]
     MAX_SHARED_MEMORY_BYTES_FIELD_NUMBER: _ClassVar[int]
+    MAX_REQUEST_COST_FIELD_NUMBER: _ClassVar[int]
+    MAX_QUERY_COST_FIELD_NUMBER: _ClassVar[int]
+    SLICE_MS_FIELD_NUMBER: _ClassVar[int]
+    BATCH_DELAY_US_FIELD_NUMBER: _ClassVar[int]
+    BATCH_MAX_QUERIES_FIELD_NUMBER: _ClassVar[int]
     server_version: str
     device_name: str
     device_vendor: str
@@ -342,7 +349,12 @@ class Capabilities(_message.Message):
     normal_map_budget_bytes: int
     max_shared_memory_regions: int
     max_shared_memory_bytes: int
-    def __init__(self, server_version: _Optional[str] = ..., device_name: _Optional[str] = ..., device_vendor: _Optional[str] = ..., device_opencl_version: _Optional[str] = ..., driver_version: _Optional[str] = ..., platform_name: _Optional[str] = ..., compute_units: _Optional[int] = ..., fp64: bool = ..., models: _Optional[_Iterable[str]] = ..., ndfs: _Optional[_Iterable[str]] = ..., fresnel_kinds: _Optional[_Iterable[str]] = ..., light_kinds: _Optional[_Iterable[str]] = ..., max_batch: _Optional[int] = ..., max_message_bytes: _Optional[int] = ..., max_lights: _Optional[int] = ..., max_pending_requests: _Optional[int] = ..., unit_vector_tolerance: _Optional[float] = ..., max_normal_map_upload_bytes: _Optional[int] = ..., max_normal_map_texels: _Optional[int] = ..., normal_map_budget_bytes: _Optional[int] = ..., max_shared_memory_regions: _Optional[int] = ..., max_shared_memory_bytes: _Optional[int] = ...) -> None: ...
+    max_request_cost: float
+    max_query_cost: float
+    slice_ms: float
+    batch_delay_us: int
+    batch_max_queries: int
+    def __init__(self, server_version: _Optional[str] = ..., device_name: _Optional[str] = ..., device_vendor: _Optional[str] = ..., device_opencl_version: _Optional[str] = ..., driver_version: _Optional[str] = ..., platform_name: _Optional[str] = ..., compute_units: _Optional[int] = ..., fp64: bool = ..., models: _Optional[_Iterable[str]] = ..., ndfs: _Optional[_Iterable[str]] = ..., fresnel_kinds: _Optional[_Iterable[str]] = ..., light_kinds: _Optional[_Iterable[str]] = ..., max_batch: _Optional[int] = ..., max_message_bytes: _Optional[int] = ..., max_lights: _Optional[int] = ..., max_pending_requests: _Optional[int] = ..., unit_vector_tolerance: _Optional[float] = ..., max_normal_map_upload_bytes: _Optional[int] = ..., max_normal_map_texels: _Optional[int] = ..., normal_map_budget_bytes: _Optional[int] = ..., max_shared_memory_regions: _Optional[int] = ..., max_shared_memory_bytes: _Optional[int] = ..., max_request_cost: _Optional[float] = ..., max_query_cost: _Optional[float] = ..., slice_ms: _Optional[float] = ..., batch_delay_us: _Optional[int] = ..., batch_max_queries: _Optional[int] = ...) -> None: ...
 
 class SampleRequest(_message.Message):
     __slots__ = ("material", "queries", "samples_per_query", "seed", "precision")

@@ -129,6 +129,50 @@ TEST(PolygonLobeMass, AgainstMonteCarloOfTheLobe) {
   }
 }
 
+// The explicit block's expected lobe mass over R, E = int_R P(x + lobe in B) dx (Green's
+// theorem with 8-point Gauss-Legendre per edge), against Monte Carlo: x uniform in R (rejection
+// from its bounding box), one lobe sample per x, counted inside the block B, times R's area.
+// Tolerance 4.5 standard errors (binomial) of the estimate.
+TEST(PolygonLobeMass, BlockMassAgainstMonteCarlo) {
+  const Poly2 hex = {{0.2, 0.5}, {0.35, 0.3}, {0.6, 0.28}, {0.75, 0.45}, {0.7, 0.7}, {0.4, 0.72}};
+  double area2 = 0;
+  for (size_t k = 0; k < hex.size(); ++k)
+    area2 += hex[k][0] * hex[(k + 1) % hex.size()][1] - hex[(k + 1) % hex.size()][0] * hex[k][1];
+  const double area = 0.5 * std::fabs(area2);
+  auto inside = [&](double x, double y) {
+    for (size_t k = 0; k < hex.size(); ++k) {
+      const auto &a = hex[k], &b = hex[(k + 1) % hex.size()];
+      if (((b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0])) * area2 < 0) return false;
+    }
+    return true;
+  };
+  struct Block {
+    double x0, x1, y0, y1, s;
+  };
+  const std::vector<Block> blocks = {{0.25, 0.5, 0.25, 0.5, 0.03},  // crossing R's edge
+                                     {0.4, 0.55, 0.4, 0.55, 0.05},  // inside R, wide lobes
+                                     {0.0, 1.0, 0.0, 1.0, 0.02},    // R inside the block
+                                     {0.76, 0.9, 0.3, 0.6, 0.02}};  // beside R, lobes reach
+  std::mt19937_64 rng(12);
+  std::normal_distribution<double> nd;
+  std::uniform_real_distribution<double> ux(0.2, 0.75), uy(0.28, 0.72);
+  for (const Block &b : blocks) {
+    const int n = 200000;
+    int hit = 0, drawn = 0;
+    while (drawn < n) {
+      double x = ux(rng), y = uy(rng);
+      if (!inside(x, y)) continue;
+      ++drawn;
+      double gx = x + b.s * nd(rng), gy = y + 0.7 * b.s * nd(rng);
+      hit += gx >= b.x0 && gx <= b.x1 && gy >= b.y0 && gy <= b.y1;
+    }
+    double p = double(hit) / n, se = std::sqrt(std::max(p * (1 - p), 1.0 / n) / n);
+    double got = k64::BlockMass(hex, b.x0, b.x1, b.y0, b.y1, b.s, 0.7 * b.s);
+    std::printf("block mass %.5f, Monte Carlo %.5f +- %.5f\n", got, p * area, se * area);
+    EXPECT_NEAR(got, p * area, 4.5 * se * area) << b.x0 << " " << b.y0;
+  }
+}
+
 // The image clipped to a rectangle: a square [0.4, 0.6]^2 clipped to [0.5, 0.9] x [0.3, 0.55]
 // is [0.5, 0.6] x [0.4, 0.55]: area 0.015, centroid (0.55, 0.475) (by hand).
 TEST(PolygonLobeMass, ClipToRectangleByHand) {

@@ -54,9 +54,10 @@ struct ClientOptions {
   // Upper bound on the serialized size of one message (a unary request or a stream chunk).
   // Several MiB keeps per-message latency and memory small while amortising per-message
   // overhead (PLATFORM-NOTES: "keep messages to a few MiB and stream larger batches").
-  // 4 MiB: on loopback (bench_transport, issue 12) 1-4 MiB chunks took the least CPU per query
-  // (16-32 MiB ones about 40% more: larger allocations fault in fresh pages).
-  size_t max_chunk_bytes = 4u << 20;
+  // (On loopback, bench_transport --chunk-bytes, 1-4 MiB chunks took somewhat less CPU per
+  // query than 8 MiB on a loaded machine; the Python client mirrors this default and the CLI
+  // parity test compares their chunking, so a change goes to both.)
+  size_t max_chunk_bytes = 8u << 20;
   // Extra cap on queries per message (0 = only the server's max_batch). Tests use it to force
   // many small chunks against a server with a large max_batch.
   uint32_t max_chunk_queries = 0;

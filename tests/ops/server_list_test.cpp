@@ -98,11 +98,27 @@ TEST(ServerListEndToEnd, OneBatchSpreadOverTwoServersEqualsOneServer) {
   constexpr uint32_t kQueries = 50000;
   *request.mutable_queries() = glint::client::MakeLoadQueries(kQueries, true);
 
-  const double before[2] = {EvaluatedSmooth(metrics[0]), EvaluatedSmooth(metrics[1])};
   glint::client::ClientOptions options;
   options.max_chunk_queries = 4096;  // 13 chunks
   glint::client::GlintClient both(servers[0]->address() + "," + servers[1]->address(), options);
   EXPECT_EQ(both.servers(), 2u);
+  // round_robin picks among the READY subchannels only: until both connections are up, every
+  // call goes to the first. Small calls until each server has answered one (bounded), so the
+  // spread below meets both connections ready (on a loaded machine the second one can lag).
+  {
+    const double start[2] = {EvaluatedSmooth(metrics[0]), EvaluatedSmooth(metrics[1])};
+    glint::v1::EvaluateRequest small = request;
+    *small.mutable_queries() = glint::client::MakeLoadQueries(8, true);
+    std::vector<float> ignored;
+    bool both_answered = false;
+    for (int k = 0; k < 100 && !both_answered; ++k) {
+      ASSERT_TRUE(both.Evaluate(small, &ignored).ok());
+      both_answered =
+          EvaluatedSmooth(metrics[0]) > start[0] && EvaluatedSmooth(metrics[1]) > start[1];
+    }
+    ASSERT_TRUE(both_answered) << "round_robin never reached both servers in 100 calls";
+  }
+  const double before[2] = {EvaluatedSmooth(metrics[0]), EvaluatedSmooth(metrics[1])};
   std::vector<float> spread;
   glint::client::EvaluateInfo info;
   uint64_t last_progress = 0;

@@ -41,9 +41,15 @@
  *     The result is clamped to the albedo (P lies in the hemisphere). The moments cost a second
  *     peak-function evaluation (exponent N + 1) and one erf pair per edge piece: still O(1).
  *
- * Clipping branches on per-vertex values: GLINT_LANES == 1 only (polygon.h checks). */
+ * The edge splitting and the vertex compaction branch per query: GLINT_LANES == 1 only. */
 #ifndef GLINT_AREA_LECOCQ_H
 #define GLINT_AREA_LECOCQ_H
+
+/* Per-query branches (clipped vertex loops, sample loops, quadrature): one
+ * query per work-item. The lane-safe LTC path is area_ltc.h. */
+#if defined(__OPENCL_VERSION__) && GLINT_LANES != 1
+#error "kernels/area/area_lecocq.h needs GLINT_LANES == 1"
+#endif
 
 #include "kernels/area/ltc_lookup.h"
 #include "kernels/area/polygon.h"

@@ -6,15 +6,23 @@
  * over the polygon's solid angle P (clipped to the upper hemisphere).
  *
  * Shared by the OpenCL entry point models/smooth/smooth_area.cl (GLINT_LANES == 1:
- * clipping and the per-query quadrature branch on per-query values) and the
- * host path. The LTC table is a plain float array (64 x 64 entries of 8
- * floats, layout in tools/ltc/README.md): a `__global const float *` buffer
- * argument on the device (portable beyond PoCL's large __constant space), the
- * checked-in data/ltc arrays (.inc files) on the host. */
+ * the per-query quadrature and sample loops branch on per-query values) and the
+ * host path; LTC itself (area_ltc.h) is lane-safe and also runs in the lane
+ * entry models/smooth/smooth_area_lanes.cl. The LTC table is a plain float array (64 x 64 entries
+ * of 8 floats, layout in tools/ltc/README.md): a `__global const float *` buffer argument on the
+ * device (portable beyond PoCL's large __constant space), the checked-in data/ltc arrays (.inc
+ * files) on the host. */
 #ifndef GLINT_AREA_LIGHTS_H
 #define GLINT_AREA_LIGHTS_H
 
+/* Per-query branches (clipped vertex loops, sample loops, quadrature): one
+ * query per work-item. The lane-safe LTC path is area_ltc.h. */
+#if defined(__OPENCL_VERSION__) && GLINT_LANES != 1
+#error "kernels/area/area_lights.h needs GLINT_LANES == 1"
+#endif
+
 #include "kernels/area/area_lecocq.h"
+#include "kernels/area/area_ltc.h"
 #include "kernels/area/area_monte_carlo.h"
 #include "kernels/area/ltc_lookup.h"
 #include "kernels/area/polygon.h"
@@ -26,92 +34,6 @@
 #include "kernels/smooth_brdf.h"
 
 /* Polygon records and area_method values (GLINT_AREA_*): kernels/layout.h. */
-
-/* Two clips (shading horizon, then the cosine's support after M^-1) add at
- * most one vertex each to a convex polygon. */
-#define GLINT_AREA_MAX_VERTICES (GLINT_POLYGON_MAX_VERTICES + 2)
-
-/* Vertex count of a record, and its vertices relative to the shading point p
- * in the local frame (world = local when the queries carry no frame). */
-GLINT_FN int area_polygon_load(const GLINT_GLOBAL float *rec, int has_frame, ShadingFrame frame,
-                               real3 p, GLINT_PRIVATE real3 *v) {
-  int n = (int)rec[0];
-  for (int i = 0; i < n; ++i) {
-    const GLINT_GLOBAL float *q = rec + GLINT_POLYGON_VERTEX_OFFSET + 3 * i;
-    real3 w = r3_sub(make_real3((real)q[0], (real)q[1], (real)q[2]), p);
-    v[i] = has_frame ? frame_to_local(frame, w) : w;
-  }
-  return n;
-}
-
-/* 1 if the polygon (relative to the shading point) emits towards it: its
- * right-hand (Newell) normal points at the receiver, i.e. the vertices are
- * counter-clockwise seen from the receiver (the convention of polygon.h).
- * Two-sided polygons always emit; a receiver in the polygon's plane sees zero
- * solid angle either way. */
-GLINT_FN real area_polygon_weight(const GLINT_PRIVATE real3 *v, int n, int two_sided) {
-  real3 nn = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-  for (int i = 0; i < n; ++i) nn = r3_add(nn, r3_cross(v[i], v[(i + 1) % n]));
-  /* nn . v0 = 2 * area * (signed distance of the plane along nn): negative
-   * when nn points from the plane towards the origin. */
-  return (two_sided || r3_dot(nn, v[0]) < GLINT_R(0.0)) ? GLINT_R(1.0) : GLINT_R(0.0);
-}
-
-/* int_P f cos_i dwi per unit radiance by LTC (HDHN16 Sec. 3-4), RGB, in two
- * steps: area_ltc_form_factor does 1-4 (the normalised lobe's integral over
- * the polygon, which the binomial glint model also needs for its reflection
- * probability, KK24 Sec. 4) and fills the table entry e; area_ltc_polygon
- * scales it (5).
- *  1. clip the polygon to the shading horizon, so that light from below the
- *     surface never contributes (the LTC leaks below the horizon at grazing
- *     views; tools/ltc/README.md "Fit quality");
- *  2. rotate into the view-aligned frame of the fit: x = projection of wo on
- *     the tangent plane, z = n (tools/ltc/README.md "Grid");
- *  3. transform by M^-1 and clip to o.z >= 0, the clamped cosine's support;
- *  4. integrate the clamped cosine with the edge formula (HDHN16 Eq. 11,
- *     polygon_form_factor): = int_P D_ltc dw (HDHN16 Eq. 3-5);
- *  5. scale by the Fresnel-weighted albedo: Schlick int f cos F = f0 * mag +
- *     (1 - f0) * moment (exact for the albedo). Conductor and dielectric:
- *     APPROXIMATION, the exact Fresnel is replaced by Schlick's through its
- *     normal-incidence value F(1) (Schlick 1994 Eq. 15); the tables hold no
- *     moment for exact Fresnel.
- * Anisotropic alpha: APPROXIMATION, the tables are isotropic and we look up
- * alpha = sqrt(alpha_x alpha_y) (the lobe of equal solid-angle footprint). */
-GLINT_FN real area_ltc_form_factor(const GLINT_GLOBAL float *table, real alpha, real3 wo,
-                                   const GLINT_PRIVATE real3 *v, int n, GLINT_PRIVATE real *e) {
-  for (int k = 0; k < GLINT_LTC_ENTRY; ++k) e[k] = GLINT_R(0.0);
-  if (!(wo.z > GLINT_R(0.0))) return GLINT_R(0.0); /* as smooth_reflect_cos: no transmission */
-  real3 clipped[GLINT_AREA_MAX_VERTICES];
-  int nc = polygon_clip_to_horizon(v, n, clipped);
-  if (nc < 3) return GLINT_R(0.0);
-
-  real sxy = sqrt(wo.x * wo.x + wo.y * wo.y);
-  /* At normal view the lobe is isotropic about n (t = 0 entries are), so any
-   * tangent will do. */
-  real tx = sxy > GLINT_R(1e-7) ? wo.x / sxy : GLINT_R(1.0);
-  real ty = sxy > GLINT_R(1e-7) ? wo.y / sxy : GLINT_R(0.0);
-  area_ltc_lookup(table, alpha, wo.z, e);
-
-  real3 o[GLINT_AREA_MAX_VERTICES];
-  for (int i = 0; i < nc; ++i) {
-    real3 c = clipped[i];
-    real x = c.x * tx + c.y * ty;  /* . T1 */
-    real y = -c.x * ty + c.y * tx; /* . T2 = n x T1 */
-    o[i] = make_real3(e[0] * x + e[1] * c.z, y, e[2] * x + e[3] * c.z);
-  }
-  real3 oc[GLINT_AREA_MAX_VERTICES];
-  int no = polygon_clip_to_horizon(o, nc, oc);
-  /* det M^-1 > 0 keeps the orientation, so the sign is the facing side; the
-   * caller's weight decides whether a back face counts. */
-  return fabs(polygon_form_factor(oc, no));
-}
-
-GLINT_FN real3 area_ltc_polygon(SmoothMaterial m, const GLINT_GLOBAL float *table, real3 wo,
-                                const GLINT_PRIVATE real3 *v, int n) {
-  real e[GLINT_LTC_ENTRY];
-  real ff = area_ltc_form_factor(table, sqrt(m.alpha_x * m.alpha_y), wo, v, n, e);
-  return r3_scale(area_ltc_albedo(m, e), ff);
-}
 
 /* One Gauss-Legendre panel rule: 4 nodes on [0, 1] (Abramowitz & Stegun
  * 25.4.30 mapped from [-1, 1]); composite rules use it on equal panels. */
@@ -218,6 +140,8 @@ GLINT_FN uint area_query_key(uint seed_lo, uint seed_hi, const GLINT_GLOBAL floa
 GLINT_FN real3 area_shade_keyed(SmoothMaterial m, const GLINT_GLOBAL float *table, int method,
                                 int samples, real3 wo, int has_frame, ShadingFrame frame, real3 p,
                                 const GLINT_GLOBAL float *polygons, uint n_polygon, uint key) {
+  if (method == GLINT_AREA_LTC)
+    return area_ltc_shade(m, table, wo, has_frame, frame, p, polygons, n_polygon);
   real3 radiance = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   for (uint l = 0; l < n_polygon; ++l) {
     const GLINT_GLOBAL float *rec = polygons + GLINT_POLYGON_FLOATS * l;

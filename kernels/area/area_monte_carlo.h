@@ -49,6 +49,12 @@
 #ifndef GLINT_AREA_MONTE_CARLO_H
 #define GLINT_AREA_MONTE_CARLO_H
 
+/* Per-query branches (clipped vertex loops, sample loops, quadrature): one
+ * query per work-item. The lane-safe LTC path is area_ltc.h. */
+#if defined(__OPENCL_VERSION__) && GLINT_LANES != 1
+#error "kernels/area/area_monte_carlo.h needs GLINT_LANES == 1"
+#endif
+
 #include "kernels/area/polygon.h"
 #include "kernels/area/spherical_triangle.h"
 #include "kernels/compat.h"

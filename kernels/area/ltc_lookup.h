@@ -11,6 +11,28 @@
 #include "kernels/layout.h"
 #include "kernels/smooth_brdf.h"
 
+#if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
+/* One lane's scalar type, one table entry as a vector of that type, and the
+ * load of GLINT_LANES scalars into a `real`. */
+#if GLINT_LTC_ENTRY != 8
+#error "the lane lookup loads an LTC entry as 8 floats"
+#endif
+#if GLINT_USE_DOUBLE
+#define GLINT_LANE_SCALAR double
+#define GLINT_ENTRY_VEC double8
+#define GLINT_ENTRY_LOAD(p) convert_double8(vload8(0, p))
+#else
+#define GLINT_LANE_SCALAR float
+#define GLINT_ENTRY_VEC float8
+#define GLINT_ENTRY_LOAD(p) vload8(0, p)
+#endif
+#if GLINT_LANES == 8
+#define GLINT_LANE_VLOAD vload8
+#else
+#define GLINT_LANE_VLOAD vload16
+#endif
+#endif
+
 /* Bilinear lookup of one LTC table entry (data/ltc/ltc_table.h lookup):
  * x = sqrt(alpha) * 63, y = sqrt(1 - cos(theta_o)) * 63, clamped to the grid. */
 GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real cos_o,
@@ -18,6 +40,28 @@ GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real 
   const real last = (real)(GLINT_LTC_GRID - 1);
   real x = clamp(sqrt(fmax(alpha, GLINT_R(0.0))), GLINT_R(0.0), GLINT_R(1.0)) * last;
   real y = clamp(sqrt(fmax(GLINT_R(1.0) - cos_o, GLINT_R(0.0))), GLINT_R(0.0), GLINT_R(1.0)) * last;
+#if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
+  /* Lanes: each lane's four entries are a gather; per lane the same scalar
+   * interpolation as below, over the 8 floats of an entry at once (vload8),
+   * then transposed into one vector per entry component. */
+  GLINT_LANE_SCALAR t[GLINT_LTC_ENTRY][GLINT_LANES];
+  for (int j = 0; j < GLINT_LANES; ++j) {
+    GLINT_LANE_SCALAR xj = x[j], yj = y[j];
+    int a0 = (int)xj, t0 = (int)yj;
+    a0 = a0 > GLINT_LTC_GRID - 2 ? GLINT_LTC_GRID - 2 : a0;
+    t0 = t0 > GLINT_LTC_GRID - 2 ? GLINT_LTC_GRID - 2 : t0;
+    GLINT_LANE_SCALAR fx = xj - (GLINT_LANE_SCALAR)a0, fy = yj - (GLINT_LANE_SCALAR)t0;
+    const GLINT_GLOBAL float *e00 = table + (t0 * GLINT_LTC_GRID + a0) * GLINT_LTC_ENTRY;
+    const GLINT_GLOBAL float *e01 = e00 + GLINT_LTC_GRID * GLINT_LTC_ENTRY;
+    GLINT_ENTRY_VEC c00 = GLINT_ENTRY_LOAD(e00), c10 = GLINT_ENTRY_LOAD(e00 + GLINT_LTC_ENTRY);
+    GLINT_ENTRY_VEC c01 = GLINT_ENTRY_LOAD(e01), c11 = GLINT_ENTRY_LOAD(e01 + GLINT_LTC_ENTRY);
+    GLINT_LANE_SCALAR one = (GLINT_LANE_SCALAR)1.0;
+    GLINT_ENTRY_VEC r =
+        (one - fy) * ((one - fx) * c00 + fx * c10) + fy * ((one - fx) * c01 + fx * c11);
+    for (int k = 0; k < GLINT_LTC_ENTRY; ++k) t[k][j] = r[k];
+  }
+  for (int k = 0; k < GLINT_LTC_ENTRY; ++k) e[k] = GLINT_LANE_VLOAD(0, t[k]);
+#else
   int a0 = (int)x, t0 = (int)y;
   a0 = a0 > GLINT_LTC_GRID - 2 ? GLINT_LTC_GRID - 2 : a0;
   t0 = t0 > GLINT_LTC_GRID - 2 ? GLINT_LTC_GRID - 2 : t0;
@@ -30,6 +74,7 @@ GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real 
     e[k] = (GLINT_R(1.0) - fy) * ((GLINT_R(1.0) - fx) * (real)e00[k] + fx * (real)e10[k]) +
            fy * ((GLINT_R(1.0) - fx) * (real)e01[k] + fx * (real)e11[k]);
   }
+#endif
 }
 
 /* The Fresnel-weighted albedo int f cos_i F dwi of table entry e: Schlick

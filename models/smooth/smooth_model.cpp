@@ -1,6 +1,7 @@
-// The smooth model's entry in the model table (server/model.h): two passes,
-// 8-lane SIMD for probes and directional/point lights, one query per work-item
-// for polygon lights. No parameters of its own.
+// The smooth model's entry in the model table (server/model.h): 8-lane SIMD
+// passes for probes and directional/point lights and for polygon lights by LTC,
+// one query per work-item for polygon lights by the other area methods. No
+// parameters of its own.
 #include "server/eval_plan.h"
 #include "server/host_pass.h"
 #include "server/model.h"
@@ -17,8 +18,14 @@ bool HasProbesOrPunctualLights(const EvalPlan &plan) {
   return plan.spec.probe || plan.n_directional > 0 || plan.n_point > 0 || plan.n_polygon == 0;
 }
 
-bool HasPolygons(const EvalPlan &plan) {
-  return plan.n_polygon > 0;
+// Polygon lights by LTC run 8 queries per work-item (lane-safe); the other area methods branch
+// per query and run one per work-item.
+bool HasPolygonsLtc(const EvalPlan &plan) {
+  return plan.n_polygon > 0 && plan.area_method == GLINT_AREA_LTC;
+}
+
+bool HasPolygonsOtherMethod(const EvalPlan &plan) {
+  return plan.n_polygon > 0 && plan.area_method != GLINT_AREA_LTC;
 }
 
 std::vector<KernelSpec> SmoothWarmSpecs() {
@@ -50,7 +57,9 @@ const Model kSmoothModel = {
     .params_field = nullptr,
     .passes = {{"models/smooth/smooth.cl", "glint_smooth", 8, HasProbesOrPunctualLights,
                 SmoothLightsF32, SmoothLightsF64},
-               {"models/smooth/smooth_area.cl", "glint_smooth_area", 1, HasPolygons,
+               {"models/smooth/smooth_area_lanes.cl", "glint_smooth_area_lanes", 8, HasPolygonsLtc,
+                SmoothPolygonsF32, SmoothPolygonsF64},
+               {"models/smooth/smooth_area.cl", "glint_smooth_area", 1, HasPolygonsOtherMethod,
                 SmoothPolygonsF32, SmoothPolygonsF64}},
     .warm_specs = SmoothWarmSpecs,
     .sample = {"models/smooth/smooth_sample.cl", "glint_smooth_sample", SmoothSampleF32,

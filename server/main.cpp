@@ -18,6 +18,7 @@
 #include "server/normal_map_store.h"
 #include "server/ops.h"
 #include "server/service.h"
+#include "server/warmup.h"
 
 namespace {
 
@@ -41,6 +42,7 @@ struct Flags {
   double max_query_cost = glint::CostLimits().max_query_cost;
   double slice_ms = 50;
   double shutdown_grace = 10;
+  glint::WarmMode warm = glint::WarmMode::kCommon;  // --warm (server/warmup.h)
 };
 
 const char kUsage[] =
@@ -74,6 +76,10 @@ const char kUsage[] =
     "  --shutdown-grace S   on SIGTERM/SIGINT: health NOT_SERVING, new work UNAVAILABLE, work in\n"
     "                       flight may finish for S seconds, then is cancelled at its next\n"
     "                       slice; exit 0 (default 10)\n"
+    "  --warm MODE          kernels built and run before SERVING (health NOT_SERVING until\n"
+    "                       then): none, common (each model's usual variants; default) or all\n"
+    "                       (those with every Fresnel kind and precision); in parallel over\n"
+    "                       the workers, from the disk cache when present\n"
     "  --list-devices       print the OpenCL devices and exit\n"
     "  --quiet              no per-request log lines\n"
     "memory: peak RSS <= idle RSS + M x (3 x (max-pending + calls being received) + 2 x\n"
@@ -154,7 +160,13 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->slice_ms = real("--slice-ms", 1, 60000);
     else if (a == "--shutdown-grace")
       f->shutdown_grace = real("--shutdown-grace", 0, 3600);
-    else if (a == "--list-devices")
+    else if (a == "--warm") {
+      const char *v = value("--warm");
+      if (!glint::ParseWarmMode(v, &f->warm)) {
+        std::fprintf(stderr, "glintd: --warm %s: expected none, common or all\n", v);
+        std::exit(2);
+      }
+    } else if (a == "--list-devices")
       f->list_devices = true;
     else if (a == "--quiet")
       f->quiet = true;
@@ -169,16 +181,6 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
     }
   }
   return true;
-}
-
-// The kernels most requests use (each model's warm_specs), compiled and run
-// before SERVING; others are compiled on first use (and then come from the disk cache).
-std::vector<glint::KernelSpec> WarmSpecs() {
-  std::vector<glint::KernelSpec> specs;
-  for (const glint::Model *model : glint::Models())
-    if (model->warm_specs)
-      for (const glint::KernelSpec &spec : model->warm_specs()) specs.push_back(spec);
-  return specs;
 }
 
 }  // namespace
@@ -282,14 +284,15 @@ int main(int argc, char **argv) {
 
   if (engine) {
     const auto t0 = std::chrono::steady_clock::now();
-    for (const auto &spec : WarmSpecs()) {
-      glint::Status s = engine->Warm(spec);
-      if (!s.ok()) {
-        std::fprintf(stderr, "glintd: warm-up of %s failed: %s\n", spec.Describe().c_str(),
-                     s.message().c_str());
-        server->Shutdown();
-        return 1;
-      }
+    // The kernels requests use (--warm, server/warmup.h), built and run before SERVING; others
+    // are compiled on first use (and then come from the disk cache).
+    const std::vector<glint::KernelSpec> warm_specs =
+        glint::WarmSpecsFor(flags.warm, engine->info().fp64);
+    if (glint::Status s = glint::WarmKernels(engine.get(), warm_specs, engine->workers());
+        !s.ok()) {
+      std::fprintf(stderr, "glintd: %s\n", s.message().c_str());
+      server->Shutdown();
+      return 1;
     }
     if (glint::Status s = kserve.Warm(engine.get()); !s.ok()) {
       std::fprintf(stderr, "glintd: %s\n", s.message().c_str());
@@ -298,8 +301,10 @@ int main(int argc, char **argv) {
     }
     std::fprintf(
         stderr,
-        "glintd: device %s (%s), %zu kernels warm in %.0f ms (%d compiled, %d from cache %s)\n",
-        engine->info().name.c_str(), engine->info().platform_name.c_str(), WarmSpecs().size(),
+        "glintd: device %s (%s), %zu kernels warm (--warm %s) in %.0f ms (%d compiled, %d from "
+        "cache %s)\n",
+        engine->info().name.c_str(), engine->info().platform_name.c_str(), warm_specs.size(),
+        glint::WarmModeName(flags.warm),
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(),
         engine->runtime().programs_compiled(), engine->runtime().programs_loaded_from_disk(),
         flags.cache_dir.empty() ? "(disabled)" : flags.cache_dir.c_str());

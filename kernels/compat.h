@@ -168,10 +168,8 @@ GLINT_FN real3 r3_cross(real3 a, real3 b) {
 GLINT_FN real r3_length(real3 a) {
   return sqrt(r3_dot(a, a));
 }
-/* One division and three products rather than three divisions: division and square root are
- * what the SIMD kernels wait on (issue 13, bench/mitsuba_compare.py). */
 GLINT_FN real3 r3_normalize(real3 a) {
-  return r3_scale(a, (real)1.0 / r3_length(a));
+  return r3_div(a, r3_length(a));
 }
 
 /* OpenCL's select(a, b, c): c ? b : a, per lane. A conditional expression on

@@ -18,7 +18,9 @@ GLINT_FN real F_schlick(real f0, real cos_theta) {
  * Born & Wolf form as written in Lazanyi & Szirmay-Kalos 2005, "Fresnel term
  * approximations for metals" (Eq. 1-2), via a^2 + b^2 = sqrt(t0^2 + 4 eta^2 k^2):
  *   Rs = (a2b2 + c^2 - 2 a c) / (a2b2 + c^2 + 2 a c)
- *   Rp = Rs (c^2 a2b2 + s^4 - 2 a c s^2) / (c^2 a2b2 + s^4 + 2 a c s^2). */
+ *   Rp = Rs (c^2 a2b2 + s^4 - 2 a c s^2) / (c^2 a2b2 + s^4 + 2 a c s^2).
+ * Two square roots and two divisions per channel (the cost that matters: the
+ * conductor runs this three times per evaluation, issue 13). */
 GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
   real c = clamp(cos_theta, GLINT_R(0.0), GLINT_R(1.0));
   real c2 = c * c;
@@ -27,18 +29,21 @@ GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
   real a2b2 = sqrt(fmax(t0 * t0 + GLINT_R(4.0) * eta * eta * k * k, GLINT_R(0.0)));
   /* a^2 = (a2b2 + t0) / 2 cancels when t0 < 0 and |t0| >> 2 eta k (small eta, large k: silver,
    * gold in the red), costing fp32 up to 1e-5 in F. As a2b2^2 - t0^2 = 4 eta^2 k^2, it equals
-   * 2 eta^2 k^2 / (a2b2 - t0) there, with a2b2 - t0 >= 2 |t0| > 0: no cancellation. Both forms
-   * are computed (branch-free, see compat.h); the fmax guards keep the unused one finite. */
-  real a_sum = sqrt(fmax(GLINT_R(0.5) * (a2b2 + t0), GLINT_R(0.0)));
-  real a_quot = fabs(eta * k) * sqrt(GLINT_R(2.0) / fmax(a2b2 - t0, GLINT_R(1e-30)));
-  real a = glint_select(a_quot, a_sum, t0 >= GLINT_R(0.0));
+   * 2 eta^2 k^2 / (a2b2 - t0) there. With u = a2b2 + |t0| (a sum of non-negatives: no
+   * cancellation) a^2 is u / 2 for t0 >= 0 and 2 eta^2 k^2 / u for t0 < 0; both are computed
+   * (branch-free, see compat.h), the fmax keeping the unused quotient finite. */
+  real u = a2b2 + fabs(t0);
+  real a2_quot = GLINT_R(2.0) * eta * eta * k * k / fmax(u, GLINT_R(1e-30));
+  real a = sqrt(glint_select(a2_quot, GLINT_R(0.5) * u, t0 >= GLINT_R(0.0)));
   real t1 = a2b2 + c2;
   real t2 = GLINT_R(2.0) * a * c;
-  real rs = (t1 - t2) / (t1 + t2);
   real t3 = c2 * a2b2 + s2 * s2;
   real t4 = t2 * s2;
-  real rp = rs * (t3 - t4) / (t3 + t4);
-  return clamp(GLINT_R(0.5) * (rs + rp), GLINT_R(0.0), GLINT_R(1.0));
+  /* (Rs + Rp) / 2 = Rs (1 + (t3 - t4) / (t3 + t4)) / 2 = Rs t3 / (t3 + t4): one division for
+   * both polarisations. t3 > 0, so no cancellation is added; eta, k <= 1e6 (validation) keep
+   * the product of the denominators below 1e26, far from the float range. */
+  real f = (t1 - t2) * t3 / ((t1 + t2) * (t3 + t4));
+  return clamp(f, GLINT_R(0.0), GLINT_R(1.0));
 }
 
 /* Exact unpolarised reflectance of a dielectric interface, light arriving

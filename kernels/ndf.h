@@ -18,8 +18,9 @@
  * to two roughnesses (Heitz 2014 Eq. 85):
  *   D(h) = 1 / (pi ax ay (hx^2/ax^2 + hy^2/ay^2 + hz^2)^2),  hz > 0. */
 GLINT_FN real D_ggx_aniso(real3 h, real alpha_x, real alpha_y) {
-  real sx = h.x / alpha_x;
-  real sy = h.y / alpha_y;
+  /* 1 / alpha is the same for every lane (uniform material): a product per lane, not a division. */
+  real sx = h.x * (GLINT_R(1.0) / alpha_x);
+  real sy = h.y * (GLINT_R(1.0) / alpha_y);
   real q = sx * sx + sy * sy + h.z * h.z;
   real d = GLINT_R(1.0) / (GLINT_PI * alpha_x * alpha_y * q * q);
   return glint_select(d, GLINT_R(0.0), h.z <= GLINT_R(0.0));
@@ -57,11 +58,14 @@ GLINT_FN real projected_roughness(real3 w, real alpha_x, real alpha_y) {
  *   wz Lambda = (sqrt(wz^2 + s^2) - wz) / 2 = s^2 / (2 (sqrt(wz^2 + s^2) + wz)),
  * the last form avoiding cancellation when s << wz. */
 GLINT_FN real z_lambda_ggx(real3 w, real alpha_x, real alpha_y) {
-  real s = projected_roughness(w, alpha_x, alpha_y);
+  /* s^2 as a sum of squares: no square root of it to be squared again. */
+  real x = alpha_x * w.x;
+  real y = alpha_y * w.y;
+  real s2 = x * x + y * y;
   real z = fmax(w.z, GLINT_R(0.0));
-  real root = sqrt(z * z + s * s);
+  real root = sqrt(z * z + s2);
   real denom = GLINT_R(2.0) * (root + z);
-  return glint_select(GLINT_R(0.0), s * s / denom, denom > GLINT_R(0.0));
+  return glint_select(GLINT_R(0.0), s2 / denom, denom > GLINT_R(0.0));
 }
 
 /* Beckmann: Lambda = (erf(a) - 1)/2 + exp(-a^2) / (2 a sqrt(pi)), a = wz/s

@@ -201,13 +201,20 @@ int ClRuntime::programs_memory_hits() const {
 Status ClRuntime::GetProgram(const std::string &source, const std::string &options,
                              cl_program *out) {
   const std::string key = options + '\n' + source;
-  // One lock over lookup and build: two requests needing the same new kernel
-  // compile it once, and compiles are rare after warm-up.
-  std::lock_guard<std::mutex> lock(mutex_);
-  auto it = programs_.find(key);
-  if (it != programs_.end()) {
+  std::shared_ptr<ProgramSlot> slot;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::shared_ptr<ProgramSlot> &s = programs_[key];
+    if (!s) s = std::make_shared<ProgramSlot>();
+    slot = s;
+  }
+  // Two requests needing the same new kernel compile it once (the second waits here); builds of
+  // different programs run at the same time.
+  std::lock_guard<std::mutex> build(slot->build);
+  if (slot->program) {
+    std::lock_guard<std::mutex> lock(mutex_);
     ++memory_hits_;
-    *out = it->second.get();
+    *out = slot->program.get();
     return Status::Ok();
   }
   std::string path;
@@ -221,15 +228,19 @@ Status ClRuntime::GetProgram(const std::string &source, const std::string &optio
   }
   ClProgram program;
   if (!path.empty() && LoadBinary(path, options, &program)) {
+    std::lock_guard<std::mutex> lock(mutex_);
     ++loaded_;
   } else {
     Status s = BuildFromSource(source, options, &program);
     if (!s.ok()) return s;
-    ++compiled_;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++compiled_;
+    }
     if (!path.empty()) SaveBinary(path, program.get());
   }
   *out = program.get();
-  programs_.emplace(key, std::move(program));
+  slot->program = std::move(program);
   return Status::Ok();
 }
 

@@ -41,7 +41,9 @@ class ClRuntime {
 
   // The built program for (source, options): from memory, else from a disk
   // binary, else compiled. A build failure returns Internal with the build log.
-  // The runtime keeps ownership of the program.
+  // The runtime keeps ownership of the program. Different programs build
+  // concurrently (parallel warm-up, server/warmup.h); callers asking for the
+  // same one while it builds wait for that build.
   Status GetProgram(const std::string &source, const std::string &options, cl_program *out);
 
   // Counters for capabilities/logs: programs compiled from source and loaded from disk.
@@ -62,8 +64,14 @@ class ClRuntime {
   ClContext context_;
   std::string cache_dir_;
 
-  mutable std::mutex mutex_;
-  std::map<std::string, ClProgram> programs_;  // key: options + '\n' + source
+  // One slot per program, its own lock held while it is built, so that only
+  // callers of the same program wait for a build.
+  struct ProgramSlot {
+    std::mutex build;
+    ClProgram program;  // empty until built (a failed build leaves it empty: retried next time)
+  };
+  mutable std::mutex mutex_;                                      // the map and the counters
+  std::map<std::string, std::shared_ptr<ProgramSlot>> programs_;  // key: options + '\n' + source
   int compiled_ = 0, loaded_ = 0, memory_hits_ = 0;
 };
 

@@ -333,7 +333,7 @@ Status DeviceEngine::Sample(int worker, const EvalPlan &plan, const glint::v1::Q
                            samples * kSampleFloats * sizeof(float));
 }
 
-Status DeviceEngine::Warm(const KernelSpec &spec) {
+Status DeviceEngine::Warm(const KernelSpec &spec, int worker) {
   const Model *model = FindModel(spec.model);
   if (!model) return Status::Internal("Warm: no model with id " + std::to_string(spec.model));
   // A one-query request of the spec's shape: one probe or one light of each kind it uses.
@@ -391,7 +391,7 @@ Status DeviceEngine::Warm(const KernelSpec &spec) {
     return Status::Internal("Warm: the example request of " + spec.Describe() + " plans as " +
                             plan.spec.Describe());
   float rgb[3];
-  for (int w = 0; w < workers(); ++w) {
+  for (int w = worker < 0 ? 0 : worker; w < (worker < 0 ? workers() : worker + 1); ++w) {
     Status s = Evaluate(w, plan, *q, rgb);
     if (!s.ok()) return s;
   }

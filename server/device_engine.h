@@ -53,7 +53,9 @@ class DeviceEngine {
 
   // Builds the kernels for `spec` and runs them once on every queue at the
   // production local size (PoCL compiles per local size at first enqueue).
-  Status Warm(const KernelSpec &spec);
+  // worker >= 0: on that queue only (concurrent calls with different workers
+  // may run in parallel, as for Evaluate; server/warmup.h).
+  Status Warm(const KernelSpec &spec, int worker = -1);
 
  private:
   struct Queue;

@@ -18,6 +18,7 @@
 #include "server/normal_map_store.h"
 #include "server/ops.h"
 #include "server/service.h"
+#include "server/warmup.h"
 
 namespace {
 
@@ -44,6 +45,7 @@ struct Flags {
   glint::ShmLimits shm;        // --max-shm-regions, --max-shm-mb, --shm-direct-output
   long batch_delay_us = 0;     // dynamic batching (server/scheduler.h, server/batch_eval.h)
   long batch_max_queries = 0;  // 0: off
+  glint::WarmMode warm = glint::WarmMode::kCommon;  // --warm (server/warmup.h)
 };
 
 const char kUsage[] =
@@ -89,6 +91,10 @@ const char kUsage[] =
     "off)\n"
     "  --batch-delay-us N   with batching: wait up to N us after a request arrives for others to\n"
     "                       share its launch (default 0: only those already queued)\n"
+    "  --warm MODE          kernels built and run before SERVING (health NOT_SERVING until\n"
+    "                       then): none, common (each model's usual variants; default) or all\n"
+    "                       (those with every Fresnel kind and precision); in parallel over\n"
+    "                       the workers, from the disk cache when present\n"
     "  --list-devices       print the OpenCL devices and exit\n"
     "  --quiet              no per-request log lines\n"
     "memory: peak RSS <= idle RSS + M x (3 x (max-pending + calls being received) + 2 x\n"
@@ -180,7 +186,13 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->batch_max_queries = number("--batch-max-queries", 0, 1 << 24);
     else if (a == "--batch-delay-us")
       f->batch_delay_us = number("--batch-delay-us", 0, 1000000);
-    else if (a == "--list-devices")
+    else if (a == "--warm") {
+      const char *v = value("--warm");
+      if (!glint::ParseWarmMode(v, &f->warm)) {
+        std::fprintf(stderr, "glintd: --warm %s: expected none, common or all\n", v);
+        std::exit(2);
+      }
+    } else if (a == "--list-devices")
       f->list_devices = true;
     else if (a == "--quiet")
       f->quiet = true;
@@ -195,16 +207,6 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
     }
   }
   return true;
-}
-
-// The kernels most requests use (each model's warm_specs), compiled and run
-// before SERVING; others are compiled on first use (and then come from the disk cache).
-std::vector<glint::KernelSpec> WarmSpecs() {
-  std::vector<glint::KernelSpec> specs;
-  for (const glint::Model *model : glint::Models())
-    if (model->warm_specs)
-      for (const glint::KernelSpec &spec : model->warm_specs()) specs.push_back(spec);
-  return specs;
 }
 
 }  // namespace
@@ -317,14 +319,15 @@ int main(int argc, char **argv) {
 
   if (engine) {
     const auto t0 = std::chrono::steady_clock::now();
-    for (const auto &spec : WarmSpecs()) {
-      glint::Status s = engine->Warm(spec);
-      if (!s.ok()) {
-        std::fprintf(stderr, "glintd: warm-up of %s failed: %s\n", spec.Describe().c_str(),
-                     s.message().c_str());
-        server->Shutdown();
-        return 1;
-      }
+    // The kernels requests use (--warm, server/warmup.h), built and run before SERVING; others
+    // are compiled on first use (and then come from the disk cache).
+    const std::vector<glint::KernelSpec> warm_specs =
+        glint::WarmSpecsFor(flags.warm, engine->info().fp64);
+    if (glint::Status s = glint::WarmKernels(engine.get(), warm_specs, engine->workers());
+        !s.ok()) {
+      std::fprintf(stderr, "glintd: %s\n", s.message().c_str());
+      server->Shutdown();
+      return 1;
     }
     if (glint::Status s = kserve.Warm(engine.get()); !s.ok()) {
       std::fprintf(stderr, "glintd: %s\n", s.message().c_str());
@@ -333,8 +336,10 @@ int main(int argc, char **argv) {
     }
     std::fprintf(
         stderr,
-        "glintd: device %s (%s), %zu kernels warm in %.0f ms (%d compiled, %d from cache %s)\n",
-        engine->info().name.c_str(), engine->info().platform_name.c_str(), WarmSpecs().size(),
+        "glintd: device %s (%s), %zu kernels warm (--warm %s) in %.0f ms (%d compiled, %d from "
+        "cache %s)\n",
+        engine->info().name.c_str(), engine->info().platform_name.c_str(), warm_specs.size(),
+        glint::WarmModeName(flags.warm),
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(),
         engine->runtime().programs_compiled(), engine->runtime().programs_loaded_from_disk(),
         flags.cache_dir.empty() ? "(disabled)" : flags.cache_dir.c_str());

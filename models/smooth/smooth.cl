@@ -1,5 +1,5 @@
 /* Entry of the smooth model for BRDF probes, directional and point lights
- * (models/smooth/smooth_eval.h). Each work-item evaluates GLINT_LANES (8)
+ * (models/smooth/smooth_eval.h). Each work-item evaluates GLINT_LANES (16)
  * queries as the lanes of OpenCL vectors (kernels/simd_io.h says why); the
  * global size is ceil(n / GLINT_LANES), padded to a multiple of the local
  * size. Inputs stay float in buffers; `real` is the arithmetic. */

@@ -1,5 +1,5 @@
 /* The smooth model per query: f = F G2 D / (4 cos_i cos_o) (kernels/smooth_brdf.h)
- * under BRDF probes, directional and point lights (smooth_shade; the 8-lane
+ * under BRDF probes, directional and point lights (smooth_shade; the 16-lane
  * entry models/smooth/smooth.cl) and under polygon lights (smooth_polygons;
  * the one-query-per-work-item entry models/smooth/smooth_area.cl, because
  * clipping branches per query). The host path runs the same functions

@@ -1,6 +1,6 @@
-// The smooth model's entry in the model table (server/model.h): 8-lane SIMD
-// passes for probes and directional/point lights and for polygon lights by LTC,
-// one query per work-item for polygon lights by the other area methods. No
+// The smooth model's entry in the model table (server/model.h): 16-lane SIMD
+// passes for probes and directional/point lights, 8 lanes for polygon lights by
+// LTC, one query per work-item for polygon lights by the other area methods. No
 // parameters of its own.
 #include "server/eval_plan.h"
 #include "server/host_pass.h"
@@ -55,7 +55,9 @@ const Model kSmoothModel = {
     .id = glint::v1::SMOOTH,
     .name = "SMOOTH",
     .params_field = nullptr,
-    .passes = {{"models/smooth/smooth.cl", "glint_smooth", 8, HasProbesOrPunctualLights,
+    // 16 lanes: fp32 conductor probes +26% per CPU-second over 8 on the AVX-512 CPU device, fp64
+    // unchanged, output bit-identical (issue 13; bench/mitsuba_compare.py, README "Performance").
+    .passes = {{"models/smooth/smooth.cl", "glint_smooth", 16, HasProbesOrPunctualLights,
                 SmoothLightsF32, SmoothLightsF64},
                {"models/smooth/smooth_area_lanes.cl", "glint_smooth_area_lanes", 8, HasPolygonsLtc,
                 SmoothPolygonsF32, SmoothPolygonsF64},

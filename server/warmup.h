@@ -1,0 +1,40 @@
+// Kernel warm-up before glintd reports SERVING (issue 13, first-request latency): the kernel
+// variants the models declare (Model::warm_specs) are built (from the disk cache when present)
+// and run once on every device queue, in parallel over the queues, while the health service says
+// NOT_SERVING. A request of a warmed variant then compiles nothing. `--warm` chooses how much:
+//   none    nothing: SERVING at once, each variant is built by its first request (tests, tools)
+//   common  every model's warm_specs (the default)
+//   all     those shapes with every Fresnel kind and, where the device has fp64, both precisions
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "server/device_engine.h"
+#include "server/eval_plan.h"
+#include "server/status.h"
+
+namespace glint {
+
+enum class WarmMode { kNone, kCommon, kAll };
+
+// "none", "common" or "all"; false for anything else.
+bool ParseWarmMode(const std::string &name, WarmMode *mode);
+const char *WarmModeName(WarmMode mode);
+
+// The variants a mode warms, without duplicates, in model-table order.
+std::vector<KernelSpec> WarmSpecsFor(WarmMode mode, bool fp64_available);
+
+struct WarmTiming {
+  KernelSpec spec;
+  double seconds = 0;  // its first run (build or disk load included), on one queue
+};
+
+// Warms `specs`: min(threads, engine->workers()) threads each take the next spec and run it on
+// their own queue (builds of different programs run concurrently, server/cl_runtime.h), then every
+// spec runs once on the other queues. Returns the first failure, naming the spec; `timings` (if
+// not null) gets each spec's first run.
+Status WarmKernels(DeviceEngine *engine, const std::vector<KernelSpec> &specs, int threads,
+                   std::vector<WarmTiming> *timings = nullptr);
+
+}  // namespace glint

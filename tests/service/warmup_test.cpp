@@ -1,0 +1,212 @@
+// Kernel warm-up before SERVING (server/warmup.h, issue 13 "first-request latency"): after
+// WarmKernels the first request of a warmed variant builds and loads no program (the runtime's
+// program-cache counters, which /metrics exports as glint_program_cache_lookups_total), while a
+// variant outside the warm set does (so the counters do see requests); the --warm modes list the
+// variants they promise; concurrent builds of the program cache build each program once; glintd
+// refuses a bad --warm value.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "server/device_engine.h"
+#include "server/eval_plan.h"
+#include "server/model_table.h"
+#include "server/validation.h"
+#include "server/warmup.h"
+#include "test_queries.h"
+
+namespace glint {
+namespace {
+
+using glint::v1::EvaluateRequest;
+
+// The test's kernel cache: the suite's shared one when set (fast), else a fresh directory.
+std::string CacheDir() {
+  if (const char *d = std::getenv("GLINT_CACHE_DIR")) return d;
+  return ::testing::TempDir() + "glint_warmup_cache_" + std::to_string(::getpid());
+}
+
+// A SMOOTH request written here, not through the warm-up's own example requests: GGX, the given
+// Fresnel kind, `n` random queries (probes, or a directional + point light on framed queries, or
+// one polygon light).
+enum class Shape { kProbe, kLitFramed, kPolygon };
+EvaluateRequest SmoothRequest(Shape shape, v1::Ndf ndf, bool dielectric, uint32_t n) {
+  EvaluateRequest r;
+  auto *m = r.mutable_material();
+  m->set_model(v1::SMOOTH);
+  m->set_ndf(ndf);
+  m->set_alpha_x(0.25f);
+  m->set_alpha_y(0.4f);
+  if (dielectric) {
+    m->mutable_dielectric()->set_ior(1.5f);
+  } else {
+    for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
+  }
+  *r.mutable_queries() =
+      test::RandomQueries(n, shape == Shape::kProbe, shape == Shape::kLitFramed, 11);
+  auto add3 = [](auto *field, float x, float y, float z) {
+    field->Add(x);
+    field->Add(y);
+    field->Add(z);
+  };
+  if (shape == Shape::kLitFramed) {
+    auto *d = r.add_lights()->mutable_directional();
+    add3(d->mutable_direction(), 0.0f, 0.6f, 0.8f);
+    add3(d->mutable_irradiance(), 2, 2, 2);
+    auto *p = r.add_lights()->mutable_point();
+    add3(p->mutable_position(), -1, 0.5f, 3);
+    add3(p->mutable_intensity(), 5, 5, 5);
+  } else if (shape == Shape::kPolygon) {
+    auto *p = r.add_lights()->mutable_polygon();
+    for (float v : {-1.0f, -1.0f, 3.0f, 1.0f, -1.0f, 3.0f, 1.0f, 1.0f, 3.0f, -1.0f, 1.0f, 3.0f})
+      p->add_vertices(v);
+    add3(p->mutable_radiance(), 1, 1, 1);
+  }
+  r.set_precision(v1::FP32);
+  return r;
+}
+
+TEST(WarmUp, FirstRequestOfAWarmedVariantBuildsNothing) {
+  DeviceEngineOptions o;
+  o.cache_dir = CacheDir();
+  o.workers = 2;
+  std::unique_ptr<DeviceEngine> engine;
+  ASSERT_TRUE(DeviceEngine::Create(o, &engine).ok());
+  const std::vector<KernelSpec> specs = WarmSpecsFor(WarmMode::kCommon, engine->info().fp64);
+  Status s = WarmKernels(engine.get(), specs, 2);
+  ASSERT_TRUE(s.ok()) << s.message();
+  ClRuntime &rt = engine->runtime();
+  const int built = rt.programs_compiled() + rt.programs_loaded_from_disk();
+  EXPECT_GE(built, int(specs.size())) << "every warmed variant needs at least one program";
+
+  // The smooth model's declared variants (models/smooth/smooth_model.cpp): probes and lit framed
+  // queries for GGX and Beckmann, polygon lights; on both queues.
+  for (Shape shape : {Shape::kProbe, Shape::kLitFramed, Shape::kPolygon})
+    for (v1::Ndf ndf : {v1::GGX, v1::BECKMANN}) {
+      if (shape == Shape::kPolygon && ndf == v1::BECKMANN) continue;  // not declared
+      const EvaluateRequest r = SmoothRequest(shape, ndf, false, 100);
+      const Status valid = ValidateSettings(r, {});
+      ASSERT_TRUE(valid.ok()) << valid.message();
+      const EvalPlan plan = MakeEvalPlan(r, r.queries());
+      ASSERT_NE(std::find(specs.begin(), specs.end(), plan.spec), specs.end())
+          << plan.spec.Describe() << " is not in the warm set";
+      std::vector<float> out(3 * 100);
+      for (int w = 0; w < engine->workers(); ++w) {
+        ASSERT_TRUE(engine->Evaluate(w, plan, r.queries(), out.data()).ok());
+        EXPECT_EQ(rt.programs_compiled() + rt.programs_loaded_from_disk(), built)
+            << plan.spec.Describe() << " on queue " << w << " built a program after warm-up";
+      }
+    }
+
+  // A variant outside the warm set (a dielectric) does build one: the counters see requests.
+  const EvaluateRequest cold = SmoothRequest(Shape::kProbe, v1::GGX, true, 100);
+  const EvalPlan plan = MakeEvalPlan(cold, cold.queries());
+  ASSERT_EQ(std::find(specs.begin(), specs.end(), plan.spec), specs.end());
+  std::vector<float> out(3 * 100);
+  ASSERT_TRUE(engine->Evaluate(0, plan, cold.queries(), out.data()).ok());
+  EXPECT_EQ(rt.programs_compiled() + rt.programs_loaded_from_disk(), built + 1);
+}
+
+TEST(WarmUp, ModesListTheDeclaredVariants) {
+  EXPECT_TRUE(WarmSpecsFor(WarmMode::kNone, true).empty());
+  const std::vector<KernelSpec> common = WarmSpecsFor(WarmMode::kCommon, true);
+  const std::vector<KernelSpec> all = WarmSpecsFor(WarmMode::kAll, true);
+  const std::vector<KernelSpec> all32 = WarmSpecsFor(WarmMode::kAll, false);
+  size_t declared = 0;
+  for (const Model *model : Models()) {
+    if (!model->warm_specs) continue;
+    for (KernelSpec spec : model->warm_specs()) {
+      ++declared;
+      spec.model = model->id;
+      EXPECT_NE(std::find(common.begin(), common.end(), spec), common.end()) << spec.Describe();
+      for (int fresnel = 1; fresnel <= 3; ++fresnel)
+        for (bool fp64 : {false, true}) {
+          KernelSpec v = spec;
+          v.fresnel = fresnel;
+          v.fp64 = fp64;
+          EXPECT_NE(std::find(all.begin(), all.end(), v), all.end()) << v.Describe();
+          EXPECT_EQ(std::find(all32.begin(), all32.end(), v) != all32.end(), !fp64)
+              << v.Describe() << ": fp64 variants only where the device has fp64";
+        }
+    }
+  }
+  EXPECT_GT(declared, 0u);
+  EXPECT_LE(common.size(), declared);  // duplicates removed
+  for (size_t i = 0; i < all.size(); ++i)
+    for (size_t j = i + 1; j < all.size(); ++j)
+      EXPECT_FALSE(all[i] == all[j]) << "duplicate " << all[i].Describe();
+  WarmMode m;
+  EXPECT_TRUE(ParseWarmMode("all", &m) && m == WarmMode::kAll);
+  EXPECT_FALSE(ParseWarmMode("everything", &m));
+}
+
+// Builds of one program from several threads compile it once; different programs build side by
+// side (each slot has its own lock, server/cl_runtime.cpp) and all come out usable.
+TEST(WarmUp, ConcurrentProgramBuildsCompileEachProgramOnce) {
+  std::unique_ptr<ClRuntime> rt;
+  ASSERT_TRUE(ClRuntime::Create("", "", &rt).ok());  // memory only: every program compiles
+  const std::string source =
+      "__kernel void scale(__global float *x) { x[get_global_id(0)] *= (float)(K); }";
+  std::vector<cl_program> got(6, nullptr);
+  std::vector<Status> status(6);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 6; ++t)
+    threads.emplace_back([&, t] {
+      status[t] = rt->GetProgram(source, "-DK=" + std::to_string(t % 2 + 2), &got[t]);
+    });
+  for (std::thread &t : threads) t.join();
+  for (int t = 0; t < 6; ++t) {
+    ASSERT_TRUE(status[t].ok()) << status[t].message();
+    EXPECT_EQ(got[t], got[t % 2]) << "thread " << t << " got another program for the same key";
+  }
+  EXPECT_NE(got[0], got[1]);
+  EXPECT_EQ(rt->programs_compiled(), 2);
+  EXPECT_EQ(rt->programs_memory_hits(), 4);
+  // The programs work: K = 2 and K = 3 scale a buffer.
+  for (int k = 0; k < 2; ++k) {
+    cl_int err = CL_SUCCESS;
+    ClKernel kernel(clCreateKernel(got[k], "scale", &err));
+    ASSERT_EQ(err, CL_SUCCESS);
+    float x[4] = {1, 2, 3, 4};
+    ClBuffer buf(clCreateBuffer(rt->context(), CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR,
+                                sizeof x, x, &err));
+    ASSERT_EQ(err, CL_SUCCESS);
+    cl_mem m = buf.get();
+    ASSERT_EQ(clSetKernelArg(kernel.get(), 0, sizeof m, &m), CL_SUCCESS);
+    ClQueue queue(clCreateCommandQueue(rt->context(), rt->device(), 0, &err));
+    ASSERT_EQ(err, CL_SUCCESS);
+    const size_t global = 4;
+    ASSERT_EQ(clEnqueueNDRangeKernel(queue.get(), kernel.get(), 1, nullptr, &global, nullptr, 0,
+                                     nullptr, nullptr),
+              CL_SUCCESS);
+    ASSERT_EQ(clEnqueueReadBuffer(queue.get(), buf.get(), CL_TRUE, 0, sizeof x, x, 0, nullptr,
+                                  nullptr),
+              CL_SUCCESS);
+    for (int i = 0; i < 4; ++i) EXPECT_EQ(x[i], float((i + 1) * (k + 2)));
+  }
+}
+
+// glintd refuses a --warm value it does not know, naming the flag and the choices.
+TEST(WarmUp, GlintdRefusesAnUnknownWarmMode) {
+  const std::string err = ::testing::TempDir() + "glint_warm_flag_" + std::to_string(::getpid());
+  const std::string cmd =
+      std::string("\"") + GLINTD_PATH + "\" --warm sometimes --listen 127.0.0.1:0 2> " + err;
+  const int rc = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(rc));
+  EXPECT_EQ(WEXITSTATUS(rc), 2);
+  std::stringstream text;
+  text << std::ifstream(err).rdbuf();
+  EXPECT_NE(text.str().find("--warm sometimes: expected none, common or all"), std::string::npos)
+      << text.str();
+  std::filesystem::remove(err);
+}
+
+}  // namespace
+}  // namespace glint

@@ -22,6 +22,8 @@
 #define GLINT_AREA_LECOCQ_PEARSON 3
 #define GLINT_AREA_MONTE_CARLO 4
 #define GLINT_AREA_REFERENCE 5
+/* Per query and light, one of the above chosen for an error budget (kernels/area/area_auto.h). */
+#define GLINT_AREA_AUTO 6
 
 /* Material block: [alpha_x, alpha_y, a.rgb, b.rgb] with (a, b) = Schlick
  * (f0, 0), conductor (eta, k) or dielectric (ior x 3, 0). */

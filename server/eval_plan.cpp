@@ -128,6 +128,11 @@ EvalPlan MakeEvalPlan(const glint::v1::EvaluateRequest &settings,
   plan.area_samples = settings.area_samples() ? int(settings.area_samples()) : 64;
   if (const Model *model = FindModel(s.model); model && model->request_table)
     plan.request_table_material = std::make_shared<const glint::v1::Material>(m);
+  if (plan.area_method == GLINT_AREA_AUTO) {
+    // AUTO's budget, in millionths (kernels/area/area_auto.h), within [1, INT_MAX].
+    const double ppm = std::round(double(settings.max_relative_error()) * 1e6);
+    plan.area_samples = int(std::clamp(ppm, 1.0, 2147483647.0));
+  }
   static_assert(GLINT_LIGHT_FLOATS == 8, "the light records above are 8 floats");
   s.has_directional = plan.n_directional > 0;
   s.has_point = plan.n_point > 0;

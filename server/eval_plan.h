@@ -47,7 +47,8 @@ struct EvalPlan {
   std::vector<float> polygon;  // GLINT_POLYGON_FLOATS per light
   uint32_t n_polygon = 0;
   int area_method = 1;    // GLINT_AREA_* (= glint.v1.AreaMethod, UNSPECIFIED -> LTC)
-  int area_samples = 64;  // REFERENCE nodes per dimension per triangle; MONTE_CARLO samples
+  int area_samples = 64;  // REFERENCE nodes per dimension per triangle; MONTE_CARLO samples;
+                          // AUTO: max_relative_error in millionths
   // The request seed, as the two 32-bit halves the kernels hash (kernels/rng.h).
   uint32_t seed_lo = 0, seed_hi = 0;
   // Model::request_table (ResolveRequestTable): bound as `model_table` instead of the static

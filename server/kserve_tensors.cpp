@@ -188,7 +188,8 @@ Status ApplyInferParameters(const inference::ModelInferRequest &request,
           !glint::v1::AreaMethod_Parse(value.string_param(), &m) ||
           m == glint::v1::AREA_METHOD_UNSPECIFIED) {
         return Status::InvalidArgument(
-            what + ": expected the string LTC, LECOCQ, LECOCQ_PEARSON, MONTE_CARLO or REFERENCE");
+            what +
+            ": expected the string LTC, LECOCQ, LECOCQ_PEARSON, MONTE_CARLO, REFERENCE or AUTO");
       }
       settings->set_area_method(m);
     } else if (name == "area_samples") {
@@ -202,9 +203,18 @@ Status ApplyInferParameters(const inference::ModelInferRequest &request,
       } else {
         return Status::InvalidArgument(what + ": expected an integer in [0, 2^32)");
       }
+    } else if (name == "max_relative_error") {
+      // AUTO's budget; ValidateSettings checks it is finite and > 0.
+      if (value.parameter_choice_case() == P::kDoubleParam) {
+        settings->set_max_relative_error(float(value.double_param()));
+      } else {
+        return Status::InvalidArgument(what + ": expected a double (e.g. 0.05)");
+      }
     } else if (!kIgnoredParameters.count(name)) {
       return Status::InvalidArgument(
-          what + ": unknown; glintd reads seed, precision, area_method and area_samples");
+          what +
+          ": unknown; glintd reads seed, precision, area_method, area_samples and "
+          "max_relative_error");
     }
   }
   return Status::Ok();

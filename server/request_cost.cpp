@@ -73,6 +73,12 @@ RequestCost EstimateRequestCost(const glint::v1::EvaluateRequest &settings, uint
       case glint::v1::LECOCQ_PEARSON:
         polygon_cost += kLecocqPearsonBase + kLecocqPearsonPerVertex * v;
         break;
+      case glint::v1::AUTO:
+        // The dearest it may pick (kernels/area/area_auto.h): REFERENCE 32, MONTE_CARLO 1024
+        // or LECOCQ_PEARSON; admission bounds the worst case, not the likely one.
+        polygon_cost += std::max({ReferenceCost(v, 32), kMonteCarloPerSample * 1024.0,
+                                  kLecocqPearsonBase + kLecocqPearsonPerVertex * v});
+        break;
       default:
         polygon_cost += kLtcPerVertex * v;
         break;

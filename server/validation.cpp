@@ -302,6 +302,33 @@ std::string Indexed(const char *field, uint64_t i) {
   return std::string(field) + "[" + std::to_string(i) + "]";
 }
 
+// AUTO's error budget (kernels/area/area_auto.h): required with AUTO, finite and > 0, and
+// only with AUTO; AUTO picks its own sample counts, so area_samples must stay 0.
+Status CheckAreaBudget(const glint::v1::EvaluateRequest &request) {
+  const float budget = request.max_relative_error();
+  if (request.area_method() != glint::v1::AUTO) {
+    if (budget != 0.0f) {
+      return Status::InvalidArgument(
+          "max_relative_error: " + std::to_string(budget) +
+          " is only read with area_method AUTO; set area_method AUTO or leave it 0");
+    }
+    return Status::Ok();
+  }
+  if (!std::isfinite(budget) || !(budget > 0.0f)) {
+    return Status::InvalidArgument(
+        "max_relative_error: " + std::to_string(budget) + (budget == 0.0f ? " (unset)" : "") +
+        "; area_method AUTO needs the relative error allowed per query and light, a finite "
+        "number > 0 (e.g. 0.05 for 5%)");
+  }
+  if (request.area_samples() != 0) {
+    return Status::InvalidArgument(
+        "area_samples: " + std::to_string(request.area_samples()) +
+        " with area_method AUTO; AUTO picks its own sample counts from max_relative_error "
+        "(leave area_samples 0)");
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status ValidateSettings(const glint::v1::EvaluateRequest &request, const ValidationLimits &limits) {
@@ -328,12 +355,15 @@ Status ValidateSettings(const glint::v1::EvaluateRequest &request, const Validat
     case glint::v1::MONTE_CARLO:
     case glint::v1::LECOCQ:
     case glint::v1::LECOCQ_PEARSON:
+    case glint::v1::AUTO:
       break;
     default:
       return Status::InvalidArgument(
           "area_method: unknown value " + std::to_string(request.area_method()) +
-          "; expected LTC, LECOCQ, LECOCQ_PEARSON, MONTE_CARLO or REFERENCE");
+          "; expected LTC, LECOCQ, LECOCQ_PEARSON, MONTE_CARLO, REFERENCE or AUTO");
   }
+  s = CheckAreaBudget(request);
+  if (!s.ok()) return s;
   if (request.area_samples() > 1024) {
     return Status::InvalidArgument("area_samples: " + std::to_string(request.area_samples()) +
                                    "; expected at most 1024 (0 = default 64)");
@@ -474,6 +504,9 @@ Status ValidateLaterChunkSettings(const glint::v1::EvaluateRequest &r) {
   } else if (r.area_samples() != 0) {
     field = "area_samples";
     value = "area_samples " + std::to_string(r.area_samples());
+  } else if (r.max_relative_error() != 0.0f) {
+    field = "max_relative_error";
+    value = "max_relative_error " + std::to_string(r.max_relative_error());
   } else {
     return Status::Ok();
   }
@@ -481,7 +514,7 @@ Status ValidateLaterChunkSettings(const glint::v1::EvaluateRequest &r) {
       "request." + field + ": " + value +
       " in a chunk without a material; later chunks reuse the first chunk's settings and "
       "carry only queries (send a material to replace material, lights, precision, seed, "
-      "area_method and area_samples together)");
+      "area_method, area_samples and max_relative_error together)");
 }
 
 }  // namespace glint

@@ -80,8 +80,9 @@ glint::v1::AreaMethod ParseAreaMethod(const std::string &text) {
   if (text == "lecocq") return glint::v1::LECOCQ;
   if (text == "lecocq-pearson") return glint::v1::LECOCQ_PEARSON;
   if (text == "mc") return glint::v1::MONTE_CARLO;
+  if (text == "auto") return glint::v1::AUTO;
   throw UsageError{"--area-method: '" + text +
-                   "' is not one of ltc, reference, lecocq, lecocq-pearson, mc"};
+                   "' is not one of ltc, reference, lecocq, lecocq-pearson, mc, auto"};
 }
 
 bool ParseSize(const std::string &text, int *width, int *height) {
@@ -157,6 +158,9 @@ void FillSettings(const Options &options, glint::v1::EvaluateRequest *request) {
   request->set_area_method(ParseAreaMethod(options.Get("area-method", "ltc")));
   if (options.Has("samples"))
     request->set_area_samples(ParseNumber<uint32_t>("samples", options.Get("samples", "")));
+  // --area-method auto's budget; the server refuses AUTO without it and it without AUTO.
+  if (options.Has("max-error"))
+    request->set_max_relative_error(ParseNumber<float>("max-error", options.Get("max-error", "")));
 }
 
 std::optional<double> EvaluateWithProgress(glint::client::GlintClient &client,

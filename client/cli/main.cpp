@@ -62,8 +62,8 @@ server is unreachable or not SERVING in time.
 constexpr const char *kEvalUsage =
     R"(usage: glint eval --server ADDR --material M.json [--lights L.json] --queries Q.csv
                   --out OUT.{csv,npy,exr} [--precision fp32|fp64] [--seed N] [--width W] [--half]
-                  [--area-method ltc|reference|lecocq|lecocq-pearson|mc] [--samples N]
-                  [--transport auto|tcp|shm]
+                  [--area-method ltc|reference|lecocq|lecocq-pearson|mc|auto] [--samples N]
+                  [--max-error E] [--transport auto|tcp|shm]
 
 Evaluates every query of Q.csv and writes the reflected radiance (RGB per query, in input
 order). Batches larger than the server's limits are streamed in chunks automatically.
@@ -82,9 +82,12 @@ order). Batches larger than the server's limits are streamed in chunks automatic
   --precision P       fp32 (default) or fp64
   --seed N            seed of the stochastic glint models (default 0)
   --area-method M     polygon lights: ltc (default), lecocq, lecocq-pearson (Lecocq et al.
-                      peak fits), mc (Monte Carlo, seeded) or reference (quadrature)
+                      peak fits), mc (Monte Carlo, seeded), reference (quadrature) or
+                      auto (the cheapest meeting --max-error)
   --samples N         reference: quadrature nodes per dimension per triangle; mc: samples
                       per query and light (default 64)
+  --max-error E       --area-method auto: the relative error allowed per query and light
+                      (e.g. 0.05); the server picks the cheapest method predicted to meet it
   --width W           .exr only: image width; rows follow query order, the tail is black
                       (default: all queries in one row)
   --half              .exr only: store half floats instead of float32
@@ -249,7 +252,7 @@ int main(int argc, char **argv) {
       {"eval",
        kEvalUsage,
        {"server", "material", "lights", "queries", "out", "precision", "seed", "width",
-        "area-method", "samples", "normal-map", "transport"},
+        "area-method", "samples", "normal-map", "transport", "max-error"},
        {"half"},
        RunEval},
       {"preview", kPreviewUsage, kPreviewOptions, {"half"}, RunPreview},

@@ -32,7 +32,8 @@ const char *const kPreviewUsage =
     R"(usage: glint preview --server ADDR --material M.json --lights L.json --out IMG.exr
                      [--scene sphere|plane] [--size WxH] [--exposure STOPS]
                      [--precision fp32|fp64] [--seed N] [--half] [--gbuffer-out G.exr]
-                     [--area-method ltc|reference|lecocq|lecocq-pearson|mc] [--samples N]
+                     [--area-method ltc|reference|lecocq|lecocq-pearson|mc|auto] [--samples N]
+                     [--max-error E]
        glint preview --server ADDR (--material A.json --material B.json ... | --materials DIR)
                      --lights L.json --out IMG.exr [--contact-sheet SHEET.png] [options above]
 
@@ -59,18 +60,21 @@ a PNG of all previews on a grid, each labelled with its STEM. Prints the through
   --precision P       fp32 (default) or fp64
   --seed N            seed of the stochastic glint models (default 0)
   --area-method M     polygon lights: ltc (default), lecocq, lecocq-pearson (Lecocq et al.
-                      peak fits), mc (Monte Carlo, seeded) or reference (quadrature)
+                      peak fits), mc (Monte Carlo, seeded), reference (quadrature) or
+                      auto (the cheapest meeting --max-error)
   --samples N         reference: quadrature nodes per dimension per triangle; mc: samples
                       per query and light (default 64)
+  --max-error E       --area-method auto: the relative error allowed per query and light
+                      (e.g. 0.05); the server picks the cheapest method predicted to meet it
   --half              store half floats in the EXR instead of float32
   --normal-map FILE   NORMAL_MAP materials: use FILE (EXR / PNG) as material.normal_map.digest,
                       uploading it when the server does not hold it
 )";
 
 const std::vector<std::string> kPreviewOptions = {
-    "server",      "material", "materials",     "lights",      "out",
-    "scene",       "size",     "exposure",      "precision",   "seed",
-    "area-method", "samples",  "contact-sheet", "gbuffer-out", "normal-map"};
+    "server",        "material",    "materials",  "lights",   "out",         "scene",
+    "size",          "exposure",    "precision",  "seed",     "area-method", "samples",
+    "contact-sheet", "gbuffer-out", "normal-map", "max-error"};
 
 namespace {
 

@@ -18,7 +18,8 @@ const char *const kRenderUsage =
     R"(usage: glint render --server ADDR --gbuffer G.exr --material M.json --lights L.json
                     --out BEAUTY.exr [--camera X,Y,Z] [--channels KEY=LAYER,...] [--half] [--png]
                     [--precision fp32|fp64] [--seed N]
-                    [--area-method ltc|reference|lecocq|lecocq-pearson|mc] [--samples N]
+                    [--area-method ltc|reference|lecocq|lecocq-pearson|mc|auto] [--samples N]
+                    [--max-error E]
 
 Shades every covered pixel of a renderer's G-buffer with the material under world-space lights
 and writes the beauty: channels R, G, B (float, or half with --half) at the G-buffer's data and
@@ -51,13 +52,14 @@ G-buffer layers (single-part EXR; P, N, T, V channels .X/.Y/.Z or .R/.G/.B, uv c
   --png               also write BEAUTY.png beside the EXR (tone-mapped sRGB, as preview's)
   --precision P       fp32 (default) or fp64
   --seed N            seed of the stochastic glint models (default 0)
-  --area-method M     polygon lights: ltc (default), lecocq, lecocq-pearson, mc or reference
+  --area-method M     polygon lights: ltc (default), lecocq, lecocq-pearson, mc, reference or auto
   --samples N         reference / mc samples (see 'glint eval --help')
+  --max-error E       auto: the relative error allowed per query and light (e.g. 0.05)
 )";
 
 const std::vector<std::string> kRenderOptions = {"server", "gbuffer",     "material", "lights",
                                                  "out",    "camera",      "channels", "precision",
-                                                 "seed",   "area-method", "samples"};
+                                                 "seed",   "area-method", "samples",  "max-error"};
 
 namespace {
 

@@ -561,10 +561,11 @@ grpc::Status GlintClient::EvaluateSpread(const glint::v1::EvaluateRequest &reque
 // is ever dropped from a streamed request (it happened once to area_method).
 static std::string StreamSettings(const glint::v1::EvaluateRequest &request) {
   using R = glint::v1::EvaluateRequest;
-  static const std::set<int> kCopied = {R::kMaterialFieldNumber,   R::kLightsFieldNumber,
-                                        R::kQueriesFieldNumber,    R::kPrecisionFieldNumber,
-                                        R::kSeedFieldNumber,       R::kAreaMethodFieldNumber,
-                                        R::kAreaSamplesFieldNumber};
+  static const std::set<int> kCopied = {
+      R::kMaterialFieldNumber,    R::kLightsFieldNumber,
+      R::kQueriesFieldNumber,     R::kPrecisionFieldNumber,
+      R::kSeedFieldNumber,        R::kAreaMethodFieldNumber,
+      R::kAreaSamplesFieldNumber, R::kMaxRelativeErrorFieldNumber};
   std::vector<const google::protobuf::FieldDescriptor *> present;
   request.GetReflection()->ListFields(request, &present);
   for (const auto *field : present) {
@@ -581,6 +582,7 @@ static std::string StreamSettings(const glint::v1::EvaluateRequest &request) {
   first.set_seed(request.seed());
   first.set_area_method(request.area_method());
   first.set_area_samples(request.area_samples());
+  first.set_max_relative_error(request.max_relative_error());
   return first.SerializeAsString();
 }
 

@@ -21,6 +21,7 @@
 #error "kernels/area/area_lights.h needs GLINT_LANES == 1"
 #endif
 
+#include "kernels/area/area_auto.h"
 #include "kernels/area/area_lecocq.h"
 #include "kernels/area/area_ltc.h"
 #include "kernels/area/area_monte_carlo.h"
@@ -110,10 +111,17 @@ GLINT_FN real3 area_reference_polygon(SmoothMaterial m, real3 wo, const GLINT_PR
 
 /* int_P f cos_i dwi per unit radiance (RGB) of one polygon (vertices relative
  * to the shading point, local frame) by `method`. `key` seeds the stochastic
- * methods (kernels/rng.h); the others ignore it. */
+ * methods (kernels/rng.h); the others ignore it. AUTO picks the method here
+ * (area_auto.h); its `samples` is the error budget in millionths. */
 GLINT_FN real3 area_polygon_integral(SmoothMaterial m, const GLINT_GLOBAL float *table, int method,
                                      int samples, real3 wo, const GLINT_PRIVATE real3 *v, int n,
                                      uint key) {
+  if (method == GLINT_AREA_AUTO) {
+    AreaChoice c =
+        area_auto_choose(m.ndf, sqrt(m.alpha_x * m.alpha_y), wo, v, n, (float)samples * 1e-6f);
+    method = c.method;
+    samples = c.samples;
+  }
   if (method == GLINT_AREA_REFERENCE) return area_reference_polygon(m, wo, v, n, samples);
   if (method == GLINT_AREA_MONTE_CARLO) return area_mc_polygon(m, wo, v, n, samples, key);
   if (method == GLINT_AREA_LECOCQ || method == GLINT_AREA_LECOCQ_PEARSON)

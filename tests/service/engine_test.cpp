@@ -355,6 +355,39 @@ TEST_F(EngineTest, BelowHorizonIsExactlyZero) {
   }
 }
 
+// AUTO (kernels/area/area_auto.h) on the device against the host path: the same choice and the
+// same Monte Carlo keys on both sides, so they agree like the fixed methods (1e-3 relative in
+// fp32, 4e-6 in fp64). A choice can only differ where a feature (solid angle, angles) lies
+// within libm rounding of a bin edge of the table: allowed for at most 1% of the queries.
+TEST_F(EngineTest, AutoAreaMethodDeviceMatchesHostPath) {
+  for (bool framed : {false, true})
+    for (bool fp64 : {false, true}) {
+      EvaluateRequest settings = MakeSettings(v1::GGX, 0, false, fp64);
+      settings.clear_lights();
+      settings.set_area_method(v1::AUTO);
+      settings.set_max_relative_error(0.05f);
+      auto *p = settings.add_lights()->mutable_polygon();
+      for (float v : {-3.0f, -3.0f, 3.0f, 3.0f, -3.0f, 3.0f, 3.0f, 3.0f, 3.0f, -3.0f, 3.0f, 3.0f})
+        p->add_vertices(v);
+      for (float v : {1.0f, 0.5f, 0.25f}) p->add_radiance(v);
+      p->set_two_sided(true);
+      v1::QueryBatch q = test::RandomQueries(300, false, framed, 17);
+      ASSERT_TRUE(ValidateSettings(settings, {}).ok());
+      EvalPlan plan = MakeEvalPlan(settings, q);
+      auto dev = Device(plan, q);
+      auto host = Host(plan, q);
+      const double rel = fp64 ? 4e-6 : 1e-3;
+      int apart = 0, nonzero = 0;
+      for (size_t i = 0; i < dev.size(); ++i) {
+        ASSERT_TRUE(std::isfinite(dev[i]) && dev[i] >= 0.0f) << plan.spec.Describe();
+        apart += std::fabs(dev[i] - host[i]) > rel * std::fabs(host[i]) + 1e-7;
+        nonzero += dev[i] > 0.0f;
+      }
+      EXPECT_LE(apart, int(dev.size()) / 100) << plan.spec.Describe();
+      EXPECT_GT(nonzero, int(dev.size()) / 5) << plan.spec.Describe();
+    }
+}
+
 TEST_F(EngineTest, BuildFailureCarriesTheBuildLog) {
   cl_program program = nullptr;
   Status s = engine_->runtime().GetProgram(

@@ -444,6 +444,54 @@ TEST(Validation, BinomialRefusalsNameTheFieldAndWhatIsNeeded) {
   EXPECT_TRUE(ValidateBinomial(heuristic).ok());
 }
 
+// Issue 13: AUTO's budget max_relative_error is required with AUTO (finite, > 0), refused
+// without AUTO and in a later stream chunk; AUTO picks its own sample counts.
+TEST(Validation, AutoAreaMethodNeedsAFinitePositiveBudget) {
+  EvaluateRequest good = GoodPolygon();
+  good.set_area_method(v1::AUTO);
+  good.set_max_relative_error(0.05f);
+  EXPECT_TRUE(Validate(good).ok()) << Validate(good).message();
+
+  const float inf = std::numeric_limits<float>::infinity();
+  for (float bad : {0.0f, -0.05f, std::nanf(""), inf, -inf}) {
+    EvaluateRequest r = good;
+    r.set_max_relative_error(bad);
+    Status s = Validate(r);
+    EXPECT_FALSE(s.ok()) << bad;
+    EXPECT_EQ(s.message().rfind("max_relative_error: ", 0), 0u) << s.message();
+    EXPECT_NE(s.message().find("area_method AUTO needs the relative error allowed per query and "
+                               "light, a finite number > 0"),
+              std::string::npos)
+        << s.message();
+  }
+  EvaluateRequest unset = good;
+  unset.clear_max_relative_error();
+  EXPECT_NE(Validate(unset).message().find("max_relative_error: 0.000000 (unset)"),
+            std::string::npos)
+      << Validate(unset).message();
+
+  EvaluateRequest without_auto = good;
+  without_auto.set_area_method(v1::LTC);
+  EXPECT_NE(Validate(without_auto).message().find("only read with area_method AUTO"),
+            std::string::npos)
+      << Validate(without_auto).message();
+
+  EvaluateRequest samples = good;
+  samples.set_area_samples(64);
+  EXPECT_NE(Validate(samples).message().find(
+                "area_samples: 64 with area_method AUTO; AUTO picks its own sample counts"),
+            std::string::npos)
+      << Validate(samples).message();
+
+  EvaluateRequest later;
+  later.set_max_relative_error(0.05f);
+  EXPECT_NE(ValidateLaterChunkSettings(later).message().find(
+                "request.max_relative_error: max_relative_error 0.050000 in a chunk without a "
+                "material"),
+            std::string::npos)
+      << ValidateLaterChunkSettings(later).message();
+}
+
 }  // namespace
 }  // namespace glint
 

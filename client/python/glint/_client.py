@@ -201,6 +201,7 @@ class Client:
         area_method: Union[str, int] = "ltc",
         samples: Optional[int] = None,
         progress: ProgressLike = False,
+        max_error: Optional[float] = None,
     ) -> np.ndarray:
         """Reflected radiance of every query, an (N, 3) float32 array in query order.
 
@@ -211,7 +212,8 @@ class Client:
         directions and lights. ``material`` and ``lights`` are messages, dicts in the proto3 JSON
         form of the CLI's files, or paths to such files. ``precision`` "fp32" | "fp64";
         ``area_method`` "ltc" | "lecocq" | "lecocq-pearson" | "mc" | "reference" with
-        ``samples`` (quadrature nodes or Monte Carlo samples) for polygon lights. ``progress``:
+        ``samples`` (quadrature nodes or Monte Carlo samples) for polygon lights, or "auto" with
+        ``max_error`` (the relative error allowed per query and light, e.g. 0.05). ``progress``:
         True for a tqdm bar, or a callable(done, total) called as results arrive.
 
         Raises :class:`glint.Error` for a failed call (the server's refusals are
@@ -230,6 +232,8 @@ class Client:
         )
         if samples is not None:
             settings.area_samples = int(samples)
+        if max_error is not None:
+            settings.max_relative_error = float(max_error)
         bar = _Progress(progress, queries.count)
         try:
             return self._evaluate(settings, queries, bar)

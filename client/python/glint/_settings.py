@@ -36,6 +36,7 @@ _AREA_METHODS = {
     "monte-carlo": pb.MONTE_CARLO,
     "monte_carlo": pb.MONTE_CARLO,
     "reference": pb.REFERENCE,
+    "auto": pb.AUTO,
 }
 _PRECISIONS = {"fp32": pb.FP32, "fp64": pb.FP64}
 

@@ -36,6 +36,7 @@ class AreaMethod(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
     LECOCQ_PEARSON: _ClassVar[AreaMethod]
     MONTE_CARLO: _ClassVar[AreaMethod]
     REFERENCE: _ClassVar[AreaMethod]
+    AUTO: _ClassVar[AreaMethod]
 
 class Precision(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
     __slots__ = ()
@@ -60,6 +61,7 @@ LECOCQ: AreaMethod
 LECOCQ_PEARSON: AreaMethod
 MONTE_CARLO: AreaMethod
 REFERENCE: AreaMethod
+AUTO: AreaMethod
 PRECISION_UNSPECIFIED: Precision
 FP32: Precision
 FP64: Precision
@@ -235,7 +237,7 @@ class QueryBatch(_message.Message):
     def __init__(self, count: _Optional[int] = ..., uv: _Optional[_Iterable[float]] = ..., footprint: _Optional[_Iterable[float]] = ..., wo: _Optional[_Iterable[float]] = ..., wi: _Optional[_Iterable[float]] = ..., position: _Optional[_Iterable[float]] = ..., normal: _Optional[_Iterable[float]] = ..., tangent: _Optional[_Iterable[float]] = ...) -> None: ...
 
 class EvaluateRequest(_message.Message):
-    __slots__ = ("material", "lights", "queries", "precision", "seed", "area_method", "area_samples", "shared_memory")
+    __slots__ = ("material", "lights", "queries", "precision", "seed", "area_method", "area_samples", "shared_memory", "max_relative_error")
     MATERIAL_FIELD_NUMBER: _ClassVar[int]
     LIGHTS_FIELD_NUMBER: _ClassVar[int]
     QUERIES_FIELD_NUMBER: _ClassVar[int]
@@ -244,6 +246,7 @@ class EvaluateRequest(_message.Message):
     AREA_METHOD_FIELD_NUMBER: _ClassVar[int]
     AREA_SAMPLES_FIELD_NUMBER: _ClassVar[int]
     SHARED_MEMORY_FIELD_NUMBER: _ClassVar[int]
+    MAX_RELATIVE_ERROR_FIELD_NUMBER: _ClassVar[int]
     material: Material
     lights: _containers.RepeatedCompositeFieldContainer[Light]
     queries: QueryBatch
@@ -252,7 +255,8 @@ class EvaluateRequest(_message.Message):
     area_method: AreaMethod
     area_samples: int
     shared_memory: SharedMemoryIo
-    def __init__(self, material: _Optional[_Union[Material, _Mapping]] = ..., lights: _Optional[_Iterable[_Union[Light, _Mapping]]] = ..., queries: _Optional[_Union[QueryBatch, _Mapping]] = ..., precision: _Optional[_Union[Precision, str]] = ..., seed: _Optional[int] = ..., area_method: _Optional[_Union[AreaMethod, str]] = ..., area_samples: _Optional[int] = ..., shared_memory: _Optional[_Union[SharedMemoryIo, _Mapping]] = ...) -> None: ...
+    max_relative_error: float
+    def __init__(self, material: _Optional[_Union[Material, _Mapping]] = ..., lights: _Optional[_Iterable[_Union[Light, _Mapping]]] = ..., queries: _Optional[_Union[QueryBatch, _Mapping]] = ..., precision: _Optional[_Union[Precision, str]] = ..., seed: _Optional[int] = ..., area_method: _Optional[_Union[AreaMethod, str]] = ..., area_samples: _Optional[int] = ..., shared_memory: _Optional[_Union[SharedMemoryIo, _Mapping]] = ..., max_relative_error: _Optional[float] = ...) -> None: ...
 
 class EvaluateStats(_message.Message):
     __slots__ = ("queue_ms", "compute_ms", "device", "batch_requests")

@@ -1,0 +1,51 @@
+// Measuring and fitting the AUTO area method's error table (models/smooth/area_auto_table.h):
+// shared by the fitting tool (fit_area_auto.cpp) and the test that checks the checked-in table
+// against a regenerated sample of its own training set (tests/area/area_auto_test.cpp).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tools/area_auto/area_auto_data.h"
+
+namespace glint::area_auto {
+
+constexpr int kCandidates = 7;  // LTC, LECOCQ, LECOCQ_PEARSON, REFERENCE 4, 8, 16, 32
+// The fit's quantiles: of the deterministic methods' relative error, and of MONTE_CARLO's
+// per-sample coefficient of variation (which z = 1.96 then turns into a ~95% bound).
+constexpr double kErrorQuantile = 0.95;
+constexpr double kCvQuantile = 0.9;
+// Fewer training queries in a cell than this: pooled with neighbouring cells (Fit).
+constexpr int kMinPerCell = 12;
+// MONTE_CARLO's cv from kCvSeeds independent estimates of kCvSamples samples each.
+constexpr int kCvSeeds = 16;
+constexpr uint32_t kCvSamples = 16;
+constexpr uint64_t kTrainSeed = 1;
+
+glint::v1::AreaMethod CandidateMethod(int k);
+uint32_t CandidateSamples(int k);
+
+// One query of the training set: its cell, each candidate's relative error, and MONTE_CARLO's
+// per-sample cv: sqrt(kCvSamples) x (standard deviation over kCvSeeds seeds) / max(truth, kFloor).
+struct Sample {
+  int cell = -1;
+  float error[kCandidates] = {};
+  float cv = 0;
+};
+
+// Measures every view of the configurations on the host path (fp32), `threads` threads.
+std::vector<Sample> Measure(const std::vector<Config> &configs, int threads);
+
+// The table of one NDF: GLINT_AUTO_CELLS x 8 floats (7 error quantiles, the cv quantile), and
+// per cell the number of training queries it drew on and its pooling level (0 = its own).
+struct NdfTable {
+  std::vector<float> values;
+  std::vector<int> count, level;
+};
+NdfTable Fit(const std::vector<Sample> &samples);
+
+// The nearest-rank q-quantile (the smallest x with at least q of the values <= x).
+float Quantile(std::vector<float> v, double q);
+
+}  // namespace glint::area_auto

@@ -152,7 +152,9 @@ grpc::Status ShmSession::Prepare(const glint::v1::QueryBatch &q, uint32_t count)
   const size_t in_bytes = SharedMemoryInputBytes(q, chunk);
   const size_t bytes = OutputOffset(in_bytes) + size_t(chunk) * 3 * sizeof(float);
   if (buffer_ && buffer_->size() >= bytes) {
-    chunk_ = std::max(chunk_, chunk);
+    // This request's chunk, not the largest so far: Evaluate places the output after this
+    // request's input blocks, and only `bytes` (this chunk, these arrays) is known to fit.
+    chunk_ = chunk;
     return grpc::Status::OK;
   }
   Close();

@@ -303,6 +303,24 @@ TEST_F(ShmTest, BitIdenticalToArrays) {
   }
 }
 
+// One session reused by requests with different arrays: a request with more arrays per query
+// than the one that sized the region must still find its output inside the region (the
+// benchmark met "output_offset ... lie beyond region" when the session kept the larger chunk).
+TEST_F(ShmTest, ReusedSessionFitsRequestsWithMoreArrays) {
+  glint::client::ClientOptions options;
+  options.security.token = "alpha-token";
+  glint::client::GlintClient client(server_->address(), options);
+  glint::client::ShmSession session(&client);
+  for (const EvaluateRequest &request : {Lit(20000, 6), Probe(15000, 5), Lit(3000, 7)}) {
+    std::vector<float> tcp, shm;
+    ASSERT_TRUE(client.Evaluate(request, &tcp).ok());
+    const grpc::Status s = session.Evaluate(request, &shm);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    ASSERT_EQ(tcp.size(), shm.size());
+    EXPECT_EQ(std::memcmp(tcp.data(), shm.data(), tcp.size() * sizeof(float)), 0);
+  }
+}
+
 TEST_F(ShmTest, ClientThatUnlinksOrTruncatesDoesNotHurtTheServer) {
   Caller alpha(server_->address(), kAlpha);
   glint::v1::EvaluateResponse response;

@@ -61,6 +61,7 @@ TEST_P(SlicedEval, ManySlicesAreBitIdenticalToOneCall) {
       ASSERT_EQ(one_stats.slices, 1);
       glint::SliceOptions many;
       many.max_slice_queries = 37;  // not a multiple of the 8 SIMD lanes
+      many.target_ms = 1e12;        // exactly 37 each, however slow a slice (see below)
       glint::SliceStats stats;
       s = glint::EvaluateSliced(engine(), 0, plan, r.queries(), sliced.data(), many, &stats);
       ASSERT_TRUE(s.ok()) << s.message();
@@ -83,6 +84,10 @@ TEST_P(SlicedEval, StopIsCheckedBeforeEverySliceTheFirstIncluded) {
     int checks = 0;
     glint::SliceOptions o;
     o.max_slice_queries = 100;
+    // Slices of exactly 100: with the default target a slow first slice (the process's first
+    // launch, a loaded machine) makes the measured rate ask for smaller ones, and the stop
+    // would then fall after fewer than stop_at * 100 queries.
+    o.target_ms = 1e12;
     o.stop = [&]() -> glint::Status {
       return checks++ == stop_at ? glint::Status::DeadlineExceeded("deadline") : glint::Status();
     };

@@ -140,7 +140,7 @@ GLINT_FN void block_store3(__global float *out, uint base, uint n, real3 v) {
 #endif
 
 /* The query inputs of the block of queries [base, base + GLINT_LANES): the
- * 8-lane counterpart of query_load (kernels/query.h). */
+ * GLINT_LANES-wide counterpart of query_load (kernels/query.h). */
 GLINT_FN QueryInputs block_load_queries(EvalSpec spec, KernelInputs in, uint base) {
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   QueryInputs q;

@@ -1,5 +1,7 @@
 #include "server/normal_map_store.h"
 
+#include <new>
+
 #include "models/normal_map/normal_map_params.h"
 #include "models/normal_map/normal_map_table.h"
 #include "server/normal_map_decode.h"
@@ -147,6 +149,41 @@ Status NormalMapStore::Insert(const std::string &filename, const DecodedNormalMa
 
 Status NormalMapStore::Table(const std::string &digest, int subdivision, NormalMapTable *out) {
   const int slot = subdivision == 4 ? 1 : 0;
+  std::promise<BuildResult> promise;
+  std::unique_lock<std::mutex> lock(mutex_);
+  auto it = maps_.find(digest);
+  if (it == maps_.end()) return NotHeld(digest);
+  TouchLocked(it->second);
+  if (it->second.tables[slot]) {
+    *out = it->second.tables[slot];
+    return Status::Ok();
+  }
+  if (auto b = building_.find(digest); b != building_.end()) {
+    const std::shared_future<BuildResult> pending = b->second;
+    lock.unlock();  // wait for the other request's build without holding the store
+    *out = pending.get().second;
+    return pending.get().first;
+  }
+  building_.emplace(digest, promise.get_future().share());
+  lock.unlock();
+  BuildResult result;
+  try {  // the waiters must hear of a failure too (a broken promise would throw in them)
+    result.first = BuildSubdivided(digest, &result.second);
+  } catch (const std::bad_alloc &) {
+    result.first = Status::ResourceExhausted(
+        "material.normal_map.subdivision: 4: out of memory "
+        "building the table of " +
+        digest);
+  }
+  lock.lock();
+  building_.erase(digest);
+  lock.unlock();
+  promise.set_value(result);
+  *out = result.second;
+  return result.first;
+}
+
+Status NormalMapStore::BuildSubdivided(const std::string &digest, NormalMapTable *out) {
   NormalMapTable base;
   uint32_t w = 0, h = 0;
   uint64_t max_texels = 0;
@@ -154,11 +191,6 @@ Status NormalMapStore::Table(const std::string &digest, int subdivision, NormalM
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = maps_.find(digest);
     if (it == maps_.end()) return NotHeld(digest);
-    TouchLocked(it->second);
-    if (it->second.tables[slot]) {
-      *out = it->second.tables[slot];
-      return Status::Ok();
-    }
     base = it->second.tables[0];
     w = it->second.info.width();
     h = it->second.info.height();
@@ -174,17 +206,23 @@ Status NormalMapStore::Table(const std::string &digest, int subdivision, NormalM
                                      ", over its budget of " + MiB(limits().budget_bytes) +
                                      " (--normal-map-budget-mb); expected subdivision 1 here");
   std::lock_guard<std::mutex> lock(mutex_);
+  ++subdivision_builds_;
   auto it = maps_.find(digest);
-  if (it != maps_.end() && !it->second.tables[slot]) {  // still held: keep the new table
-    it->second.tables[slot] = table;
+  if (it != maps_.end() && !it->second.tables[1]) {  // still held: keep the new table
+    it->second.tables[1] = table;
     it->second.info.set_bytes(it->second.info.bytes() + TableBytes(table));
     bytes_ += TableBytes(table);
     EvictLocked(digest);
   } else if (it != maps_.end()) {
-    table = it->second.tables[slot];
+    table = it->second.tables[1];
   }
   *out = table;
   return Status::Ok();
+}
+
+uint64_t NormalMapStore::subdivision_builds() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return subdivision_builds_;
 }
 
 Status NormalMapStore::Check(const std::string &digest, int subdivision) {

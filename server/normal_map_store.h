@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <future>
 #include <list>
 #include <map>
 #include <memory>
@@ -59,6 +60,9 @@ class NormalMapStore {
   void List(glint::v1::ListNormalMapsResponse *out) const;
   Status Delete(const std::string &digest);
   uint64_t bytes() const;
+  // Subdivision-4 tables built since the store was made (each map's is built once however many
+  // requests ask for it at the same time).
+  uint64_t subdivision_builds() const;
 
  private:
   struct Entry {
@@ -69,12 +73,20 @@ class NormalMapStore {
   // Drops least recently used maps (never `keep`) until the total fits the budget.
   void EvictLocked(const std::string &keep);
   void TouchLocked(Entry &e);
+  // Builds the subdivision-4 table of `digest` (outside the lock) and stores it.
+  Status BuildSubdivided(const std::string &digest, NormalMapTable *out);
+
+  using BuildResult = std::pair<Status, NormalMapTable>;
 
   mutable std::mutex mutex_;
   NormalMapLimits limits_;
   std::map<std::string, Entry> maps_;
   std::list<std::string> lru_;  // most recent first
   uint64_t bytes_ = 0;
+  // Subdivision-4 builds in progress, by digest: a second request for the same table waits for
+  // the first one's instead of building it again (seconds of a worker for a large map).
+  std::map<std::string, std::shared_future<BuildResult>> building_;
+  uint64_t subdivision_builds_ = 0;
 };
 
 // The process's store (glintd configures it from its flags; the NORMAL_MAP model reads it).

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <thread>
+#include <vector>
 
 #include "models/normal_map/normal_map_params.h"
 #include "models/normal_map/normal_map_table.h"
@@ -191,6 +192,30 @@ TEST(NormalMapStore, TwoClientsUploadingTheSameMapAtOnceStoreItOnce) {
   store.List(&list);
   EXPECT_EQ(list.maps_size(), 1);
   EXPECT_EQ(store.bytes(), a.bytes());
+}
+
+// Subdivision 4 is built on first use, on the requests' workers: eight requests asking for the
+// same new table at once get one build and one table between them (the others wait for it).
+TEST(NormalMapStore, ConcurrentFirstUsesOfSubdivisionFourBuildItOnce) {
+  NormalMapStore store;
+  glint::v1::NormalMapInfo info;
+  ASSERT_TRUE(
+      store.Upload("a.exr", ExrBytes(256, 256, RippleNormals(256, 256, 0, 0, 0.3)), &info).ok());
+  std::vector<NormalMapTable> tables(8);
+  std::vector<Status> status(8);
+  std::vector<std::thread> threads;
+  for (size_t k = 0; k < tables.size(); ++k)
+    threads.emplace_back([&, k] { status[k] = store.Table(info.digest(), 4, &tables[k]); });
+  for (std::thread &t : threads) t.join();
+  for (size_t k = 0; k < tables.size(); ++k) {
+    ASSERT_TRUE(status[k].ok()) << status[k].message();
+    EXPECT_EQ(tables[k].get(), tables[0].get()) << "request " << k;
+  }
+  EXPECT_EQ(store.subdivision_builds(), 1u);
+  NormalMapTable again;
+  ASSERT_TRUE(store.Table(info.digest(), 4, &again).ok());
+  EXPECT_EQ(again.get(), tables[0].get());
+  EXPECT_EQ(store.subdivision_builds(), 1u);
 }
 
 // The quadtree against a brute-force min / max over each node's cells' vertices.

@@ -86,6 +86,26 @@ GLINT_FN real3 area_reference_triangle(SmoothMaterial m, real3 wo, real3 a, real
   return r3_scale(sum, area);
 }
 
+/* area_reference_triangle over (a, b, c) split at its point q nearest to `peak` (unit vectors)
+ * when q is within `near` radians of it: three pieces around q inside, two from a point on an
+ * edge, the vertex order rotated at a vertex; q is each piece's vertex b. */
+GLINT_FN real3 area_reference_split_triangle(SmoothMaterial m, real3 wo, real3 a, real3 b, real3 c,
+                                             real3 peak, real near, int panels) {
+  if (spherical_triangle_contains(a, b, c, peak)) {
+    real3 s = area_reference_triangle(m, wo, a, peak, b, panels);
+    s = r3_add(s, area_reference_triangle(m, wo, b, peak, c, panels));
+    return r3_add(s, area_reference_triangle(m, wo, c, peak, a, panels));
+  }
+  SphericalNearest q = spherical_triangle_nearest(a, b, c, peak);
+  if (!(q.distance < near)) return area_reference_triangle(m, wo, a, b, c, panels);
+  real3 v[3] = {a, b, c};
+  int e = q.edge; /* the nearest point is on edge (v[e], v[e+1]), or is vertex v[e] */
+  real3 x = v[e], y = v[(e + 1) % 3], z = v[(e + 2) % 3];
+  if (q.at_vertex) return area_reference_triangle(m, wo, z, x, y, panels);
+  return r3_add(area_reference_triangle(m, wo, x, q.point, z, panels),
+                area_reference_triangle(m, wo, z, q.point, y, panels));
+}
+
 /* int_P f cos_i dwi per unit radiance, RGB, by quadrature (the REFERENCE
  * method): the polygon clipped to the horizon, projected to the sphere, fan
  * triangulated (exact for a convex spherical polygon), and each triangle
@@ -101,10 +121,18 @@ GLINT_FN real3 area_reference_polygon(SmoothMaterial m, real3 wo, const GLINT_PR
   for (int i = 0; i < nc; ++i) clipped[i] = area_safe_normalize(clipped[i], clipped[i]);
   int panels = (samples + 3) / 4;
   panels = panels < 1 ? 1 : panels;
+  /* D peaks at h = n, i.e. at wi = the mirror direction of wo. A fan triangle holding the peak,
+   * or passing within a few lobe widths of it, is split at its point nearest to the peak, which
+   * becomes vertex b of the pieces: Arvo's map with u2 = s^2 puts its nodes densest there
+   * (uniform in the arc distance from b). A sharp lobe in a large triangle is otherwise seen by
+   * a few nodes only (alpha 0.01 in a near-hemisphere light at a grazing view: 3-50% off at 1024
+   * nodes). Costs up to 3x the nodes of that triangle. */
+  real3 peak = make_real3(-wo.x, -wo.y, wo.z);
+  real near = GLINT_R(10.0) * fmax(m.alpha_x, m.alpha_y); /* "a few lobe widths", radians */
   real3 sum = zero;
   for (int i = 1; i + 1 < nc; ++i) {
-    sum =
-        r3_add(sum, area_reference_triangle(m, wo, clipped[0], clipped[i], clipped[i + 1], panels));
+    sum = r3_add(sum, area_reference_split_triangle(m, wo, clipped[0], clipped[i], clipped[i + 1],
+                                                    peak, near, panels));
   }
   return sum;
 }

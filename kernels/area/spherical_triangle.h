@@ -32,6 +32,65 @@ GLINT_FN real spherical_triangle_solid_angle(real3 a, real3 b, real3 c) {
   return edge_on_inside ? GLINT_R(0.0) : GLINT_R(2.0) * atan2(triple, den);
 }
 
+/* Whether the unit vector p lies strictly inside the spherical triangle (a, b, c) (unit
+ * vertices, either orientation, smaller than a hemisphere): on the inner side of all three
+ * great circles through its edges. */
+GLINT_FN int spherical_triangle_contains(real3 a, real3 b, real3 c, real3 p) {
+  real orient = r3_dot(a, r3_cross(b, c));
+  real s1 = r3_dot(p, r3_cross(a, b)) * orient;
+  real s2 = r3_dot(p, r3_cross(b, c)) * orient;
+  real s3 = r3_dot(p, r3_cross(c, a)) * orient;
+  return (s1 > GLINT_R(0.0)) & (s2 > GLINT_R(0.0)) & (s3 > GLINT_R(0.0));
+}
+
+/* The point of the spherical triangle's boundary nearest to the unit vector p (p outside it):
+ * on edge (v[edge], v[edge + 1]) of (a, b, c), or vertex v[edge] when at_vertex; its arc
+ * distance from p. */
+typedef struct {
+  real3 point;
+  real distance;
+  int edge;
+  int at_vertex;
+} SphericalNearest;
+
+GLINT_FN SphericalNearest spherical_triangle_nearest(real3 a, real3 b, real3 c, real3 p) {
+  real3 v[3] = {a, b, c};
+  SphericalNearest best;
+  best.point = a;
+  best.distance = GLINT_R(4.0);
+  best.edge = 0;
+  best.at_vertex = 1;
+  for (int e = 0; e < 3; ++e) {
+    real3 x = v[e], y = v[(e + 1) % 3];
+    real dv = acos(clamp(r3_dot(p, x), GLINT_R(-1.0), GLINT_R(1.0)));
+    if (dv < best.distance) {
+      best.point = x;
+      best.distance = dv;
+      best.edge = e;
+      best.at_vertex = 1;
+    }
+    real3 n = r3_cross(x, y);
+    real ln = r3_length(n);
+    if (!(ln > GLINT_R(1e-12))) continue;
+    n = r3_div(n, ln);
+    real3 t = r3_sub(p, r3_scale(n, r3_dot(p, n))); /* p projected on the edge's great circle */
+    real lt = r3_length(t);
+    if (!(lt > GLINT_R(1e-12))) continue;
+    t = r3_div(t, lt);
+    /* inside the arc from x to y: x -> t and t -> y both turn the way x -> y does */
+    if (r3_dot(r3_cross(x, t), n) > GLINT_R(0.0) && r3_dot(r3_cross(t, y), n) > GLINT_R(0.0)) {
+      real de = asin(clamp(fabs(r3_dot(p, n)), GLINT_R(0.0), GLINT_R(1.0)));
+      if (r3_dot(p, t) > GLINT_R(0.0) && de < best.distance) {
+        best.point = t;
+        best.distance = de;
+        best.edge = e;
+        best.at_vertex = 0;
+      }
+    }
+  }
+  return best;
+}
+
 /* Unit vector along the part of u orthogonal to the unit vector a, where
  * d = u - a is given (for u close to a, d carries the small difference without
  * the cancellation of u - (u.a) a); `fallback` when that part vanishes. */

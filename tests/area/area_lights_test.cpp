@@ -14,9 +14,8 @@
 
 #include "data/ltc/ltc_table.h"
 #include "tests/kernels/reference.h"
-#include "tests/support/plane_adaptive.h"
-
 #include "tests/support/kernels_both_precisions.h"
+#include "tests/support/plane_adaptive.h"
 
 namespace {
 
@@ -434,18 +433,19 @@ TEST(AreaReference, AdaptivePlaneIntegrationMatchesBruteForce) {
 
 // REFERENCE for smooth (sharp) lobes, alpha 0.01-0.1, against the adaptive plane integration,
 // small (0.017 sr) and medium (0.6 sr) lights, views 0-80 deg with the mirror direction inside,
-// across the edge of, and away from the light. The default 64 nodes per dimension is not enough
-// for sharp lobes (measured worst relative error, GGX / Beckmann):
-//   alpha  n=64        n=128       n=256       n=512       n=1024
-//   0.01   2.7 / 4.3   1.1 / 1.4   9e-2/1e-1   1.7e-3/8e-3 3.1e-4/6.3e-7
-//   0.03   0.48/0.37   8e-2/4.7e-2 1.0e-3/4e-4 2.3e-5/2e-8 7e-8
-//   0.05   9e-2/4.5e-2 8.8e-3/1.6e-3 6e-5/3e-5 7e-8
-//   0.1    6.9e-3/8e-3 1.6e-4      2e-6        5e-8
-// (nodes have to resolve the lobe, of width ~alpha, across the triangle; the worst case is the
-// lobe 10 deg above the horizon inside the partly-below light, next to the clipped triangles'
-// horizon edge). Asserted: 1e-3 with the counts below (achieved: ~1e-7 on the small and medium
-// lights, 3e-4 / 2e-5 / 6e-5 / 1.6e-4 on the large ones); alpha 0.01 needs 1024, the
-// validation maximum.
+// across the edge of, and away from the light. Nodes have to resolve the lobe, of width ~alpha;
+// REFERENCE splits a triangle at its point nearest to the mirror direction, so that Arvo's map
+// puts its nodes densest on the lobe (kernels/area/area_lights.h). Measured worst relative
+// error, small and medium | large lights, GGX / Beckmann:
+//   alpha  n=64                          n=128                         n=256
+//   0.01   2.5e-4/2.9e-4 | 6.8e-2/8.7e-2  1.8e-5/1.2e-6 | 2.0e-2/2.3e-2  7e-8/2e-9 | 1.5e-3/6.5e-3
+//   0.03   4e-7/4e-8 | 8.5e-3/9.1e-4      7e-8 | 2.4e-3/1.5e-3            7e-8 | 7e-5/9e-5
+//   0.05   8e-8 | 1.7e-3/5.4e-3           7e-8 | 7.5e-4/1.4e-3            7e-8 | 4e-5/8e-5
+//   0.1    5e-8 | 3.4e-4/1.1e-4
+// and at n = 512, alpha 0.01: 3e-8 | 3.9e-4/2.2e-4. Before the split, at n = 64: 2.7/4.3 at
+// alpha 0.01 and 0.48/0.37 at 0.03 (alpha 0.01 needed 1024 nodes). The worst case is the lobe
+// 10 deg above the horizon inside the partly-below light, next to the clipped triangles'
+// horizon edge. Asserted: 1e-3 with the counts below.
 TEST(AreaReference, SmoothLobesMatchAdaptivePlaneIntegration) {
   const std::vector<std::vector<V3>> lights = {
       Facing(Quad({0.6, 0.2, 2.0}, {0.15, 0, 0}, {0, 0.15, 0})),  // small, 0.017 sr
@@ -458,10 +458,10 @@ TEST(AreaReference, SmoothLobesMatchAdaptivePlaneIntegration) {
     int samples;
     double bound_small_medium, bound_large;
   };
-  const Case cases[] = {{0.01, 1024, 1e-3, 1e-3},
-                        {0.03, 512, 1e-3, 1e-3},
+  const Case cases[] = {{0.01, 512, 1e-3, 1e-3},
+                        {0.03, 256, 1e-3, 1e-3},
                         {0.05, 256, 1e-3, 1e-3},
-                        {0.1, 128, 1e-3, 1e-3}};
+                        {0.1, 64, 1e-3, 1e-3}};
   for (int ndf : {GLINT_NDF_GGX, GLINT_NDF_BECKMANN}) {
     for (const Case &c : cases) {
       double worst[2] = {0, 0};
@@ -488,6 +488,47 @@ TEST(AreaReference, SmoothLobesMatchAdaptivePlaneIntegration) {
           "%.2e, large %.2e\n",
           c.samples, ndf == GLINT_NDF_GGX ? "GGX" : "Beckmann", c.alpha, worst[0], worst[1]);
     }
+  }
+}
+
+// Lights filling nearly the whole hemisphere with a sharp lobe: the lobe sits in a corner of a
+// huge spherical triangle. Before REFERENCE split triangles at the mirror direction it returned
+// albedos of 1.48 and 0.83 (truth 0.992) for the 85 deg case below at 1024 nodes. Against the
+// adaptive plane integration (an independent importance-sampled Monte Carlo agrees: 0.99217 +-
+// 4e-5), at REFERENCE's 1e-3 accuracy target; the albedo of a F = 1 material is at most 1.
+TEST(AreaReference, HemisphereFillingLightsWithSharpLobes) {
+  struct Case {
+    double half_size, height, alpha, view;
+    int samples;
+  };
+  for (const Case &c : {Case{1000.0, 1.0, 0.3, 5.0, 256}, Case{1000.0, 1.0, 0.09, 5.0, 512},
+                        Case{1000.0, 1.0, 0.01, 85.0, 1024}}) {
+    const std::vector<V3> light =
+        Facing(Quad({0, 0, c.height}, {c.half_size, 0, 0}, {0, c.half_size, 0}));
+    for (double phi : {0.0, 37.0, 180.0}) {
+      const Mat m{GLINT_NDF_GGX, c.alpha, c.alpha, 1.0};
+      const double truth = PlaneAdaptive(m, Wo(c.view, phi), light);
+      const double ref = Shade64(m, Wo(c.view, phi), light, false, GLINT_AREA_REFERENCE, c.samples);
+      EXPECT_NEAR(ref, truth, 1e-3 * truth)
+          << "alpha " << c.alpha << " view " << c.view << " phi " << phi;
+      EXPECT_LE(ref, 1.0);
+    }
+  }
+}
+
+// At 89 deg the reflected lobe is a long streak along the horizon that the radial concentration
+// at the split point resolves only in part: a 2 x 2 square at height 0.02, GGX alpha 0.01, 1024
+// nodes gives 0.6589 / 0.7620 / 0.6589 for azimuths 0 / 37 / 180 against the adaptive truth
+// 0.6569 / 0.7453 / 0.6569 (Monte Carlo 0.6570 / 0.7456 / 0.6568 +- 2e-4): 0.3% / 2.2% / 0.3%,
+// where it was 38% / 17% / 26% before the split (README Known issues). No error analysis gives a
+// bound here; this guards the measured state.
+TEST(AreaReference, GrazingHemisphereFillingLightRegressionGuard) {
+  const std::vector<V3> light = Facing(Quad({0, 0, 0.02}, {1, 0, 0}, {0, 1, 0}));
+  for (double phi : {0.0, 37.0, 180.0}) {
+    const Mat m{GLINT_NDF_GGX, 0.01, 0.01, 1.0};
+    const double truth = PlaneAdaptive(m, Wo(89, phi), light);
+    const double ref = Shade64(m, Wo(89, phi), light, false, GLINT_AREA_REFERENCE, 1024);
+    EXPECT_NEAR(ref, truth, 0.03 * truth) << "phi " << phi;
   }
 }
 

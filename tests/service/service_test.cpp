@@ -153,8 +153,9 @@ TEST_F(ServiceTest, UnaryReturnsFiniteRadiancePerQuery) {
 // L1 >= leak + |int_H+ (p - D_ltc)| >= 2 leak - |norm - 1|, leak <= (0.15 + 2e-3) / 2, so
 // |LTC / m - 1| <= 1e-3 + 2e-3 + 0.076 = 0.079 (at table nodes; lookups between them
 // interpolate neighbours inside the same region). REFERENCE's quadrature error is estimated per
-// query from 256 vs 512 nodes. (A larger square is not better: at 2000 x 2000, REFERENCE's
-// spherical triangles become so distorted that it returns an albedo of 1.13 at 5 deg.)
+// query from 256 vs 512 nodes. (At 2000 x 2000 REFERENCE returned an albedo of 1.13 at 5 deg
+// before it split triangles at the mirror direction; tests/area/area_lights_test.cpp
+// HemisphereFillingLightsWithSharpLobes now holds it to 1e-3.)
 TEST_F(ServiceTest, PolygonLightLtcAgreesWithReferenceWithinTheTableBound) {
   const float alpha = 0.09f;  // r = 0.3: the table's low-roughness region
   EvaluateRequest r;

@@ -1,6 +1,6 @@
 /* Entry of the Kemppinen glint model for BRDF probes, directional and point
  * lights (models/kemppinen/kemppinen_eval.h). Each work-item evaluates
- * GLINT_LANES (8) queries as the lanes of OpenCL vectors, as the smooth model
+ * GLINT_LANES (16) queries as the lanes of OpenCL vectors, as the smooth model
  * does (kernels/simd_io.h says why); the cell loops have uniform trip counts
  * and per-query conditions are selects. Polygon lights run in the second pass
  * (models/kemppinen/kemppinen_area.cl). */
@@ -12,13 +12,10 @@
  * block's lanes; lanes past n repeat query n - 1 (finite work, never stored). */
 GLINT_FN real kemppinen_block_gather(__global const float *a, uint stride, uint k, uint base,
                                      uint n) {
-#if GLINT_LANES == 8
-  uint last = n - 1u;
-  float8 v = (float8)(a[stride * min(base, last) + k], a[stride * min(base + 1u, last) + k],
-                      a[stride * min(base + 2u, last) + k], a[stride * min(base + 3u, last) + k],
-                      a[stride * min(base + 4u, last) + k], a[stride * min(base + 5u, last) + k],
-                      a[stride * min(base + 6u, last) + k], a[stride * min(base + 7u, last) + k]);
-  return GLINT_FLOATS_TO_REAL(v);
+#if GLINT_LANES > 1
+  float t[GLINT_LANES];
+  for (uint j = 0; j < GLINT_LANES; ++j) t[j] = a[stride * min(base + j, n - 1u) + k];
+  return GLINT_FLOATS_TO_REAL(GLINT_VLOADN(0, t));
 #else
   return (real)a[stride * base + k];
 #endif

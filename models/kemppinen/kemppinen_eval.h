@@ -9,7 +9,7 @@
  *    (microroughness) give the glints their angular size, as in the paper.
  *  - Polygon lights: models/kemppinen/kemppinen_polygons.h (a second pass).
  * The facets are the same for every light (hashes of seed, level and cell
- * only). Lane-agnostic like kemppinen_ndf.h: the 8-lane entry
+ * only). Lane-agnostic like kemppinen_ndf.h: the 16-lane entry
  * models/kemppinen/kemppinen.cl runs kemppinen_shade on blocks of queries. */
 #ifndef GLINT_KEMPPINEN_EVAL_H
 #define GLINT_KEMPPINEN_EVAL_H
@@ -79,7 +79,7 @@ GLINT_FN void kemppinen_load_footprint(KernelInputs in, uint i, GLINT_PRIVATE re
 }
 
 /* Probes, directional and point lights for query i (the host path; the device
- * runs kemppinen_shade on blocks of 8, models/kemppinen/kemppinen.cl). */
+ * runs kemppinen_shade on blocks of 16, models/kemppinen/kemppinen.cl). */
 GLINT_FN real3 kemppinen_query(EvalSpec spec, KernelInputs in, uint i) {
   real footprint[4];
   kemppinen_load_footprint(in, i, footprint);

@@ -52,7 +52,7 @@
  *
  * Lane-agnostic (kernels/compat.h): the loops have uniform trip counts (2
  * levels x 4 spatial x k angular cells), per-query cell indices are reals and
- * hash keys `kemp_uint` (uint, or uint8 on the 8-lane device), per-query
+ * hash keys `kemp_uint` (uint, or uint16 on the 16-lane device), per-query
  * conditions are selects; a glint_any branch skips roulette-dropped facets. */
 #ifndef GLINT_KEMPPINEN_NDF_H
 #define GLINT_KEMPPINEN_NDF_H

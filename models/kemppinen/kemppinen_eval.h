@@ -23,7 +23,7 @@
 
 /* f(wi, wo) cos_i with D_star, times `radiance` (RGB), for a query's MIP
  * levels prepared once for all of its lights (kemppinen_query_levels). */
-GLINT_FN real3 kemppinen_reflect_at(SmoothMaterial m, KemppinenParams p,
+GLINT_FN real3 kemppinen_reflect_at(SmoothMaterial m, const GLINT_PRIVATE KemppinenParams *p,
                                     const GLINT_PRIVATE KemppinenQueryLevels *levels, real3 wi,
                                     real3 wo, real3 radiance) {
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
@@ -43,7 +43,7 @@ GLINT_FN real3 kemppinen_reflect_at(SmoothMaterial m, KemppinenParams p,
 GLINT_FN real3 kemppinen_reflect(SmoothMaterial m, KemppinenParams p, KemppinenFootprint fp,
                                  real3 wi, real3 wo, real3 radiance) {
   KemppinenQueryLevels levels = kemppinen_query_levels(p, fp);
-  return kemppinen_reflect_at(m, p, &levels, wi, wo, radiance);
+  return kemppinen_reflect_at(m, &p, &levels, wi, wo, radiance);
 }
 
 /* Reflected radiance towards wo (RGB) from the probe direction or the
@@ -60,7 +60,7 @@ GLINT_FN real3 kemppinen_shade(EvalSpec spec, KernelInputs in, QueryInputs q, re
   KemppinenQueryLevels levels = kemppinen_query_levels(p, fp);
   if (spec.probe) {
     real3 wi = shading_to_local(spec, sp, r3_normalize(q.wi));
-    return kemppinen_reflect_at(m, p, &levels, wi, sp.wo,
+    return kemppinen_reflect_at(m, &p, &levels, wi, sp.wo,
                                 make_real3(GLINT_R(1.0), GLINT_R(1.0), GLINT_R(1.0)));
   }
   real3 radiance = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
@@ -68,7 +68,7 @@ GLINT_FN real3 kemppinen_shade(EvalSpec spec, KernelInputs in, QueryInputs q, re
   for (uint l = 0; l < n_lights; ++l) {
     PunctualLight light = punctual_light(spec, in, sp, l);
     radiance =
-        r3_add(radiance, kemppinen_reflect_at(m, p, &levels, light.wi, sp.wo, light.irradiance));
+        r3_add(radiance, kemppinen_reflect_at(m, &p, &levels, light.wi, sp.wo, light.irradiance));
   }
   return radiance;
 }

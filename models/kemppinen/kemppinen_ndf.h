@@ -334,10 +334,16 @@ typedef struct {
   real pick; /* in [0, 1): the colour is number floor(pick n) of n (K25 3.3.6) */
 } KemppinenFacet;
 
-/* The hash of (seed, level, spatial cell); facets absorb their angular cell. */
+/* The hash of (seed, level, spatial cell); facets absorb their angular cell.
+ * In steps, so a 2x2 block shares the level's and the columns' absorbs
+ * (kemppinen_level_query): (seed, level), then the column cx, then the row cy. */
+GLINT_FN kemp_uint kemppinen_level_key(uint seed_key, real level) {
+  return kemppinen_absorb((kemp_uint)(seed_key), KEMP_TO_UINT(level));
+}
+
 GLINT_FN kemp_uint kemppinen_spatial_key(uint seed_key, real level, real cx, real cy) {
-  kemp_uint k = kemppinen_absorb((kemp_uint)(seed_key), KEMP_TO_UINT(level));
-  return kemppinen_absorb(kemppinen_absorb(k, kemppinen_cell_key(cx)), kemppinen_cell_key(cy));
+  kemp_uint column = kemppinen_absorb(kemppinen_level_key(seed_key, level), kemppinen_cell_key(cx));
+  return kemppinen_absorb(column, kemppinen_cell_key(cy));
 }
 
 /* 16-bit uniforms, two per hash: k * 2^-16 is exact in float and double. A
@@ -481,9 +487,13 @@ GLINT_FN KemppinenLevelQuery kemppinen_level_query(KemppinenParams p, KemppinenF
   KemppinenLevelQuery q;
   q.s = kemppinen_spatial(p, fp, level);
   q.level = level;
+  /* kemppinen_spatial_key of the 2x2 block: 7 absorbs instead of 12. */
+  kemp_uint lk = kemppinen_level_key(fp.seed_key, level);
+  kemp_uint col0 = kemppinen_absorb(lk, kemppinen_cell_key(q.s.bs_x));
+  kemp_uint col1 = kemppinen_absorb(lk, kemppinen_cell_key(q.s.bs_x + GLINT_R(1.0)));
   for (int j = 0; j < 4; ++j)
-    q.key[j] = kemppinen_spatial_key(fp.seed_key, level, q.s.bs_x + (real)(j & 1),
-                                     q.s.bs_y + (real)(j >> 1));
+    q.key[j] =
+        kemppinen_absorb((j & 1) ? col1 : col0, kemppinen_cell_key(q.s.bs_y + (real)(j >> 1)));
   q.outside = kemppinen_outside_at(fp, q.s.res_s, q.s.ts_x, q.s.ts_y, q.s.bs_x, q.s.bs_y);
   return q;
 }
@@ -693,27 +703,35 @@ GLINT_FN real3 kemppinen_level(KemppinenParams p, KemppinenFootprint fp, Kemppin
   return kemppinen_level_at(&p, &q, kemppinen_lobe(a), w);
 }
 
+/* Keeps a loop rolled on the device: the two MIP levels share one copy of the
+ * level code (half the kernel's 25 KB of instructions, which did not fit the
+ * CPU's micro-op cache). */
+#ifdef __OPENCL_VERSION__
+#define GLINT_KEMPPINEN_NOUNROLL _Pragma("nounroll")
+#else
+#define GLINT_KEMPPINEN_NOUNROLL
+#endif
+
 /* The two MIP levels of a query (Algorithm 1 lines 7-8: l in {floor, ceil}
  * of lambda, w = 1 - |lambda - l|; lambda <= GLINT_KEMPPINEN_MAX_LEVEL, so
- * w1 = 0 at the last level), prepared once for all of its lights. `two`: some
- * lane has w1 > 0 (uniform per block); l1 is then prepared. */
+ * w1 = 0 at the last level), prepared once for all of its lights. `n`: 2 if
+ * some lane has w1 > 0 (uniform per block), else 1. */
 typedef struct {
-  KemppinenLevelQuery l0, l1;
-  real w1;
-  int two;
+  KemppinenLevelQuery l[2];
+  real w[2];
+  int n;
 } KemppinenQueryLevels;
 
 GLINT_FN KemppinenQueryLevels kemppinen_query_levels(KemppinenParams p, KemppinenFootprint fp) {
   KemppinenQueryLevels L;
   real lf = floor(fp.lambda);
-  L.w1 = fp.lambda - lf;
-  L.l0 = kemppinen_level_query(p, fp, lf);
-  L.two = glint_any(L.w1 > GLINT_R(0.0)) ? 1 : 0;
-  if (L.two)
-    L.l1 =
-        kemppinen_level_query(p, fp, fmin(lf + GLINT_R(1.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)));
-  else
-    L.l1 = L.l0; /* unused */
+  real w1 = fp.lambda - lf;
+  L.w[0] = GLINT_R(1.0) - w1;
+  L.w[1] = w1;
+  L.n = glint_any(w1 > GLINT_R(0.0)) ? 2 : 1;
+  GLINT_KEMPPINEN_NOUNROLL
+  for (int lv = 0; lv < L.n; ++lv)
+    L.l[lv] = kemppinen_level_query(p, fp, fmin(lf + (real)lv, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)));
   return L;
 }
 
@@ -723,8 +741,9 @@ GLINT_FN real3 kemppinen_glint_factor_at(const GLINT_PRIVATE KemppinenParams *p,
                                          const GLINT_PRIVATE KemppinenQueryLevels *L, int ndf,
                                          real3 h, real ax, real ay, real D) {
   KemppinenLobe a = kemppinen_lobe(kemppinen_angular(*p, kemppinen_to_disk(ndf, h, ax, ay, D)));
-  real3 s = kemppinen_level_at(p, &L->l0, a, GLINT_R(1.0) - L->w1);
-  if (L->two) s = r3_add(s, kemppinen_level_at(p, &L->l1, a, L->w1));
+  real3 s = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  GLINT_KEMPPINEN_NOUNROLL
+  for (int lv = 0; lv < L->n; ++lv) s = r3_add(s, kemppinen_level_at(p, &L->l[lv], a, L->w[lv]));
   return s;
 }
 

@@ -9,7 +9,7 @@
  *    (microroughness) give the glints their angular size, as in the paper.
  *  - Polygon lights: models/kemppinen/kemppinen_polygons.h (a second pass).
  * The facets are the same for every light (hashes of seed, level and cell
- * only). Lane-agnostic like kemppinen_ndf.h: the 8-lane entry
+ * only). Lane-agnostic like kemppinen_ndf.h: the 16-lane entry
  * models/kemppinen/kemppinen.cl runs kemppinen_shade on blocks of queries. */
 #ifndef GLINT_KEMPPINEN_EVAL_H
 #define GLINT_KEMPPINEN_EVAL_H
@@ -21,9 +21,11 @@
 #include "kernels/smooth_brdf.h"
 #include "models/kemppinen/kemppinen_ndf.h"
 
-/* f(wi, wo) cos_i with D_star, times `radiance` (RGB). */
-GLINT_FN real3 kemppinen_reflect(SmoothMaterial m, KemppinenParams p, KemppinenFootprint fp,
-                                 real3 wi, real3 wo, real3 radiance) {
+/* f(wi, wo) cos_i with D_star, times `radiance` (RGB), for a query's MIP
+ * levels prepared once for all of its lights (kemppinen_query_levels). */
+GLINT_FN real3 kemppinen_reflect_at(SmoothMaterial m, const GLINT_PRIVATE KemppinenParams *p,
+                                    const GLINT_PRIVATE KemppinenQueryLevels *levels, real3 wi,
+                                    real3 wo, real3 radiance) {
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   real3 ls = r3_mul(smooth_reflect_cos(m, wi, wo), radiance);
   glint_mask live = ls.x + ls.y + ls.z > GLINT_R(0.0);
@@ -33,29 +35,40 @@ GLINT_FN real3 kemppinen_reflect(SmoothMaterial m, KemppinenParams p, KemppinenF
   real hl = r3_length(hv);
   real3 h = r3_div(hv, glint_select(GLINT_R(1.0), hl, hl > GLINT_R(0.0)));
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
-  real3 s = kemppinen_glint_factor(p, fp, m.ndf, h, m.alpha_x, m.alpha_y, D);
+  real3 s = kemppinen_glint_factor_at(p, levels, m.ndf, h, m.alpha_x, m.alpha_y, D);
   return r3_select(zero, r3_mul(ls, s), live);
 }
 
+/* The same from the footprint (one light; the sampler's weight). */
+GLINT_FN real3 kemppinen_reflect(SmoothMaterial m, KemppinenParams p, KemppinenFootprint fp,
+                                 real3 wi, real3 wo, real3 radiance) {
+  KemppinenQueryLevels levels = kemppinen_query_levels(p, fp);
+  return kemppinen_reflect_at(m, &p, &levels, wi, wo, radiance);
+}
+
 /* Reflected radiance towards wo (RGB) from the probe direction or the
- * directional and point lights, for one query or (8-lane entry) a block of
- * queries: q, uv and footprint hold the block's lanes. */
+ * directional and point lights, for one query or (16-lane entry) a block of
+ * queries: q, uv and footprint hold the block's lanes. What does not depend
+ * on the light (the footprint, both levels' spatial halves and cell hashes)
+ * is computed once per query. */
 GLINT_FN real3 kemppinen_shade(EvalSpec spec, KernelInputs in, QueryInputs q, real u, real v,
                                const GLINT_PRIVATE real *footprint) {
   SmoothMaterial m = smooth_material_unpack(in.material, spec.ndf, spec.fresnel);
   KemppinenParams p = kemppinen_params_unpack(in.params);
   ShadingPoint sp = shading_point(spec, q);
   KemppinenFootprint fp = kemppinen_footprint(p, u, v, footprint, in.seed_lo, in.seed_hi);
+  KemppinenQueryLevels levels = kemppinen_query_levels(p, fp);
   if (spec.probe) {
     real3 wi = shading_to_local(spec, sp, r3_normalize(q.wi));
-    return kemppinen_reflect(m, p, fp, wi, sp.wo,
-                             make_real3(GLINT_R(1.0), GLINT_R(1.0), GLINT_R(1.0)));
+    return kemppinen_reflect_at(m, &p, &levels, wi, sp.wo,
+                                make_real3(GLINT_R(1.0), GLINT_R(1.0), GLINT_R(1.0)));
   }
   real3 radiance = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   uint n_lights = punctual_light_count(spec, in);
   for (uint l = 0; l < n_lights; ++l) {
     PunctualLight light = punctual_light(spec, in, sp, l);
-    radiance = r3_add(radiance, kemppinen_reflect(m, p, fp, light.wi, sp.wo, light.irradiance));
+    radiance =
+        r3_add(radiance, kemppinen_reflect_at(m, &p, &levels, light.wi, sp.wo, light.irradiance));
   }
   return radiance;
 }
@@ -66,7 +79,7 @@ GLINT_FN void kemppinen_load_footprint(KernelInputs in, uint i, GLINT_PRIVATE re
 }
 
 /* Probes, directional and point lights for query i (the host path; the device
- * runs kemppinen_shade on blocks of 8, models/kemppinen/kemppinen.cl). */
+ * runs kemppinen_shade on blocks of 16, models/kemppinen/kemppinen.cl). */
 GLINT_FN real3 kemppinen_query(EvalSpec spec, KernelInputs in, uint i) {
   real footprint[4];
   kemppinen_load_footprint(in, i, footprint);

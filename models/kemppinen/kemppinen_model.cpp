@@ -1,6 +1,6 @@
 // The Kemppinen model's entry in the model table (server/model.h): its
 // parameter block (glint.v1.KemppinenParams), what it needs of queries, and
-// two passes as the smooth model has: 8-lane SIMD for probes and
+// two passes as the smooth model has: 16-lane SIMD for probes and
 // directional/point lights, one query per work-item for polygon lights.
 #include <algorithm>
 #include <cmath>
@@ -147,7 +147,9 @@ const Model kKemppinenModel = {
     .id = glint::v1::KEMPPINEN,
     .name = "KEMPPINEN",
     .params_field = "kemppinen",
-    .passes = {{"models/kemppinen/kemppinen.cl", "glint_kemppinen", 8, HasProbesOrPunctualLights,
+    // 16 lanes: fp32 +55% (probes) and +58% (directional + point) per CPU-second over 8 on the
+    // AVX-512 CPU device at k = 1, fp64 +5% / +12% (bench_models rows in the README).
+    .passes = {{"models/kemppinen/kemppinen.cl", "glint_kemppinen", 16, HasProbesOrPunctualLights,
                 KemppinenLightsF32, KemppinenLightsF64},
                {"models/kemppinen/kemppinen_area.cl", "glint_kemppinen_area", 1, HasPolygons,
                 KemppinenPolygonsF32, KemppinenPolygonsF64}},

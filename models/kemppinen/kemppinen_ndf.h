@@ -52,7 +52,7 @@
  *
  * Lane-agnostic (kernels/compat.h): the loops have uniform trip counts (2
  * levels x 4 spatial x k angular cells), per-query cell indices are reals and
- * hash keys `kemp_uint` (uint, or uint8 on the 8-lane device), per-query
+ * hash keys `kemp_uint` (uint, or uint16 on the 16-lane device), per-query
  * conditions are selects; a glint_any branch skips roulette-dropped facets. */
 #ifndef GLINT_KEMPPINEN_NDF_H
 #define GLINT_KEMPPINEN_NDF_H
@@ -334,10 +334,16 @@ typedef struct {
   real pick; /* in [0, 1): the colour is number floor(pick n) of n (K25 3.3.6) */
 } KemppinenFacet;
 
-/* The hash of (seed, level, spatial cell); facets absorb their angular cell. */
+/* The hash of (seed, level, spatial cell); facets absorb their angular cell.
+ * In steps, so a 2x2 block shares the level's and the columns' absorbs
+ * (kemppinen_level_query): (seed, level), then the column cx, then the row cy. */
+GLINT_FN kemp_uint kemppinen_level_key(uint seed_key, real level) {
+  return kemppinen_absorb((kemp_uint)(seed_key), KEMP_TO_UINT(level));
+}
+
 GLINT_FN kemp_uint kemppinen_spatial_key(uint seed_key, real level, real cx, real cy) {
-  kemp_uint k = kemppinen_absorb((kemp_uint)(seed_key), KEMP_TO_UINT(level));
-  return kemppinen_absorb(kemppinen_absorb(k, kemppinen_cell_key(cx)), kemppinen_cell_key(cy));
+  kemp_uint column = kemppinen_absorb(kemppinen_level_key(seed_key, level), kemppinen_cell_key(cx));
+  return kemppinen_absorb(column, kemppinen_cell_key(cy));
 }
 
 /* 16-bit uniforms, two per hash: k * 2^-16 is exact in float and double. A
@@ -381,7 +387,131 @@ GLINT_FN KemppinenAngular kemppinen_angular(KemppinenParams p, DiskPoint d) {
   return q;
 }
 
-/* The spatial 2x2 block and the angular n x n block of level l, in cells. */
+/* ---------------------------------------------- a level's spatial half */
+
+/* What level l needs of the query whatever the half-vector (the spatial half
+ * of Algorithm 1 lines 9-11): shared by every light of a query
+ * (kemppinen_level_query), by the polygon pass and the sampler through
+ * kemppinen_blocks. In cells. */
+typedef struct {
+  real res_a, inv_res_a; /* 2^l and 2^-l, both exact (l integer, <= 24) */
+  real res_s;
+  real ts_x, ts_y; /* x_s res_s */
+  real bs_x, bs_y; /* first spatial cell */
+  /* Sigma_s^-1 / 2 in cells, and the pixel filter's norm 1 / (2 pi sqrt(det)) in cells. */
+  real qxx, qxy, qyy;
+  real norm_s;
+} KemppinenSpatial;
+
+GLINT_FN KemppinenSpatial kemppinen_spatial(KemppinenParams p, KemppinenFootprint fp, real level) {
+  KemppinenSpatial s;
+  /* Algorithm 1 lines 9-10 (with res = sqrt(K_P)). */
+  s.res_a = floor(exp2(level) + GLINT_R(0.5)); /* 2^l exactly (l integer, <= 24) */
+  s.inv_res_a = GLINT_R(1.0) / s.res_a;        /* exact: a power of two */
+  s.res_s = sqrt(p.density) / s.res_a;
+  s.ts_x = fp.xs * s.res_s;
+  s.ts_y = fp.ys * s.res_s;
+  /* 2x2 spatial cells around the nearest cell vertex. */
+  s.bs_x = floor(s.ts_x - GLINT_R(0.5));
+  s.bs_y = floor(s.ts_y - GLINT_R(0.5));
+  /* det of Sigma_s in cells^2, each factor scaled before multiplying: at
+   * density 1e30 det Sigma_s itself underflows float (eps^2 ~ 1e-72). */
+  real r2 = s.res_s * s.res_s;
+  real djc = fp.dj * r2, ec = fp.eps * r2;
+  real det_c = djc * djc + ec * (fp.tr * r2) + ec * ec;
+  /* Sigma_c^-1 / 2 = adj(Sigma_s r2) / (2 det_c): scale the entries to cells
+   * first (r2 / det_c alone overflows float at density 1e30, and 0 * inf is
+   * NaN); each quotient is then ~1 / variance in cells, >= the regulariser. */
+  real inv_det = GLINT_R(1.0) / det_c;
+  s.qxx = GLINT_R(0.5) * (fp.syy * r2) * inv_det;
+  s.qxy = -(fp.sxy * r2) * inv_det;
+  s.qyy = GLINT_R(0.5) * (fp.sxx * r2) * inv_det;
+  s.norm_s = GLINT_R(1.0) / (GLINT_R(2.0) * GLINT_PI * sqrt(det_c));
+  return s;
+}
+
+/* erfc(|x| / sqrt 2) of four standard scores, 0 beyond
+ * GLINT_KEMPPINEN_ERFC_CUT: erfc(6 / sqrt 2) = 1.97e-9, far below the
+ * approximation's own error (1.5e-7). Chosen per lane (the value never
+ * depends on the other queries of a block); computed only when some lane of
+ * the block needs one of the four (on the host: when the query does). Edges
+ * of the unit square and of the spatial block are usually that far. */
+#define GLINT_KEMPPINEN_ERFC_CUT 6.0f
+typedef struct {
+  real a, b, c, d;
+} KemppinenErfc4;
+
+GLINT_FN KemppinenErfc4 kemppinen_erfc4(real a, real b, real c, real d) {
+  real zero = GLINT_R(0.0), cut = GLINT_R(GLINT_KEMPPINEN_ERFC_CUT);
+  KemppinenErfc4 e;
+  e.a = zero;
+  e.b = zero;
+  e.c = zero;
+  e.d = zero;
+  glint_mask na = fabs(a) < cut, nb = fabs(b) < cut, nc = fabs(c) < cut, nd = fabs(d) < cut;
+  if (glint_any(na | nb | nc | nd)) {
+    e.a = glint_select(zero, kemppinen_erfc_abs(a), na);
+    e.b = glint_select(zero, kemppinen_erfc_abs(b), nb);
+    e.c = glint_select(zero, kemppinen_erfc_abs(c), nc);
+    e.d = glint_select(zero, kemppinen_erfc_abs(d), nd);
+  }
+  return e;
+}
+
+/* 1 - P_s: the pixel filter's mass outside the explicit 2x2 spatial block
+ * (first cell bs, query ts, in cells of res_s per unit), per axis from the
+ * diagonal of Sigma_s; the query lies inside the block, so 1 - mass is the
+ * two tails. */
+GLINT_FN real kemppinen_outside_at(KemppinenFootprint fp, real res_s, real ts_x, real ts_y,
+                                   real bs_x, real bs_y) {
+  real isx = GLINT_R(1.0) / (sqrt(fp.sxx) * res_s), isy = GLINT_R(1.0) / (sqrt(fp.syy) * res_s);
+  KemppinenErfc4 e = kemppinen_erfc4((bs_x - ts_x) * isx, (bs_x + GLINT_R(2.0) - ts_x) * isx,
+                                     (bs_y - ts_y) * isy, (bs_y + GLINT_R(2.0) - ts_y) * isy);
+  real tx = GLINT_R(0.5) * (e.a + e.b);
+  real ty = GLINT_R(0.5) * (e.c + e.d);
+  return tx + (GLINT_R(1.0) - tx) * ty;
+}
+
+/* Everything of level l that every light of the query shares: the spatial
+ * half, the hashes of the 2x2 spatial cells (the facets absorb their angular
+ * cell, kemppinen_facet) and 1 - P_s. */
+typedef struct {
+  KemppinenSpatial s;
+  real level;
+  kemp_uint key[4];
+  real outside;
+} KemppinenLevelQuery;
+
+GLINT_FN KemppinenLevelQuery kemppinen_level_query(KemppinenParams p, KemppinenFootprint fp,
+                                                   real level) {
+  KemppinenLevelQuery q;
+  q.s = kemppinen_spatial(p, fp, level);
+  q.level = level;
+  /* kemppinen_spatial_key of the 2x2 block: 7 absorbs instead of 12. */
+  kemp_uint lk = kemppinen_level_key(fp.seed_key, level);
+  kemp_uint col0 = kemppinen_absorb(lk, kemppinen_cell_key(q.s.bs_x));
+  kemp_uint col1 = kemppinen_absorb(lk, kemppinen_cell_key(q.s.bs_x + GLINT_R(1.0)));
+  for (int j = 0; j < 4; ++j)
+    q.key[j] =
+        kemppinen_absorb((j & 1) ? col1 : col0, kemppinen_cell_key(q.s.bs_y + (real)(j >> 1)));
+  q.outside = kemppinen_outside_at(fp, q.s.res_s, q.s.ts_x, q.s.ts_y, q.s.bs_x, q.s.bs_y);
+  return q;
+}
+
+/* ---------------------------------------------- a level's angular half */
+
+/* The n x n angular cells nearest x_a (ta = x_a res_a, per axis): around the
+ * nearest vertex (n even) or centred on x_a's cell (n odd), kept inside
+ * [0, res_a) (the shader's clamp has min > max at l <= 0, notes Sec. 5: here
+ * a block larger than the grid is the whole grid). First cell; the end is
+ * min(first + n, res_a). */
+GLINT_FN real kemppinen_angular_first(real ta, real n, real res_a) {
+  real hi = fmax(res_a - n, GLINT_R(0.0));
+  return clamp(floor(ta - GLINT_R(0.5) * (n - GLINT_R(1.0))), GLINT_R(0.0), hi);
+}
+
+/* The spatial 2x2 block and the angular n x n block of level l, in cells
+ * (the polygon pass and the sampler; the point-light pass uses the halves). */
 typedef struct {
   real res_s, res_a;
   real ts_x, ts_y; /* x_s res_s */
@@ -398,157 +528,230 @@ typedef struct {
 
 GLINT_FN KemppinenBlocks kemppinen_blocks(KemppinenParams p, KemppinenFootprint fp,
                                           KemppinenAngular a, real level) {
+  KemppinenSpatial s = kemppinen_spatial(p, fp, level);
   KemppinenBlocks b;
-  /* Algorithm 1 lines 9-10 (with res = sqrt(K_P)). */
-  b.res_a = floor(exp2(level) + GLINT_R(0.5)); /* 2^l exactly (l integer, <= 24) */
-  b.res_s = sqrt(p.density) / b.res_a;
-  b.ts_x = fp.xs * b.res_s;
-  b.ts_y = fp.ys * b.res_s;
-  /* 2x2 spatial cells around the nearest cell vertex. */
-  b.bs_x = floor(b.ts_x - GLINT_R(0.5));
-  b.bs_y = floor(b.ts_y - GLINT_R(0.5));
-  /* n x n angular cells nearest x_a: around the nearest vertex (n even) or
-   * centred on x_a's cell (n odd), kept inside [0, res_a) (the shader's
-   * clamp has min > max at l <= 0, notes Sec. 5: here a block larger than
-   * the grid is the whole grid). */
+  b.res_a = s.res_a;
+  b.res_s = s.res_s;
+  b.ts_x = s.ts_x;
+  b.ts_y = s.ts_y;
+  b.bs_x = s.bs_x;
+  b.bs_y = s.bs_y;
+  b.qxx = s.qxx;
+  b.qxy = s.qxy;
+  b.qyy = s.qyy;
   real n = (real)p.n_side;
-  real hi = fmax(b.res_a - n, GLINT_R(0.0));
   b.ta_x = a.x * b.res_a;
   b.ta_y = a.y * b.res_a;
-  b.ba_x = clamp(floor(b.ta_x - GLINT_R(0.5) * (n - GLINT_R(1.0))), GLINT_R(0.0), hi);
-  b.ba_y = clamp(floor(b.ta_y - GLINT_R(0.5) * (n - GLINT_R(1.0))), GLINT_R(0.0), hi);
+  b.ba_x = kemppinen_angular_first(b.ta_x, n, b.res_a);
+  b.ba_y = kemppinen_angular_first(b.ta_y, n, b.res_a);
   b.ea_x = fmin(b.ba_x + n, b.res_a);
   b.ea_y = fmin(b.ba_y + n, b.res_a);
-  /* det of Sigma_s in cells^2, each factor scaled before multiplying: at
-   * density 1e30 det Sigma_s itself underflows float (eps^2 ~ 1e-72). */
-  real r2 = b.res_s * b.res_s;
-  real djc = fp.dj * r2, ec = fp.eps * r2;
-  real det_c = djc * djc + ec * (fp.tr * r2) + ec * ec;
-  /* Sigma_c^-1 / 2 = adj(Sigma_s r2) / (2 det_c): scale the entries to cells
-   * first (r2 / det_c alone overflows float at density 1e30, and 0 * inf is
-   * NaN); each quotient is then ~1 / variance in cells, >= the regulariser. */
-  b.qxx = GLINT_R(0.5) * (fp.syy * r2) / det_c;
-  b.qxy = -(fp.sxy * r2) / det_c;
-  b.qyy = GLINT_R(0.5) * (fp.sxx * r2) / det_c;
   real sax = a.sx * b.res_a, say = a.sy * b.res_a;
   b.inv_sax = GLINT_R(1.0) / sax;
   b.inv_say = GLINT_R(1.0) / say;
-  b.norm = GLINT_R(1.0) / (GLINT_R(4.0) * GLINT_PI * GLINT_PI * sqrt(det_c) * sax * say);
+  b.norm = s.norm_s / (GLINT_R(2.0) * GLINT_PI * sax * say);
   return b;
 }
 
 /* One facet's filtered lobe N(x_s - g_s; Sigma_s) N(x_a - g_a; Sigma_a) / K_P,
  * 0 if the facet lies outside the disk U (rejected, 3.3.1). Written in cell
- * units (K_P = res_s^2 res_a^2), so no factor of K_P over- or underflows. */
-GLINT_FN real kemppinen_facet_lobe(KemppinenBlocks b, real cx, real cy, real ix, real iy,
-                                   KemppinenFacet g) {
-  real gx = (ix + g.ax) / b.res_a - GLINT_R(0.5);
-  real gy = (iy + g.ay) / b.res_a - GLINT_R(0.5);
+ * units (K_P = res_s^2 res_a^2), so no factor of K_P over- or underflows:
+ * dxc, dyc = x_s res_s - the spatial cell, ta = x_a res_a, inv_res_a = 2^-l
+ * (so (ix + g.ax) inv_res_a is the exact quotient), inv_sa = 1 / sigma_a in
+ * cells, q = Sigma_s^-1 / 2 in cells, norm = both Gaussians' norms. */
+GLINT_FN real kemppinen_facet_lobe_at(real inv_res_a, real ta_x, real ta_y, real inv_sax,
+                                      real inv_say, real dxc, real dyc, real qxx, real qxy,
+                                      real qyy, real norm, real ix, real iy, KemppinenFacet g) {
+  real gx = (ix + g.ax) * inv_res_a - GLINT_R(0.5);
+  real gy = (iy + g.ay) * inv_res_a - GLINT_R(0.5);
   glint_mask outside = gx * gx + gy * gy >= GLINT_R(0.25);
   /* Angular offsets in cells over the standard deviations in cells, spatial
    * offsets in cells through Sigma_s^-1 / 2; one exp for both Gaussians. */
-  real ux = (b.ta_x - ix - g.ax) * b.inv_sax, uy = (b.ta_y - iy - g.ay) * b.inv_say;
-  real dx = b.ts_x - cx - g.sx, dy = b.ts_y - cy - g.sy;
-  real e =
-      GLINT_R(0.5) * (ux * ux + uy * uy) + (b.qxx * dx * dx + b.qxy * dx * dy + b.qyy * dy * dy);
-  return glint_select(exp(-e) * b.norm, GLINT_R(0.0), outside);
+  real ux = (ta_x - ix - g.ax) * inv_sax, uy = (ta_y - iy - g.ay) * inv_say;
+  real dx = dxc - g.sx, dy = dyc - g.sy;
+  real e = GLINT_R(0.5) * (ux * ux + uy * uy) + (qxx * dx * dx + qxy * dx * dy + qyy * dy * dy);
+  return glint_select(exp(-e) * norm, GLINT_R(0.0), outside);
 }
 
-/* 1 - P_s: the pixel filter's mass outside the explicit 2x2 spatial block,
- * per axis from the diagonal of Sigma_s (cells); the query lies inside the
- * block, so 1 - mass is the two tails. */
+GLINT_FN real kemppinen_facet_lobe(KemppinenBlocks b, real cx, real cy, real ix, real iy,
+                                   KemppinenFacet g) {
+  return kemppinen_facet_lobe_at(GLINT_R(1.0) / b.res_a, b.ta_x, b.ta_y, b.inv_sax, b.inv_say,
+                                 b.ts_x - cx, b.ts_y - cy, b.qxx, b.qxy, b.qyy, b.norm, ix, iy, g);
+}
+
+/* 1 - P_s of the blocks (the polygon pass). */
 GLINT_FN real kemppinen_spatial_outside(KemppinenFootprint fp, KemppinenBlocks b) {
-  real ssx = sqrt(fp.sxx) * b.res_s, ssy = sqrt(fp.syy) * b.res_s;
-  real sx0 = (b.bs_x - b.ts_x) / ssx, sx1 = (b.bs_x + GLINT_R(2.0) - b.ts_x) / ssx;
-  real sy0 = (b.bs_y - b.ts_y) / ssy, sy1 = (b.bs_y + GLINT_R(2.0) - b.ts_y) / ssy;
-  real tx = GLINT_R(0.5) * (kemppinen_erfc_abs(sx0) + kemppinen_erfc_abs(sx1));
-  real ty = GLINT_R(0.5) * (kemppinen_erfc_abs(sy0) + kemppinen_erfc_abs(sy1));
-  return tx + (GLINT_R(1.0) - tx) * ty;
+  return kemppinen_outside_at(fp, b.res_s, b.ts_x, b.ts_y, b.bs_x, b.bs_y);
 }
 
 /* K25 Eq. 9-10 for level l: the expected lobe mass of the facets not
  * evaluated explicitly,
  *   C = P_a(square) - P_s(spatial block) P_a(B(k) in the square)
  *     = [P_a(square) - P_a(B)] + (1 - P_s) P_a(B),
- * both brackets from tails (no difference of two numbers near 1). */
-GLINT_FN real kemppinen_compensation(KemppinenFootprint fp, KemppinenAngular a, KemppinenBlocks b) {
-  /* Angular, per axis, in units of the lobe's standard deviation. */
-  real sax = a.sx * b.res_a, say = a.sy * b.res_a;
-  real x0 = -b.ta_x / sax, x1 = (b.ba_x - b.ta_x) / sax;
-  real x2 = (b.ea_x - b.ta_x) / sax, x3 = (b.res_a - b.ta_x) / sax;
-  real y0 = -b.ta_y / say, y1 = (b.ba_y - b.ta_y) / say;
-  real y2 = (b.ea_y - b.ta_y) / say, y3 = (b.res_a - b.ta_y) / say;
-  /* erfc at the 4 edges per axis, each used by two masses. */
-  real ex0 = kemppinen_erfc_abs(x0), ex1 = kemppinen_erfc_abs(x1);
-  real ex2 = kemppinen_erfc_abs(x2), ex3 = kemppinen_erfc_abs(x3);
-  real ey0 = kemppinen_erfc_abs(y0), ey1 = kemppinen_erfc_abs(y1);
-  real ey2 = kemppinen_erfc_abs(y2), ey3 = kemppinen_erfc_abs(y3);
-  real xb = kemppinen_mass_e(x1, x2, ex1, ex2), yb = kemppinen_mass_e(y1, y2, ey1, ey2);
-  real xsq = kemppinen_mass_e(x0, x3, ex0, ex3);
-  real xout = kemppinen_mass_e(x0, x1, ex0, ex1) + kemppinen_mass_e(x2, x3, ex2, ex3);
-  real yout = kemppinen_mass_e(y0, y1, ey0, ey1) + kemppinen_mass_e(y2, y3, ey2, ey3);
+ * both brackets from tails (no difference of two numbers near 1). Angular
+ * edges in cells (square [0, res_a], block [ba, ea]) about ta, scaled by
+ * 1 / sigma_a in cells. */
+GLINT_FN real kemppinen_compensation_at(real ta_x, real ta_y, real ba_x, real ba_y, real ea_x,
+                                        real ea_y, real res_a, real inv_sax, real inv_say,
+                                        real outside) {
+  real x0 = -ta_x * inv_sax, x1 = (ba_x - ta_x) * inv_sax;
+  real x2 = (ea_x - ta_x) * inv_sax, x3 = (res_a - ta_x) * inv_sax;
+  real y0 = -ta_y * inv_say, y1 = (ba_y - ta_y) * inv_say;
+  real y2 = (ea_y - ta_y) * inv_say, y3 = (res_a - ta_y) * inv_say;
+  /* erfc at the 4 edges per axis, each used by two masses; the square's
+   * edges are many standard deviations away except near the disk's rim. */
+  KemppinenErfc4 eb = kemppinen_erfc4(x1, x2, y1, y2);
+  KemppinenErfc4 es = kemppinen_erfc4(x0, x3, y0, y3);
+  real xb = kemppinen_mass_e(x1, x2, eb.a, eb.b), yb = kemppinen_mass_e(y1, y2, eb.c, eb.d);
+  real xsq = kemppinen_mass_e(x0, x3, es.a, es.b);
+  real xout = kemppinen_mass_e(x0, x1, es.a, eb.a) + kemppinen_mass_e(x2, x3, eb.b, es.b);
+  real yout = kemppinen_mass_e(y0, y1, es.c, eb.c) + kemppinen_mass_e(y2, y3, eb.d, es.d);
   real square_minus_block = xsq * yout + yb * xout; /* = P_a(square) - P_a(B) */
-  return fmax(square_minus_block + kemppinen_spatial_outside(fp, b) * xb * yb, GLINT_R(0.0));
+  return fmax(square_minus_block + outside * xb * yb, GLINT_R(0.0));
 }
 
 /* K25 3.3.6: facet g's colour, number floor(pick n) of the n colours (each
  * with probability 1/n up to 2^-16: pick is a 16-bit uniform), by selects
- * (the index is per lane, the colour table uniform). */
-GLINT_FN real3 kemppinen_facet_color(KemppinenParams p, KemppinenFacet g) {
-  real idx = floor(g.pick * (real)p.n_colors);
-  real3 c = make_real3((real)p.colors[0], (real)p.colors[1], (real)p.colors[2]);
-  for (int k = 1; k < p.n_colors; ++k) {
+ * (the index is per lane, the colour table uniform). By pointer: the
+ * parameter block holds a table, and passing it by value made PoCL copy the
+ * whole block to the stack per facet (a third of the facet loop's
+ * instructions). */
+GLINT_FN real3 kemppinen_facet_color_of(const GLINT_PRIVATE KemppinenParams *p, KemppinenFacet g) {
+  real3 c = make_real3((real)p->colors[0], (real)p->colors[1], (real)p->colors[2]);
+  real idx = floor(g.pick * (real)p->n_colors);
+  for (int k = 1; k < p->n_colors; ++k) {
     real3 ck =
-        make_real3((real)p.colors[3 * k], (real)p.colors[3 * k + 1], (real)p.colors[3 * k + 2]);
+        make_real3((real)p->colors[3 * k], (real)p->colors[3 * k + 1], (real)p->colors[3 * k + 2]);
     c = r3_select(c, ck, idx >= (real)k);
   }
   return c;
 }
 
+GLINT_FN real3 kemppinen_facet_color(KemppinenParams p, KemppinenFacet g) {
+  return kemppinen_facet_color_of(&p, g);
+}
+
+/* What one light's half-vector gives every level: x_a = T(h) and the lobe's
+ * inverse standard deviations and norm in U (Eq. 4), two divisions per light
+ * instead of per level. */
+typedef struct {
+  real x, y;
+  real inv_sx, inv_sy;
+  real norm; /* 1 / (2 pi sigma_x sigma_y) */
+} KemppinenLobe;
+
+GLINT_FN KemppinenLobe kemppinen_lobe(KemppinenAngular a) {
+  KemppinenLobe l;
+  l.x = a.x;
+  l.y = a.y;
+  l.inv_sx = GLINT_R(1.0) / a.sx;
+  l.inv_sy = GLINT_R(1.0) / a.sy;
+  l.norm = l.inv_sx * l.inv_sy * GLINT_R(0.15915494309189533577);
+  return l;
+}
+
 /* Level l's part of S with MIP weight w: roulette-weighted explicit facets
- * (Algorithm 1 lines 13-18) plus w C (line 20). */
-GLINT_FN real3 kemppinen_level(KemppinenParams p, KemppinenFootprint fp, KemppinenAngular a,
-                               real level, real w) {
-  KemppinenBlocks b = kemppinen_blocks(p, fp, a, level);
+ * (Algorithm 1 lines 13-18) plus w C (line 20). The loops have uniform trip
+ * counts (4 spatial x n x n angular cells); a facet is skipped only when the
+ * roulette drops it (or it lies past the grid) in every lane. */
+GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
+                                  const GLINT_PRIVATE KemppinenLevelQuery *q, KemppinenLobe a,
+                                  real w) {
+  real res_a = q->s.res_a, inv_res_a = q->s.inv_res_a;
+  int n = p->n_side;
+  real nr = (real)n;
+  real ta_x = a.x * res_a, ta_y = a.y * res_a;
+  real ba_x = kemppinen_angular_first(ta_x, nr, res_a);
+  real ba_y = kemppinen_angular_first(ta_y, nr, res_a);
+  real ea_x = fmin(ba_x + nr, res_a), ea_y = fmin(ba_y + nr, res_a);
+  /* 1 / sigma_a and the angular norm in cells: exact rescalings by 2^-l. */
+  real inv_sax = a.inv_sx * inv_res_a, inv_say = a.inv_sy * inv_res_a;
+  real norm = q->s.norm_s * (a.norm * (inv_res_a * inv_res_a));
   real3 sum = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-  int n = p.n_side;
   for (int j = 0; j < 4; ++j) {
-    real cx = b.bs_x + (real)(j & 1);
-    real cy = b.bs_y + (real)(j >> 1);
-    kemp_uint key = kemppinen_spatial_key(fp.seed_key, level, cx, cy);
-    for (int m = 0; m < n * n; ++m) {
-      real ix = b.ba_x + (real)(m % n);
-      real iy = b.ba_y + (real)(m / n);
-      /* Cells past the grid's end (res_a < n at the coarsest levels) drop. */
-      glint_mask valid = (ix < b.ea_x) & (iy < b.ea_y);
-      KemppinenFacet g = kemppinen_facet(key, ix, iy);
-      real keep = kemppinen_roulette(g.r, w);
-      if (glint_any(valid & (keep > GLINT_R(0.0)))) {
-        real wt =
-            glint_select(GLINT_R(0.0), keep * kemppinen_facet_lobe(b, cx, cy, ix, iy, g), valid);
+    real dxc = q->s.ts_x - (q->s.bs_x + (real)(j & 1));
+    real dyc = q->s.ts_y - (q->s.bs_y + (real)(j >> 1));
+    kemp_uint key = q->key[j];
+    for (int my = 0; my < n; ++my) {
+      real iy = ba_y + (real)my;
+      for (int mx = 0; mx < n; ++mx) {
+        real ix = ba_x + (real)mx;
+        /* Cells past the grid's end (res_a < n at the coarsest levels) drop. */
+        glint_mask valid = (ix < ea_x) & (iy < ea_y);
+        KemppinenFacet g = kemppinen_facet(key, ix, iy);
+        real keep = kemppinen_roulette(g.r, w);
+        /* No branch on the roulette: with 16 lanes some lane almost always
+         * keeps the facet, and the branch cost 10% (measured at k = 1, 4). */
+        real lobe = kemppinen_facet_lobe_at(inv_res_a, ta_x, ta_y, inv_sax, inv_say, dxc, dyc,
+                                            q->s.qxx, q->s.qxy, q->s.qyy, norm, ix, iy, g);
+        real wt = glint_select(GLINT_R(0.0), keep * lobe, valid & (keep > GLINT_R(0.0)));
         /* K25 3.3.6: the facet's colour from its cell's hash. */
-        sum = r3_add(sum, r3_scale(kemppinen_facet_color(p, g), wt));
+        sum = r3_add(sum, r3_scale(kemppinen_facet_color_of(p, g), wt));
       }
     }
   }
   /* The compensation in the mean colour (each colour has probability 1/n). */
-  return r3_add(sum, r3_scale(p.mean_color, w * kemppinen_compensation(fp, a, b)));
+  real c = kemppinen_compensation_at(ta_x, ta_y, ba_x, ba_y, ea_x, ea_y, res_a, inv_sax, inv_say,
+                                     q->outside);
+  return r3_add(sum, r3_scale(p->mean_color, w * c));
 }
 
-/* S(x, h) = D_star / D (RGB: the facets' colours) for the query's footprint
- * and half-vector h (unit). */
-GLINT_FN real3 kemppinen_glint_factor(KemppinenParams p, KemppinenFootprint fp, int ndf, real3 h,
-                                      real ax, real ay, real D) {
-  KemppinenAngular a = kemppinen_angular(p, kemppinen_to_disk(ndf, h, ax, ay, D));
-  /* Algorithm 1 lines 7-8: l in {floor, ceil} of lambda, w = 1 - |lambda - l|
-   * (lambda <= GLINT_KEMPPINEN_MAX_LEVEL, so w1 = 0 at the last level). */
+/* The same for one level of a footprint and angular query (the tests' entry). */
+GLINT_FN real3 kemppinen_level(KemppinenParams p, KemppinenFootprint fp, KemppinenAngular a,
+                               real level, real w) {
+  KemppinenLevelQuery q = kemppinen_level_query(p, fp, level);
+  return kemppinen_level_at(&p, &q, kemppinen_lobe(a), w);
+}
+
+/* Keeps a loop rolled on the device: the two MIP levels share one copy of the
+ * level code (half the kernel's 25 KB of instructions, which did not fit the
+ * CPU's micro-op cache). */
+#ifdef __OPENCL_VERSION__
+#define GLINT_KEMPPINEN_NOUNROLL _Pragma("nounroll")
+#else
+#define GLINT_KEMPPINEN_NOUNROLL
+#endif
+
+/* The two MIP levels of a query (Algorithm 1 lines 7-8: l in {floor, ceil}
+ * of lambda, w = 1 - |lambda - l|; lambda <= GLINT_KEMPPINEN_MAX_LEVEL, so
+ * w1 = 0 at the last level), prepared once for all of its lights. `n`: 2 if
+ * some lane has w1 > 0 (uniform per block), else 1. */
+typedef struct {
+  KemppinenLevelQuery l[2];
+  real w[2];
+  int n;
+} KemppinenQueryLevels;
+
+GLINT_FN KemppinenQueryLevels kemppinen_query_levels(KemppinenParams p, KemppinenFootprint fp) {
+  KemppinenQueryLevels L;
   real lf = floor(fp.lambda);
   real w1 = fp.lambda - lf;
-  real3 s = kemppinen_level(p, fp, a, lf, GLINT_R(1.0) - w1);
-  if (glint_any(w1 > GLINT_R(0.0)))
-    s = r3_add(s, kemppinen_level(p, fp, a,
-                                  fmin(lf + GLINT_R(1.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)), w1));
+  L.w[0] = GLINT_R(1.0) - w1;
+  L.w[1] = w1;
+  L.n = glint_any(w1 > GLINT_R(0.0)) ? 2 : 1;
+  GLINT_KEMPPINEN_NOUNROLL
+  for (int lv = 0; lv < L.n; ++lv)
+    L.l[lv] = kemppinen_level_query(p, fp, fmin(lf + (real)lv, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)));
+  return L;
+}
+
+/* S(x, h) = D_star / D (RGB: the facets' colours) for the query's levels and
+ * half-vector h (unit). */
+GLINT_FN real3 kemppinen_glint_factor_at(const GLINT_PRIVATE KemppinenParams *p,
+                                         const GLINT_PRIVATE KemppinenQueryLevels *L, int ndf,
+                                         real3 h, real ax, real ay, real D) {
+  KemppinenLobe a = kemppinen_lobe(kemppinen_angular(*p, kemppinen_to_disk(ndf, h, ax, ay, D)));
+  real3 s = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  GLINT_KEMPPINEN_NOUNROLL
+  for (int lv = 0; lv < L->n; ++lv) s = r3_add(s, kemppinen_level_at(p, &L->l[lv], a, L->w[lv]));
   return s;
+}
+
+/* The same from the footprint (one half-vector; the tests' entry). */
+GLINT_FN real3 kemppinen_glint_factor(KemppinenParams p, KemppinenFootprint fp, int ndf, real3 h,
+                                      real ax, real ay, real D) {
+  KemppinenQueryLevels L = kemppinen_query_levels(p, fp);
+  return kemppinen_glint_factor_at(&p, &L, ndf, h, ax, ay, D);
 }
 
 #endif /* GLINT_KEMPPINEN_NDF_H */

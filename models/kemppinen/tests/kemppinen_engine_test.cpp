@@ -218,7 +218,67 @@ TEST_F(KemppinenEngineTest, BitIdenticalUnderChunkingAndFollowsTheSeed) {
   EXPECT_GT(differ, lit / 2) << lit << " values lit under either seed";
 }
 
-// The extremes on the device (8-lane fp32 and fp64 kernels, and the polygon pass): uv = +-1e7,
+// The 16-lane pass (models/kemppinen/kemppinen.cl) against the host path without colours at
+// k = 1 and 16 (the extremes of the facet loop's trip count), fp32 and fp64. Both sides run
+// the same operations in the same order (no contraction to FMA on the device, compat.h), so
+// they differ only where PoCL's vector exp / log2 / exp2 differ from glibc's by their ulps:
+//  - fp64: those ulps are ~1e-16 relative, far below the one rounding to float of the output,
+//    so a value agrees within 2 float ulps (2.4e-7 relative) unless a floor() of a cell index
+//    or of the level lands on the other integer (the inputs differ by ~1e-16 from an
+//    integer: rare), hence 99.9% of values;
+//  - fp32: a facet's Gaussian exp(-e), e <= ~90 where it is not negligible, inherits e's
+//    relative error (a few ulps over ~10 operations, ~6e-7) times e: <= 6e-5 relative, plus
+//    SLEEF's and glibc's 1-ulp exps; cell-index floors flip more often (values near integers
+//    within 1e-7 relative), hence 1e-4 relative for 99% of values.
+TEST_F(KemppinenEngineTest, LanePassMatchesHostPathAtEveryTripCount) {
+  for (bool fp64 : {false, true})
+    for (int k : {1, 16}) {
+      const bool probe = fp64;  // two kernel builds: fp32 lights, fp64 probes
+      EvaluateRequest settings = MakeSettings(v1::GGX, !probe, false, fp64, k);
+      settings.mutable_material()->mutable_kemppinen()->clear_colors();
+      v1::QueryBatch q = test::RandomQueries(2001, probe, false, 77 + k);  // not a multiple of 16
+      ASSERT_TRUE(ValidateSettings(settings, {}).ok());
+      ASSERT_TRUE(ValidateQueriesForModel(q, settings).ok());
+      EvalPlan plan = MakeEvalPlan(settings, q);
+      auto dev = Device(plan, q);
+      auto host = Host(plan, q);
+      const double tol = fp64 ? 2.4e-7 : 1e-4;
+      int agree = 0, lit = 0;
+      for (size_t i = 0; i < dev.size(); ++i) {
+        ASSERT_TRUE(std::isfinite(dev[i]) && dev[i] >= 0.0f) << i;
+        agree += std::fabs(dev[i] - host[i]) <= tol * std::fabs(host[i]) + 1e-30;
+        lit += host[i] > 0.0f;
+      }
+      const std::string what = plan.spec.Describe() + " k=" + std::to_string(k);
+      EXPECT_GE(agree, int(dev.size()) * (fp64 ? 999 : 990) / 1000) << what;
+      EXPECT_GT(lit, int(dev.size()) / 20) << what;
+    }
+}
+
+// A batch whose size is not a multiple of the 16 lanes gives, query by query, the same bits as
+// the same queries inside a batch of lane multiples: the last block's padding lanes (copies of
+// the last query) never leak into real ones. Sizes 1, 15, 17 and 33, and a slice starting at
+// an odd offset, against a 64-query batch (fp32 lights with colours, fp64 probes).
+TEST_F(KemppinenEngineTest, OddQueryCountsMatchALaneMultipleBatch) {
+  for (bool fp64 : {false, true}) {
+    EvaluateRequest settings = MakeSettings(v1::BECKMANN, !fp64, false, fp64, 4);
+    v1::QueryBatch q = test::RandomQueries(64, fp64, false, 5);
+    auto whole = Device(MakeEvalPlan(settings, q), q);
+    int lit = 0;
+    for (float v : whole) lit += v > 0.0f;
+    EXPECT_GT(lit, 8);
+    const uint32_t ranges[][2] = {{0, 1}, {0, 15}, {0, 17}, {0, 33}, {5, 32}, {47, 64}};
+    for (auto &r : ranges) {
+      v1::QueryBatch part = client::SliceQueries(q, r[0], r[1]);
+      auto out = Device(MakeEvalPlan(settings, part), part);
+      ASSERT_EQ(out.size(), size_t(3 * (r[1] - r[0])));
+      EXPECT_EQ(0, std::memcmp(out.data(), whole.data() + 3 * r[0], out.size() * sizeof(float)))
+          << "queries [" << r[0] << ", " << r[1] << ") fp64 " << fp64;
+    }
+  }
+}
+
+// The extremes on the device (16-lane fp32 and fp64 kernels, and the polygon pass): uv = +-1e7,
 // zero / rank-1 / near-FLT_MAX footprints, grazing and below-horizon wo, at densities 1e-3 and
 // 1e30 and microroughness 1e-5: finite and non-negative, as on the host (kemppinen_test.cpp).
 TEST_F(KemppinenEngineTest, ExtremesAreFiniteAndNonNegativeOnTheDevice) {

@@ -138,36 +138,49 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
   real t_aniso = aniso - aniso0;
 
   glint_key seed_key = rng_hash2(seed_lo, seed_hi);
+  /* The rotations depend on the anisotropy level and the bin, not on the level: their
+   * cosines, sines and rotated uv once for the 4 (ia, ir) pairs, j = 2 ia + ir. */
+  real aniso_level[2] = {aniso0 + GLINT_R(0.0), aniso0 + GLINT_R(1.0)};
+  real w_a[2], ratio[2], rot_u[4], rot_v[4], w_r[4];
+  glint_key bin_key[4];
+  for (int ia = 0; ia < 2; ++ia) {
+    w_a[ia] = ia ? t_aniso : GLINT_R(1.0) - t_aniso;
+    ratio[ia] = exp2(aniso_level[ia]);
+    /* pi / (4 r) bins: a cell r sides long, misaligned by half a bin,
+     * moves its far end by ~pi/8 of its short side. */
+    real bins = GLINT_R(4.0) * ratio[ia];
+    real pos = theta * bins / GLINT_PI;
+    real bin0 = floor(pos);
+    real t_rot = pos - bin0;
+    for (int ir = 0; ir < 2; ++ir) {
+      int j = 2 * ia + ir;
+      real bin = bin0 + (ir ? GLINT_R(1.0) : GLINT_R(0.0));
+      w_r[j] = ir ? t_rot : GLINT_R(1.0) - t_rot;
+      real angle = bin * GLINT_PI / bins;
+      real c = cos(angle), s = sin(angle);
+      rot_u[j] = c * u + s * v;
+      rot_v[j] = -s * u + c * v;
+      /* bins wrap at pi: bin 4r is bin 0 */
+      bin_key[j] = binomial_cell_key(glint_select(bin, bin - bins, bin >= bins));
+    }
+  }
   int k = 0;
   for (int il = 0; il < 2; ++il) {
     real level = lod0 + (il ? GLINT_R(1.0) : GLINT_R(0.0));
     real w_l = il ? t_lod : GLINT_R(1.0) - t_lod;
     real side = exp2(level);
+    glint_key level_key = rng_absorb_key(seed_key, binomial_cell_key(level));
     for (int ia = 0; ia < 2; ++ia) {
-      real aniso_level = aniso0 + (ia ? GLINT_R(1.0) : GLINT_R(0.0));
-      real w_a = ia ? t_aniso : GLINT_R(1.0) - t_aniso;
-      real ratio = exp2(aniso_level);
-      /* pi / (4 r) bins: a cell r sides long, misaligned by half a bin,
-       * moves its far end by ~pi/8 of its short side. */
-      real bins = GLINT_R(4.0) * ratio;
-      real pos = theta * bins / GLINT_PI;
-      real bin0 = floor(pos);
-      real t_rot = pos - bin0;
+      glint_key aniso_key = rng_absorb_key(level_key, binomial_cell_key(aniso_level[ia]));
       for (int ir = 0; ir < 2; ++ir) {
-        real bin = bin0 + (ir ? GLINT_R(1.0) : GLINT_R(0.0));
-        real w_r = ir ? t_rot : GLINT_R(1.0) - t_rot;
-        real angle = bin * GLINT_PI / bins;
-        real c = cos(angle), s = sin(angle);
-        real along = (c * u + s * v) / (side * ratio);
-        real across = (-s * u + c * v) / side;
-        glint_key key = rng_absorb_key(seed_key, binomial_cell_key(level));
-        key = rng_absorb_key(key, binomial_cell_key(aniso_level));
-        /* bins wrap at pi: bin 4r is bin 0 */
-        key = rng_absorb_key(key, binomial_cell_key(glint_select(bin, bin - bins, bin >= bins)));
+        int j = 2 * ia + ir;
+        real along = rot_u[j] / (side * ratio[ia]);
+        real across = rot_v[j] / side;
+        glint_key key = rng_absorb_key(aniso_key, bin_key[j]);
         key = rng_absorb_key(key, binomial_cell_key(floor(along)));
         key = rng_absorb_key(key, binomial_cell_key(floor(across)));
         g.cell_key[k] = key;
-        g.share[k] = w_l * w_a * w_r;
+        g.share[k] = w_l * w_a[ia] * w_r[j];
         ++k;
       }
     }
@@ -254,13 +267,13 @@ GLINT_FN glint_mask binomial_exact_beyond(real n, real k, real cap, real pmf, re
  * 2^-24 spacing would otherwise decide. That happens for 1e-5 .. 2e-3 of fp32 searches (most
  * at n = 64, p = 1/2) and in fp64 only on exact ties.
  * Lanes outside `active` do not search (their result is meaningless). */
-GLINT_FN real binomial_exact(real n, real p, real u, glint_mask active) {
+GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mask active) {
   glint_mask flip = p > GLINT_R(0.5);
   real q = glint_select(p, GLINT_R(1.0) - p, flip);
   real v = glint_select(u, GLINT_R(1.0) - u, flip);
   real vs = v * GLINT_BINOMIAL_PMF_SCALE;
   real cap = binomial_exact_cap(n, q);
-  real log_pmf0 = n * log1p(-q);
+  real log_pmf0 = n * log1m_q;
   real pmf_sqrt = exp(GLINT_R(0.5) * log_pmf0) * GLINT_BINOMIAL_PMF_SCALE_SQRT;
   real pmf = pmf_sqrt * pmf_sqrt;
   real cdf = pmf;
@@ -285,6 +298,16 @@ GLINT_FN real binomial_exact(real n, real p, real u, glint_mask active) {
     searching = searching & (k < cap);
   }
   return glint_select(k, n - k, flip);
+}
+
+/* log(1 - q) of the rarer outcome's probability q, the one logarithm of binomial_exact_log:
+ * it depends on p alone, so the draws of one light share it (binomial_prob). */
+GLINT_FN real binomial_log1m_rarer(real p) {
+  return log1p(-glint_select(p, GLINT_R(1.0) - p, p > GLINT_R(0.5)));
+}
+
+GLINT_FN real binomial_exact(real n, real p, real u, glint_mask active) {
+  return binomial_exact_log(n, p, u, binomial_log1m_rarer(p), active);
 }
 
 /* Standard normal quantile for t in (0, 1/2], i.e. z <= 0: Acklam's rational approximation
@@ -371,8 +394,7 @@ GLINT_FN real binomial_normal_of_uniform(real u) {
  * failures n (1 - p) to ~n eps, as fine as fp32's p itself. Measured against the pmf by explicit
  * sums over the draw's exact law (all 2^24 uniforms): total variation 1e-3 .. 3e-3 at variance 9,
  * 1e-4 at 210; variance n p (1 - p) + O(1): +1.3% at variance 9. */
-GLINT_FN real binomial_arcsine(real n, real p, real z) {
-  real theta = asin(sqrt(p));
+GLINT_FN real binomial_arcsine_theta(real n, real p, real theta, real z) {
   real phi = clamp(theta + GLINT_R(0.5) * z / sqrt(n), GLINT_R(0.0), GLINT_R(0.5) * GLINT_PI);
   real s = sin(phi);
   /* 1 - exp(-x) for x = 1/(2n) < 1/128 (n > 64 here): the series to x^3, relative error x^3/24 */
@@ -381,6 +403,27 @@ GLINT_FN real binomial_arcsine(real n, real p, real z) {
                      (GLINT_R(1.0) - GLINT_R(0.5) * x * (GLINT_R(1.0) - x / GLINT_R(3.0)));
   real skew = (GLINT_R(1.0) - GLINT_R(2.0) * p) * (z * z - GLINT_R(1.0)) / GLINT_R(12.0);
   return clamp(floor(n * (s * s - mean_excess) - skew + GLINT_R(0.5)), GLINT_R(0.0), n);
+}
+
+/* theta = asin(sqrt(p)) depends on p alone: the draws of one light share it (binomial_prob). */
+GLINT_FN real binomial_arcsine(real n, real p, real z) {
+  return binomial_arcsine_theta(n, p, asin(sqrt(p)), z);
+}
+
+/* What the draws of one light at probability p (clamped to 1) share: asin(sqrt(p)) and
+ * log(1 - q). Each draw would compute the same values; computed once per light. */
+typedef struct {
+  real p;
+  real theta;   /* asin(sqrt(p)), binomial_arcsine */
+  real log1m_q; /* binomial_log1m_rarer(p), binomial_exact */
+} BinomialProb;
+
+GLINT_FN BinomialProb binomial_prob(real p) {
+  BinomialProb b;
+  b.p = fmin(p, GLINT_R(1.0));
+  b.theta = asin(sqrt(b.p));
+  b.log1m_q = binomial_log1m_rarer(b.p);
+  return b;
 }
 
 /* Binomial(n, p) for integer n >= 1 and p in (0, 1] from one uniform u, monotone
@@ -402,7 +445,9 @@ GLINT_FN real binomial_arcsine(real n, real p, real z) {
  * within a few counts of p1's: elsewhere the draw costs one A.
  * In lanes: the approximation runs when any lane of `active` is between the switches, the
  * search E(p) once for the lanes below p1 and above p2 together. */
-GLINT_FN real binomial_whole(real n, real p, real threshold, real u, glint_mask active) {
+GLINT_FN real binomial_whole_prob(real n, BinomialProb prob, real threshold, real u,
+                                  glint_mask active) {
+  real p = prob.p;
   /* Clearly exact (variance below half the threshold, so p < p1 or p > p2 whatever the
    * rounding of p1): skip computing p1. */
   glint_mask clearly_exact = (n <= GLINT_R(GLINT_BINOMIAL_EXACT_MAX)) |
@@ -416,15 +461,21 @@ GLINT_FN real binomial_whole(real n, real p, real threshold, real u, glint_mask 
   glint_mask approx = active & !clearly_exact & !(p < p1);
   real x = GLINT_R(0.0);
   if (glint_any(approx)) {
-    x = binomial_arcsine(n, fmin(p, p2), binomial_normal_of_uniform(u));
+    /* asin(sqrt(fmin(p, p2))): the light's theta unless p > p2 */
+    real theta = prob.theta;
+    glint_mask above_p2 = approx & (p > p2);
+    if (glint_any(above_p2)) theta = glint_select(theta, asin(sqrt(p2)), above_p2);
+    x = binomial_arcsine_theta(n, fmin(p, p2), theta, binomial_normal_of_uniform(u));
     /* max(x, E(p1)) needs E(p1) only if it can exceed x: E(p1) <= the cap for every u, and
      * <= the Bernstein bound at L = -log(1 - u) for this u (L enlarged by 1e-3 against its
      * rounding; plus one count for a comparison that rounding decides, binomial_exact).
      * Whether it is skipped depends on u and on x, which grows with p: once skipped, it stays
      * skipped. */
-    real level = GLINT_R(1.001) * -log1p(-u) + GLINT_R(0.001);
-    glint_mask near_p1 = approx & (x < binomial_exact_cap(n, p1)) &
-                         (x < binomial_quantile_bound(n, p1, level) + GLINT_R(1.0));
+    glint_mask near_p1 = approx & (x < binomial_exact_cap(n, p1));
+    if (glint_any(near_p1)) {
+      real level = GLINT_R(1.001) * -log1p(-u) + GLINT_R(0.001);
+      near_p1 = near_p1 & (x < binomial_quantile_bound(n, p1, level) + GLINT_R(1.0));
+    }
     if (glint_any(near_p1))
       x = glint_select(x, fmax(x, binomial_exact(n, p1, u, near_p1)), near_p1);
   }
@@ -432,10 +483,14 @@ GLINT_FN real binomial_whole(real n, real p, real threshold, real u, glint_mask 
   glint_mask exact = active & !approx;
   glint_mask search = exact | (approx & (p > p2));
   if (glint_any(search)) {
-    real e = binomial_exact(n, p, u, search);
+    real e = binomial_exact_log(n, p, u, prob.log1m_q, search);
     x = glint_select(x, glint_select(e, fmax(x, e), approx), search);
   }
   return x;
+}
+
+GLINT_FN real binomial_whole(real n, real p, real threshold, real u, glint_mask active) {
+  return binomial_whole_prob(n, binomial_prob(p), threshold, u, active);
 }
 
 /* A draw of "Binomial(n, p)" for real n >= 0: floor(n) whole trials plus one partial trial
@@ -445,21 +500,27 @@ GLINT_FN real binomial_whole(real n, real p, real threshold, real u, glint_mask 
  * regime (binomial_whole); the partial trial its own, succeeding when it is below frac(n) p.
  * Each part is non-decreasing in p for its fixed uniform, so their sum is: for a given cell,
  * light and view the count never falls as p grows. 0 in the lanes outside `active`. */
-GLINT_FN real binomial_draw_lanes(real n, real p, real threshold, glint_key key,
-                                  glint_mask active) {
+GLINT_FN real binomial_draw_prob(real n, real p, BinomialProb prob, real threshold, glint_key key,
+                                 glint_mask active) {
   glint_mask drawn = active & (n > GLINT_R(0.0)) & (p > GLINT_R(0.0));
-  p = fmin(p, GLINT_R(1.0));
+  p = prob.p; /* fmin(p, 1) */
   real whole = floor(n);
   real part = n - whole;
   real k = GLINT_R(0.0);
   glint_mask has_whole = drawn & (whole > GLINT_R(0.0));
   if (glint_any(has_whole))
-    k = glint_select(
-        k, binomial_whole(whole, p, threshold, rng_u01_key(rng_absorb_key(key, 1u)), has_whole),
-        has_whole);
+    k = glint_select(k,
+                     binomial_whole_prob(whole, prob, threshold,
+                                         rng_u01_key(rng_absorb_key(key, 1u)), has_whole),
+                     has_whole);
   glint_mask partial =
       drawn & (part > GLINT_R(0.0)) & (rng_u01_key(rng_absorb_key(key, 4u)) < part * p);
   return glint_select(k, k + GLINT_R(1.0), partial);
+}
+
+GLINT_FN real binomial_draw_lanes(real n, real p, real threshold, glint_key key,
+                                  glint_mask active) {
+  return binomial_draw_prob(n, p, binomial_prob(p), threshold, key, active);
 }
 
 /* sum_g k_g / N_P: the footprint's fraction of facets that reflect, whose
@@ -470,12 +531,14 @@ GLINT_FN real binomial_fraction_lanes(FootprintGrids g, real p, real threshold, 
                                       glint_mask active) {
   glint_mask counted = active & (g.n_facets > GLINT_R(0.0)) & (p > GLINT_R(0.0));
   real count = GLINT_R(0.0);
+  if (!glint_any(counted)) return count;
+  BinomialProb prob = binomial_prob(p);
   for (int k = 0; k < GLINT_BINOMIAL_GRIDS; ++k) {
     glint_mask in_grid = counted & (g.share[k] > GLINT_R(0.0));
     /* += 0 in the other lanes: the sum of the grids that hold facets, as before */
     if (glint_any(in_grid))
-      count += binomial_draw_lanes(g.share[k] * g.n_facets, p, threshold,
-                                   rng_absorb_key(g.cell_key[k], light_key), in_grid);
+      count += binomial_draw_prob(g.share[k] * g.n_facets, p, prob, threshold,
+                                  rng_absorb_key(g.cell_key[k], light_key), in_grid);
   }
   return glint_select(GLINT_R(0.0), count / g.n_facets, counted);
 }

@@ -189,7 +189,10 @@ GLINT_FN real3 r3_select(real3 a, real3 b, glint_mask c) {
  * SIMD code; it pays off only where whole blocks of queries agree (coherent
  * batches), so use it sparingly. On the host it is the plain condition. */
 #if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
-#define glint_any(c) any(c)
+/* An OR reduction of the lanes, tested for the sign bit (true lanes are -1): PoCL's any()
+ * extracts and tests the lanes one by one with a branch each, which cost ~20% of the binomial
+ * lane kernel's exact-search loops (perf, issue 13). */
+#define glint_any(c) (__builtin_reduce_or(c) < 0)
 #else
 #define glint_any(c) (c)
 #endif

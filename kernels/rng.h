@@ -14,18 +14,24 @@
 
 #include "kernels/compat.h"
 
+/* The mixer and the absorb step, written once for scalar keys and for the
+ * lane keys at the end of this file. */
+#define GLINT_RNG_MIX(x) \
+  x ^= x >> 16;          \
+  x *= 0x7feb352du;      \
+  x ^= x >> 15;          \
+  x *= 0x846ca68bu;      \
+  x ^= x >> 16
+#define GLINT_RNG_ABSORB(mix, h, key) (mix((h) ^ ((key) + 0x9e3779b9u)) + 0x632be5abu)
+
 GLINT_FN uint rng_mix(uint x) {
-  x ^= x >> 16;
-  x *= 0x7feb352du;
-  x ^= x >> 15;
-  x *= 0x846ca68bu;
-  x ^= x >> 16;
+  GLINT_RNG_MIX(x);
   return x;
 }
 
 /* Absorbs one more key into the running hash `h`. */
 GLINT_FN uint rng_absorb(uint h, uint key) {
-  return rng_mix(h ^ (key + 0x9e3779b9u)) + 0x632be5abu;
+  return GLINT_RNG_ABSORB(rng_mix, h, key);
 }
 
 GLINT_FN uint rng_hash2(uint a, uint b) {
@@ -56,5 +62,60 @@ GLINT_FN uint rng_float_key(float f) {
   return u;
 #endif
 }
+
+/* Keys of per-lane values, for kernels that evaluate GLINT_LANES queries per
+ * work-item (compat.h): glint_key is uint on the host and in one-query
+ * kernels, the uint vector of GLINT_LANES lanes in lane kernels, and the
+ * *_key functions are rng_mix, rng_absorb, rng_u01 and rng_float_key on it
+ * (the same arithmetic lane by lane, so a lane's stream is the scalar one).
+ * rng_real_key keys a `real` by the bits of its float rounding. */
+#if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
+#if GLINT_LANES == 8
+typedef uint8 glint_key;
+typedef float8 glint_key_floats;
+#define GLINT_KEY_AS_KEY as_uint8
+#define GLINT_KEY_TO_FLOATS convert_float8
+#define GLINT_KEY_TO_DOUBLES convert_double8
+#else
+typedef uint16 glint_key;
+typedef float16 glint_key_floats;
+#define GLINT_KEY_AS_KEY as_uint16
+#define GLINT_KEY_TO_FLOATS convert_float16
+#define GLINT_KEY_TO_DOUBLES convert_double16
+#endif
+#if GLINT_USE_DOUBLE
+#define GLINT_KEY_TO_REAL GLINT_KEY_TO_DOUBLES
+#else
+#define GLINT_KEY_TO_REAL GLINT_KEY_TO_FLOATS
+#endif
+
+GLINT_FN glint_key rng_mix_key(glint_key x) {
+  GLINT_RNG_MIX(x);
+  return x;
+}
+GLINT_FN glint_key rng_absorb_key(glint_key h, glint_key key) {
+  return GLINT_RNG_ABSORB(rng_mix_key, h, key);
+}
+GLINT_FN real rng_u01_key(glint_key h) {
+  return GLINT_KEY_TO_REAL(h >> 8) * GLINT_R(5.9604644775390625e-8);
+}
+GLINT_FN glint_key rng_real_key(real c) {
+  /* round to nearest as (float) does; -0 folded to +0 as in rng_float_key */
+#if GLINT_USE_DOUBLE
+  glint_key_floats f = GLINT_KEY_TO_FLOATS(c);
+#else
+  glint_key_floats f = c;
+#endif
+  return GLINT_KEY_AS_KEY(select(f, (glint_key_floats)(0.0f), f == 0.0f));
+}
+#else
+typedef uint glint_key;
+#define rng_mix_key rng_mix
+#define rng_absorb_key rng_absorb
+#define rng_u01_key rng_u01
+GLINT_FN uint rng_real_key(real c) {
+  return rng_float_key((float)c);
+}
+#endif
 
 #endif /* GLINT_RNG_H */

@@ -38,7 +38,16 @@
  *     The count is a pure function of (seed, grid, cell, light key): the same
  *     however a batch is split.
  *
- * Written for GLINT_LANES == 1 (per-query loops and branches). */
+ * Lane-safe (kernels/compat.h): no branch on per-query values, so the lane
+ * kernel (binomial_lanes.cl) runs GLINT_LANES queries per work-item with the
+ * same code the host runs on scalars. Per-query branches are selects; the
+ * searches of the exact regime loop while any lane still searches (a uniform
+ * bound, per-lane masks freeze the lanes that have stopped), and a regime is
+ * computed when any lane of the work-item needs it (glint_any). Per lane the
+ * arithmetic is the sequential one, so a lane's count is the scalar count.
+ * What diverges: the exact searches (O(count of the rarer outcome) steps, the
+ * work-item pays the largest of its lanes) and, per draw, lanes in different
+ * regimes (the work-item pays the approximation and a search). */
 #ifndef GLINT_BINOMIAL_COUNT_H
 #define GLINT_BINOMIAL_COUNT_H
 
@@ -79,13 +88,13 @@ GLINT_FN BinomialParams binomial_params_unpack(const GLINT_GLOBAL float *packed)
 typedef struct {
   real n_facets; /* N_P = density * |det J| */
   real share[GLINT_BINOMIAL_GRIDS];
-  uint cell_key[GLINT_BINOMIAL_GRIDS];
+  glint_key cell_key[GLINT_BINOMIAL_GRIDS];
 } FootprintGrids;
 
 /* Key of a cell coordinate (a floored real): its float bits. Beyond 2^24
  * cells (uv ~ 1e7 at fine levels) neighbours share keys, which is harmless. */
-GLINT_FN uint binomial_cell_key(real c) {
-  return rng_float_key((float)c);
+GLINT_FN glint_key binomial_cell_key(real c) {
+  return rng_real_key(c);
 }
 
 /* Step 1 and 2 above. `footprint` = (du/dx, dv/dx, du/dy, dv/dy). */
@@ -96,7 +105,8 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
   real x1 = footprint[0], y1 = footprint[1], x2 = footprint[2], y2 = footprint[3];
   real area = fabs(x1 * y2 - x2 * y1);
   g.n_facets = density * area;
-  if (!(g.n_facets > GLINT_R(0.0)) || !isfinite(g.n_facets)) g.n_facets = GLINT_R(0.0);
+  g.n_facets =
+      glint_select(g.n_facets, GLINT_R(0.0), !(g.n_facets > GLINT_R(0.0)) | !isfinite(g.n_facets));
 
   /* Ellipse of the covariance J J^T = [[A, B], [B, C]]: eigenvalues
    * m +- d; the small one as det / large (no cancellation), the major-axis
@@ -106,58 +116,71 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
   real half_diff = GLINT_R(0.5) * (A - C);
   real lambda1 = GLINT_R(0.5) * (A + C) + sqrt(half_diff * half_diff + B * B);
   real major = sqrt(fmax(lambda1, GLINT_R(0.0)));
-  real minor = lambda1 > GLINT_R(0.0) ? area / major : GLINT_R(0.0); /* sqrt(det) / sqrt(lambda1) */
-  real theta = GLINT_R(0.5) * atan2(GLINT_R(2.0) * B, A - C);        /* (-pi/2, pi/2] */
-  if (theta < GLINT_R(0.0)) theta += GLINT_PI;
-  if (!(major > GLINT_R(0.0)) || !isfinite(major)) {
-    /* No usable footprint: one unit cell per uv unit (the count is 0 anyway
-     * unless the Jacobian is degenerate but the density infinite). */
-    major = GLINT_R(1.0);
-    minor = GLINT_R(1.0);
-    theta = GLINT_R(0.0);
-  }
-  const real max_aniso = (real)(1 << GLINT_BINOMIAL_MAX_ANISO_LOG2);
+  /* sqrt(det) / sqrt(lambda1) */
+  real minor = glint_select(GLINT_R(0.0), area / major, lambda1 > GLINT_R(0.0));
+  real theta = GLINT_R(0.5) * atan2(GLINT_R(2.0) * B, A - C); /* (-pi/2, pi/2] */
+  theta = glint_select(theta, theta + GLINT_PI, theta < GLINT_R(0.0));
+  /* No usable footprint: one unit cell per uv unit (the count is 0 anyway
+   * unless the Jacobian is degenerate but the density infinite). */
+  glint_mask unusable = !(major > GLINT_R(0.0)) | !isfinite(major);
+  major = glint_select(major, GLINT_R(1.0), unusable);
+  minor = glint_select(minor, GLINT_R(1.0), unusable);
+  theta = glint_select(theta, GLINT_R(0.0), unusable);
+  const real max_aniso = GLINT_R(1 << GLINT_BINOMIAL_MAX_ANISO_LOG2);
   minor = fmax(minor, major / max_aniso);
 
   real lod = log2(minor);
   real lod0 = floor(lod);
   real t_lod = lod - lod0;
-  real aniso = fmin(log2(major / minor), (real)GLINT_BINOMIAL_MAX_ANISO_LOG2);
+  real aniso = fmin(log2(major / minor), GLINT_R(GLINT_BINOMIAL_MAX_ANISO_LOG2));
   aniso = fmax(aniso, GLINT_R(0.0));
   real aniso0 = floor(aniso);
   real t_aniso = aniso - aniso0;
 
-  uint seed_key = rng_hash2(seed_lo, seed_hi);
+  glint_key seed_key = rng_hash2(seed_lo, seed_hi);
+  /* The rotations depend on the anisotropy level and the bin, not on the level: their
+   * cosines, sines and rotated uv once for the 4 (ia, ir) pairs, j = 2 ia + ir. */
+  real aniso_level[2] = {aniso0 + GLINT_R(0.0), aniso0 + GLINT_R(1.0)};
+  real w_a[2], ratio[2], rot_u[4], rot_v[4], w_r[4];
+  glint_key bin_key[4];
+  for (int ia = 0; ia < 2; ++ia) {
+    w_a[ia] = ia ? t_aniso : GLINT_R(1.0) - t_aniso;
+    ratio[ia] = exp2(aniso_level[ia]);
+    /* pi / (4 r) bins: a cell r sides long, misaligned by half a bin,
+     * moves its far end by ~pi/8 of its short side. */
+    real bins = GLINT_R(4.0) * ratio[ia];
+    real pos = theta * bins / GLINT_PI;
+    real bin0 = floor(pos);
+    real t_rot = pos - bin0;
+    for (int ir = 0; ir < 2; ++ir) {
+      int j = 2 * ia + ir;
+      real bin = bin0 + (ir ? GLINT_R(1.0) : GLINT_R(0.0));
+      w_r[j] = ir ? t_rot : GLINT_R(1.0) - t_rot;
+      real angle = bin * GLINT_PI / bins;
+      real c = cos(angle), s = sin(angle);
+      rot_u[j] = c * u + s * v;
+      rot_v[j] = -s * u + c * v;
+      /* bins wrap at pi: bin 4r is bin 0 */
+      bin_key[j] = binomial_cell_key(glint_select(bin, bin - bins, bin >= bins));
+    }
+  }
   int k = 0;
   for (int il = 0; il < 2; ++il) {
-    real level = lod0 + (real)il;
+    real level = lod0 + (il ? GLINT_R(1.0) : GLINT_R(0.0));
     real w_l = il ? t_lod : GLINT_R(1.0) - t_lod;
     real side = exp2(level);
+    glint_key level_key = rng_absorb_key(seed_key, binomial_cell_key(level));
     for (int ia = 0; ia < 2; ++ia) {
-      real aniso_level = aniso0 + (real)ia;
-      real w_a = ia ? t_aniso : GLINT_R(1.0) - t_aniso;
-      real ratio = exp2(aniso_level);
-      /* pi / (4 r) bins: a cell r sides long, misaligned by half a bin,
-       * moves its far end by ~pi/8 of its short side. */
-      real bins = GLINT_R(4.0) * ratio;
-      real pos = theta * bins / GLINT_PI;
-      real bin0 = floor(pos);
-      real t_rot = pos - bin0;
+      glint_key aniso_key = rng_absorb_key(level_key, binomial_cell_key(aniso_level[ia]));
       for (int ir = 0; ir < 2; ++ir) {
-        real bin = bin0 + (real)ir;
-        real w_r = ir ? t_rot : GLINT_R(1.0) - t_rot;
-        real angle = bin * GLINT_PI / bins;
-        real c = cos(angle), s = sin(angle);
-        real along = (c * u + s * v) / (side * ratio);
-        real across = (-s * u + c * v) / side;
-        uint key = rng_absorb(seed_key, binomial_cell_key(level));
-        key = rng_absorb(key, binomial_cell_key(aniso_level));
-        /* bins wrap at pi: bin 4r is bin 0 */
-        key = rng_absorb(key, binomial_cell_key(bin >= bins ? bin - bins : bin));
-        key = rng_absorb(key, binomial_cell_key(floor(along)));
-        key = rng_absorb(key, binomial_cell_key(floor(across)));
+        int j = 2 * ia + ir;
+        real along = rot_u[j] / (side * ratio[ia]);
+        real across = rot_v[j] / side;
+        glint_key key = rng_absorb_key(aniso_key, bin_key[j]);
+        key = rng_absorb_key(key, binomial_cell_key(floor(along)));
+        key = rng_absorb_key(key, binomial_cell_key(floor(across)));
         g.cell_key[k] = key;
-        g.share[k] = w_l * w_a * w_r;
+        g.share[k] = w_l * w_a[ia] * w_r[j];
         ++k;
       }
     }
@@ -204,18 +227,25 @@ GLINT_FN real binomial_eps(void) {
  * precision: v against cdf / T while F(k) <= 1/2, 1 - v against S / T above, where F(k) is
  * within rounding of 1 (fp32's 2^-24 spacing near 1 is u's own resolution). Direct search:
  * beyond k iff u >= F(k); failures side: iff v > F'(k). O(cap - k); binomial_exact calls it
- * only when the running CDF is within its error bound of v. */
-GLINT_FN int binomial_exact_beyond(real n, real k, real cap, real pmf, real cdf, real ratio, real v,
-                                   int flip) {
+ * only when the running CDF is within its error bound of v, in the lanes of `active`. */
+GLINT_FN glint_mask binomial_exact_beyond(real n, real k, real cap, real pmf, real cdf, real ratio,
+                                          real v, glint_mask flip, glint_mask active) {
   real tail = GLINT_R(0.0);
-  for (real j = k; j < cap; j += GLINT_R(1.0)) {
-    pmf *= (n - j) / (j + GLINT_R(1.0)) * ratio;
-    tail += pmf;
+  real j = k;
+  glint_mask summing = active & (j < cap);
+  while (glint_any(summing)) {
+    pmf = glint_select(pmf, pmf * ((n - j) / (j + GLINT_R(1.0)) * ratio), summing);
+    tail = glint_select(tail, tail + pmf, summing);
+    j += GLINT_R(1.0);
+    summing = summing & (j < cap);
   }
   real total = cdf + tail;
-  if (cdf <= tail) return flip ? v * total > cdf : v * total >= cdf;
+  real vt = v * total;
   real wt = (GLINT_R(1.0) - v) * total;
-  return flip ? wt < tail : wt <= tail;
+  glint_mask low = (flip & (vt > cdf)) | (!flip & (vt >= cdf));
+  glint_mask high = (flip & (wt < tail)) | (!flip & (wt <= tail));
+  glint_mask lower_half = cdf <= tail;
+  return (lower_half & low) | ((!lower_half) & high);
 }
 
 /* The exact quantile F^-1(u; n, p) = min{k : F(k) > u} of Binomial(n, p), integer n, by
@@ -235,14 +265,15 @@ GLINT_FN int binomial_exact_beyond(real n, real k, real cap, real pmf, real cdf,
  * from the running CDF when v is farther from it than twice that bound, and otherwise from the
  * tail (binomial_exact_beyond), whose relative precision holds near F = 1 too, where fp32's
  * 2^-24 spacing would otherwise decide. That happens for 1e-5 .. 2e-3 of fp32 searches (most
- * at n = 64, p = 1/2) and in fp64 only on exact ties. */
-GLINT_FN real binomial_exact(real n, real p, real u) {
-  int flip = p > GLINT_R(0.5);
-  real q = flip ? GLINT_R(1.0) - p : p;
-  real v = flip ? GLINT_R(1.0) - u : u;
+ * at n = 64, p = 1/2) and in fp64 only on exact ties.
+ * Lanes outside `active` do not search (their result is meaningless). */
+GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mask active) {
+  glint_mask flip = p > GLINT_R(0.5);
+  real q = glint_select(p, GLINT_R(1.0) - p, flip);
+  real v = glint_select(u, GLINT_R(1.0) - u, flip);
   real vs = v * GLINT_BINOMIAL_PMF_SCALE;
   real cap = binomial_exact_cap(n, q);
-  real log_pmf0 = n * log1p(-q);
+  real log_pmf0 = n * log1m_q;
   real pmf_sqrt = exp(GLINT_R(0.5) * log_pmf0) * GLINT_BINOMIAL_PMF_SCALE_SQRT;
   real pmf = pmf_sqrt * pmf_sqrt;
   real cdf = pmf;
@@ -250,39 +281,57 @@ GLINT_FN real binomial_exact(real n, real p, real u) {
   real eps = binomial_eps();
   real rel_error = GLINT_R(2.0) * eps * (GLINT_R(8.0) - GLINT_R(5.0) * log_pmf0);
   real k = GLINT_R(0.0);
-  while (k < cap) {
+  glint_mask searching = active & (k < cap);
+  while (glint_any(searching)) {
     real tol = (rel_error + GLINT_R(14.0) * eps * k) * cdf;
-    int beyond = fabs(vs - cdf) > tol ? vs > cdf
-                                      : binomial_exact_beyond(n, k, cap, pmf, cdf, ratio, v, flip);
-    if (!beyond) break;
-    pmf *= (n - k) / (k + GLINT_R(1.0)) * ratio;
-    k += GLINT_R(1.0);
-    cdf += pmf;
+    glint_mask near = !(fabs(vs - cdf) > tol);
+    glint_mask beyond = vs > cdf;
+    if (glint_any(searching & near)) {
+      glint_mask tail_says =
+          binomial_exact_beyond(n, k, cap, pmf, cdf, ratio, v, flip, searching & near);
+      beyond = ((!near) & beyond) | (near & tail_says);
+    }
+    searching = searching & beyond;
+    pmf = glint_select(pmf, pmf * ((n - k) / (k + GLINT_R(1.0)) * ratio), searching);
+    k = glint_select(k, k + GLINT_R(1.0), searching);
+    cdf = glint_select(cdf, cdf + pmf, searching);
+    searching = searching & (k < cap);
   }
-  return flip ? n - k : k;
+  return glint_select(k, n - k, flip);
+}
+
+/* log(1 - q) of the rarer outcome's probability q, the one logarithm of binomial_exact_log:
+ * it depends on p alone, so the draws of one light share it (binomial_prob). */
+GLINT_FN real binomial_log1m_rarer(real p) {
+  return log1p(-glint_select(p, GLINT_R(1.0) - p, p > GLINT_R(0.5)));
+}
+
+GLINT_FN real binomial_exact(real n, real p, real u, glint_mask active) {
+  return binomial_exact_log(n, p, u, binomial_log1m_rarer(p), active);
 }
 
 /* Standard normal quantile for t in (0, 1/2], i.e. z <= 0: Acklam's rational approximation
  * (P. J. Acklam 2003, "An algorithm for computing the inverse normal cumulative distribution
  * function"; relative error < 1.15e-9, far below what the draws can resolve). */
-GLINT_FN real binomial_normal_quantile_lower(real t) {
-  if (t < GLINT_R(0.02425)) {
-    real r = sqrt(GLINT_R(-2.0) * log(t));
-    return (((((GLINT_R(-7.784894002430293e-03) * r + GLINT_R(-3.223964580411365e-01)) * r +
-               GLINT_R(-2.400758277161838e+00)) *
-                  r +
-              GLINT_R(-2.549732539343734e+00)) *
-                 r +
-             GLINT_R(4.374664141464968e+00)) *
+GLINT_FN real binomial_normal_quantile_tail(real t) {
+  real r = sqrt(GLINT_R(-2.0) * log(t));
+  return (((((GLINT_R(-7.784894002430293e-03) * r + GLINT_R(-3.223964580411365e-01)) * r +
+             GLINT_R(-2.400758277161838e+00)) *
                 r +
-            GLINT_R(2.938163982698783e+00)) /
-           ((((GLINT_R(7.784695709041462e-03) * r + GLINT_R(3.224671290700398e-01)) * r +
-              GLINT_R(2.445134137142996e+00)) *
-                 r +
-             GLINT_R(3.754408661907416e+00)) *
-                r +
-            GLINT_R(1.0));
-  }
+            GLINT_R(-2.549732539343734e+00)) *
+               r +
+           GLINT_R(4.374664141464968e+00)) *
+              r +
+          GLINT_R(2.938163982698783e+00)) /
+         ((((GLINT_R(7.784695709041462e-03) * r + GLINT_R(3.224671290700398e-01)) * r +
+            GLINT_R(2.445134137142996e+00)) *
+               r +
+           GLINT_R(3.754408661907416e+00)) *
+              r +
+          GLINT_R(1.0));
+}
+
+GLINT_FN real binomial_normal_quantile_central(real t) {
   real x = t - GLINT_R(0.5);
   real r = x * x;
   return (((((GLINT_R(-3.969683028665376e+01) * r + GLINT_R(2.209460984245205e+02)) * r +
@@ -304,13 +353,24 @@ GLINT_FN real binomial_normal_quantile_lower(real t) {
           GLINT_R(1.0));
 }
 
+/* Lower tail below 0.02425, the central region above (per lane; the tail
+ * only when a lane needs it). */
+GLINT_FN real binomial_normal_quantile_lower(real t) {
+  glint_mask tail = t < GLINT_R(0.02425);
+  real z = binomial_normal_quantile_central(t);
+  if (glint_any(tail)) z = glint_select(z, binomial_normal_quantile_tail(t), tail);
+  return z;
+}
+
 /* The standard normal z of the uniform u = m 2^-24: the quantile of the middle of u's bin,
  * (m + 1/2) 2^-24, formed from the nearer end so that it is exact in fp32 too (|z| <= 5.4), and
  * odd: the bins of m and 2^24 - 1 - m give -z and z. */
 GLINT_FN real binomial_normal_of_uniform(real u) {
   const real half_bin = GLINT_R(2.98023223876953125e-8); /* 2^-25 */
-  if (u >= GLINT_R(0.5)) return -binomial_normal_quantile_lower((GLINT_R(1.0) - u) - half_bin);
-  return binomial_normal_quantile_lower(u + half_bin);
+  glint_mask upper = u >= GLINT_R(0.5);
+  real z = binomial_normal_quantile_lower(
+      glint_select(u + half_bin, (GLINT_R(1.0) - u) - half_bin, upper));
+  return glint_select(z, -z, upper);
 }
 
 /* Binomial(n, p) by a normal approximation written as a quantile of z, so that it is monotone
@@ -334,8 +394,7 @@ GLINT_FN real binomial_normal_of_uniform(real u) {
  * failures n (1 - p) to ~n eps, as fine as fp32's p itself. Measured against the pmf by explicit
  * sums over the draw's exact law (all 2^24 uniforms): total variation 1e-3 .. 3e-3 at variance 9,
  * 1e-4 at 210; variance n p (1 - p) + O(1): +1.3% at variance 9. */
-GLINT_FN real binomial_arcsine(real n, real p, real z) {
-  real theta = asin(sqrt(p));
+GLINT_FN real binomial_arcsine_theta(real n, real p, real theta, real z) {
   real phi = clamp(theta + GLINT_R(0.5) * z / sqrt(n), GLINT_R(0.0), GLINT_R(0.5) * GLINT_PI);
   real s = sin(phi);
   /* 1 - exp(-x) for x = 1/(2n) < 1/128 (n > 64 here): the series to x^3, relative error x^3/24 */
@@ -344,6 +403,27 @@ GLINT_FN real binomial_arcsine(real n, real p, real z) {
                      (GLINT_R(1.0) - GLINT_R(0.5) * x * (GLINT_R(1.0) - x / GLINT_R(3.0)));
   real skew = (GLINT_R(1.0) - GLINT_R(2.0) * p) * (z * z - GLINT_R(1.0)) / GLINT_R(12.0);
   return clamp(floor(n * (s * s - mean_excess) - skew + GLINT_R(0.5)), GLINT_R(0.0), n);
+}
+
+/* theta = asin(sqrt(p)) depends on p alone: the draws of one light share it (binomial_prob). */
+GLINT_FN real binomial_arcsine(real n, real p, real z) {
+  return binomial_arcsine_theta(n, p, asin(sqrt(p)), z);
+}
+
+/* What the draws of one light at probability p (clamped to 1) share: asin(sqrt(p)) and
+ * log(1 - q). Each draw would compute the same values; computed once per light. */
+typedef struct {
+  real p;
+  real theta;   /* asin(sqrt(p)), binomial_arcsine */
+  real log1m_q; /* binomial_log1m_rarer(p), binomial_exact */
+} BinomialProb;
+
+GLINT_FN BinomialProb binomial_prob(real p) {
+  BinomialProb b;
+  b.p = fmin(p, GLINT_R(1.0));
+  b.theta = asin(sqrt(b.p));
+  b.log1m_q = binomial_log1m_rarer(b.p);
+  return b;
 }
 
 /* Binomial(n, p) for integer n >= 1 and p in (0, 1] from one uniform u, monotone
@@ -362,28 +442,55 @@ GLINT_FN real binomial_arcsine(real n, real p, real z) {
  * threshold 1, where counts near p1 are ~1 and no approximation fits them, +2.7% at p1,
  * +0.6% at 2 p1, 2e-4 at 5 p1. Above p2, <= 3e-5. Elsewhere the mean is n p.
  * E(p1) is only computed when A(p) is below a bound on it (binomial_quantile_bound), i.e.
- * within a few counts of p1's: elsewhere the draw costs one A. */
-GLINT_FN real binomial_whole(real n, real p, real threshold, real u) {
+ * within a few counts of p1's: elsewhere the draw costs one A.
+ * In lanes: the approximation runs when any lane of `active` is between the switches, the
+ * search E(p) once for the lanes below p1 and above p2 together. */
+GLINT_FN real binomial_whole_prob(real n, BinomialProb prob, real threshold, real u,
+                                  glint_mask active) {
+  real p = prob.p;
   /* Clearly exact (variance below half the threshold, so p < p1 or p > p2 whatever the
    * rounding of p1): skip computing p1. */
-  if (n <= (real)GLINT_BINOMIAL_EXACT_MAX || GLINT_R(4.0) * threshold > n ||
-      n * p * (GLINT_R(1.0) - p) < GLINT_R(0.5) * threshold)
-    return binomial_exact(n, p, u);
-  /* p1 = (1 - sqrt(1 - 4 threshold / n)) / 2 without cancellation. */
+  glint_mask clearly_exact = (n <= GLINT_R(GLINT_BINOMIAL_EXACT_MAX)) |
+                             (GLINT_R(4.0) * threshold > n) |
+                             (n * p * (GLINT_R(1.0) - p) < GLINT_R(0.5) * threshold);
+  /* p1 = (1 - sqrt(1 - 4 threshold / n)) / 2 without cancellation (NaN where clearly exact,
+   * unused there). */
   real p1 = GLINT_R(2.0) * threshold /
             (n * (GLINT_R(1.0) + sqrt(GLINT_R(1.0) - GLINT_R(4.0) * threshold / n)));
   real p2 = GLINT_R(1.0) - p1;
-  if (p < p1) return binomial_exact(n, p, u);
-  real x = binomial_arcsine(n, fmin(p, p2), binomial_normal_of_uniform(u));
-  /* max(x, E(p1)) needs E(p1) only if it can exceed x: E(p1) <= the cap for every u, and <=
-   * the Bernstein bound at L = -log(1 - u) for this u (L enlarged by 1e-3 against its
-   * rounding; plus one count for a comparison that rounding decides, binomial_exact). Whether
-   * it is skipped depends on u and on x, which grows with p: once skipped, it stays skipped. */
-  real level = GLINT_R(1.001) * -log1p(-u) + GLINT_R(0.001);
-  if (x < binomial_exact_cap(n, p1) && x < binomial_quantile_bound(n, p1, level) + GLINT_R(1.0))
-    x = fmax(x, binomial_exact(n, p1, u));
-  if (p > p2) x = fmax(x, binomial_exact(n, p, u));
+  glint_mask approx = active & !clearly_exact & !(p < p1);
+  real x = GLINT_R(0.0);
+  if (glint_any(approx)) {
+    /* asin(sqrt(fmin(p, p2))): the light's theta unless p > p2 */
+    real theta = prob.theta;
+    glint_mask above_p2 = approx & (p > p2);
+    if (glint_any(above_p2)) theta = glint_select(theta, asin(sqrt(p2)), above_p2);
+    x = binomial_arcsine_theta(n, fmin(p, p2), theta, binomial_normal_of_uniform(u));
+    /* max(x, E(p1)) needs E(p1) only if it can exceed x: E(p1) <= the cap for every u, and
+     * <= the Bernstein bound at L = -log(1 - u) for this u (L enlarged by 1e-3 against its
+     * rounding; plus one count for a comparison that rounding decides, binomial_exact).
+     * Whether it is skipped depends on u and on x, which grows with p: once skipped, it stays
+     * skipped. */
+    glint_mask near_p1 = approx & (x < binomial_exact_cap(n, p1));
+    if (glint_any(near_p1)) {
+      real level = GLINT_R(1.001) * -log1p(-u) + GLINT_R(0.001);
+      near_p1 = near_p1 & (x < binomial_quantile_bound(n, p1, level) + GLINT_R(1.0));
+    }
+    if (glint_any(near_p1))
+      x = glint_select(x, fmax(x, binomial_exact(n, p1, u, near_p1)), near_p1);
+  }
+  /* E(p): the whole answer below p1 (or clearly exact), the last maximum above p2. */
+  glint_mask exact = active & !approx;
+  glint_mask search = exact | (approx & (p > p2));
+  if (glint_any(search)) {
+    real e = binomial_exact_log(n, p, u, prob.log1m_q, search);
+    x = glint_select(x, glint_select(e, fmax(x, e), approx), search);
+  }
   return x;
+}
+
+GLINT_FN real binomial_whole(real n, real p, real threshold, real u, glint_mask active) {
+  return binomial_whole_prob(n, binomial_prob(p), threshold, u, active);
 }
 
 /* A draw of "Binomial(n, p)" for real n >= 0: floor(n) whole trials plus one partial trial
@@ -392,31 +499,58 @@ GLINT_FN real binomial_whole(real n, real p, real threshold, real u) {
  * keeps the estimator unbiased). The whole trials use one uniform of `key`'s stream in every
  * regime (binomial_whole); the partial trial its own, succeeding when it is below frac(n) p.
  * Each part is non-decreasing in p for its fixed uniform, so their sum is: for a given cell,
- * light and view the count never falls as p grows. */
-GLINT_FN real binomial_draw(real n, real p, real threshold, uint key) {
-  if (!(n > GLINT_R(0.0)) || !(p > GLINT_R(0.0))) return GLINT_R(0.0);
-  p = fmin(p, GLINT_R(1.0));
+ * light and view the count never falls as p grows. 0 in the lanes outside `active`. */
+GLINT_FN real binomial_draw_prob(real n, real p, BinomialProb prob, real threshold, glint_key key,
+                                 glint_mask active) {
+  glint_mask drawn = active & (n > GLINT_R(0.0)) & (p > GLINT_R(0.0));
+  p = prob.p; /* fmin(p, 1) */
   real whole = floor(n);
   real part = n - whole;
   real k = GLINT_R(0.0);
-  if (whole > GLINT_R(0.0)) k = binomial_whole(whole, p, threshold, rng_u01(rng_absorb(key, 1u)));
-  if (part > GLINT_R(0.0) && rng_u01(rng_absorb(key, 4u)) < part * p) k += GLINT_R(1.0);
-  return k;
+  glint_mask has_whole = drawn & (whole > GLINT_R(0.0));
+  if (glint_any(has_whole))
+    k = glint_select(k,
+                     binomial_whole_prob(whole, prob, threshold,
+                                         rng_u01_key(rng_absorb_key(key, 1u)), has_whole),
+                     has_whole);
+  glint_mask partial =
+      drawn & (part > GLINT_R(0.0)) & (rng_u01_key(rng_absorb_key(key, 4u)) < part * p);
+  return glint_select(k, k + GLINT_R(1.0), partial);
+}
+
+GLINT_FN real binomial_draw_lanes(real n, real p, real threshold, glint_key key,
+                                  glint_mask active) {
+  return binomial_draw_prob(n, p, binomial_prob(p), threshold, key, active);
 }
 
 /* sum_g k_g / N_P: the footprint's fraction of facets that reflect, whose
  * mean is p (the factor b(N_P, p) / N_P of KK24 Eq. 11 and 16). `light_key`
  * identifies the light and the angular cell. 0 when the footprint holds no
- * facets. */
-GLINT_FN real binomial_fraction(FootprintGrids g, real p, real threshold, uint light_key) {
-  if (!(g.n_facets > GLINT_R(0.0)) || !(p > GLINT_R(0.0))) return GLINT_R(0.0);
+ * facets, and in the lanes outside `active`. */
+GLINT_FN real binomial_fraction_lanes(FootprintGrids g, real p, real threshold, glint_key light_key,
+                                      glint_mask active) {
+  glint_mask counted = active & (g.n_facets > GLINT_R(0.0)) & (p > GLINT_R(0.0));
   real count = GLINT_R(0.0);
+  if (!glint_any(counted)) return count;
+  BinomialProb prob = binomial_prob(p);
   for (int k = 0; k < GLINT_BINOMIAL_GRIDS; ++k) {
-    if (!(g.share[k] > GLINT_R(0.0))) continue;
-    count +=
-        binomial_draw(g.share[k] * g.n_facets, p, threshold, rng_absorb(g.cell_key[k], light_key));
+    glint_mask in_grid = counted & (g.share[k] > GLINT_R(0.0));
+    /* += 0 in the other lanes: the sum of the grids that hold facets, as before */
+    if (glint_any(in_grid))
+      count += binomial_draw_prob(g.share[k] * g.n_facets, p, prob, threshold,
+                                  rng_absorb_key(g.cell_key[k], light_key), in_grid);
   }
-  return count / g.n_facets;
+  return glint_select(GLINT_R(0.0), count / g.n_facets, counted);
 }
+
+#if !defined(__OPENCL_VERSION__) || GLINT_LANES == 1
+/* The one-query forms (host, tests). */
+GLINT_FN real binomial_draw(real n, real p, real threshold, uint key) {
+  return binomial_draw_lanes(n, p, threshold, key, 1);
+}
+GLINT_FN real binomial_fraction(FootprintGrids g, real p, real threshold, uint light_key) {
+  return binomial_fraction_lanes(g, p, threshold, light_key, 1);
+}
+#endif
 
 #endif /* GLINT_BINOMIAL_COUNT_H */

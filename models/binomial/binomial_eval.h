@@ -26,17 +26,26 @@
  * at alpha = sqrt(alpha_x alpha_y) (isotropic tables); D(h) is anisotropic.
  * The random stream of a light is keyed by (cell, light, the half-vector's
  * slope cell of size slope_cell): facets are independent across lights, and
- * a different half-vector sees a different set of facets. */
+ * a different half-vector sees a different set of facets.
+ *
+ * Lane-safe (kernels/compat.h): binomial_shade runs GLINT_LANES queries per
+ * work-item in the lane kernel (binomial_lanes.cl: directional, point and
+ * polygon lights by LTC) and one query on the host and in the one-query
+ * kernel (binomial.cl: polygon lights by the other area methods, which branch
+ * per query). */
 #ifndef GLINT_BINOMIAL_EVAL_H
 #define GLINT_BINOMIAL_EVAL_H
 
-#include "kernels/area/area_lights.h"
-#include "kernels/area/polygon_lights.h"
+#include "kernels/area/area_ltc.h"
 #include "kernels/kernel_args.h"
 #include "kernels/punctual_lights.h"
 #include "kernels/query.h"
 #include "kernels/smooth_brdf.h"
 #include "models/binomial/binomial_count.h"
+#if !defined(__OPENCL_VERSION__) || GLINT_LANES == 1
+#include "kernels/area/area_lights.h"
+#include "kernels/area/polygon_lights.h"
+#endif
 
 /* Light kinds in the random keys. */
 #define GLINT_KEY_DIRECTIONAL 1u
@@ -44,11 +53,11 @@
 #define GLINT_KEY_POLYGON 3u
 
 /* Random stream of light `index` of `kind` seen through half-vector h. */
-GLINT_FN uint binomial_light_key(uint kind, uint index, real3 h, real slope_cell) {
+GLINT_FN glint_key binomial_light_key(uint kind, uint index, real3 h, real slope_cell) {
   real z = fmax(h.z, GLINT_R(1e-6));
-  uint key = rng_hash2(kind, index);
-  key = rng_absorb(key, binomial_cell_key(floor(h.x / (z * slope_cell))));
-  return rng_absorb(key, binomial_cell_key(floor(h.y / (z * slope_cell))));
+  glint_key key = rng_hash2(kind, index);
+  key = rng_absorb_key(key, binomial_cell_key(floor(h.x / (z * slope_cell))));
+  return rng_absorb_key(key, binomial_cell_key(floor(h.y / (z * slope_cell))));
 }
 
 /* KK24 Eq. 20, or the DB23 heuristic: p for a small cone around wi. */
@@ -62,30 +71,78 @@ GLINT_FN real binomial_p_cone(SmoothMaterial m, BinomialParams b, real3 wi, real
   return clamp(p, GLINT_R(0.0), GLINT_R(1.0));
 }
 
-/* One light's glint radiance from its smooth radiance: L_smooth x fraction / p. */
+/* One light's glint radiance from its smooth radiance: L_smooth x fraction / p; 0 in the
+ * lanes outside `active`. */
 GLINT_FN real3 binomial_light(FootprintGrids g, BinomialParams b, real3 l_smooth, real p,
-                              uint light_key) {
+                              glint_key light_key, glint_mask active) {
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-  if (!(p > GLINT_R(0.0))) return zero;
-  real fraction = binomial_fraction(g, p, b.normal_threshold, light_key);
+  glint_mask lit = active & (p > GLINT_R(0.0));
+  real fraction = binomial_fraction_lanes(g, p, b.normal_threshold, light_key, lit);
   /* No reflecting facet: exactly 0, also when l_smooth overflowed to +Inf (0 x Inf = NaN). */
-  if (!(fraction > GLINT_R(0.0))) return zero;
-  return r3_scale(l_smooth, fraction / p);
+  return r3_select(zero, r3_scale(l_smooth, fraction / p), lit & (fraction > GLINT_R(0.0)));
 }
 
-/* Reflected radiance towards wo (RGB) of the binomial model for query i. */
-GLINT_FN real3 binomial_query(EvalSpec spec, KernelInputs in, uint i) {
-  real3 radiance = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+/* area_safe_normalize (area_lights.h), per lane. */
+GLINT_FN real3 binomial_safe_normalize(real3 v, real3 fallback) {
+  real l = r3_length(v);
+  return r3_select(fallback, r3_div(v, l), l > GLINT_R(1e-30));
+}
+
+/* One polygon light's glints from its smooth radiance ls, its n vertices v (local frame,
+ * relative to the shading point) and the LTC lobe's integral ff over it with the table entries
+ * e6 = D_PR, e7 = D_H (KK24 Eq. 19). */
+GLINT_FN real3 binomial_polygon(FootprintGrids g, BinomialParams b, SmoothMaterial m, real3 wo,
+                                real d_n, const GLINT_PRIVATE real3 *v, int n, real3 ls, real ff,
+                                real e6, real e7, uint l, glint_mask active) {
+  glint_mask lit = active & (ls.x + ls.y + ls.z > GLINT_R(0.0));
+  /* Centre direction: for the angular key and the heuristic's h. */
+  real3 up = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0));
+  real3 c = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  for (int k = 0; k < n; ++k) c = r3_add(c, v[k]);
+  real3 wc = binomial_safe_normalize(c, up);
+  real3 h = binomial_safe_normalize(r3_add(wc, wo), up);
+  real prob = b.p_mode == GLINT_P_MODE_HEURISTIC_R
+                  ? b.r * ndf_D(m.ndf, h, m.alpha_x, m.alpha_y) / d_n
+                  : ff * e6 / e7;
+  prob = clamp(prob, GLINT_R(0.0), GLINT_R(1.0));
+  return binomial_light(g, b, ls, prob, binomial_light_key(GLINT_KEY_POLYGON, l, h, b.slope_cell),
+                        lit);
+}
+
+/* Polygon light l by LTC (area_ltc.h), lane-safe: its smooth radiance, p and glints.
+ * Called with a constant n for quads (unrolled vertex loops, as area_ltc_shade_light). */
+GLINT_FN real3 binomial_polygon_ltc(FootprintGrids g, BinomialParams b, SmoothMaterial m,
+                                    EvalSpec spec, KernelInputs in, ShadingPoint sp, real alpha,
+                                    real d_n, uint l, int n, glint_mask live) {
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  const GLINT_GLOBAL float *rec = in.polygons + GLINT_POLYGON_FLOATS * l;
+  real3 v[GLINT_POLYGON_MAX_VERTICES];
+  area_polygon_load_n(rec, n, spec.has_frame, sp.frame, sp.p, v);
+  glint_mask facing = live & area_polygon_facing(v, n, rec[1] != 0.0f);
+  if (!glint_any(facing)) return zero;
+  real e[GLINT_LTC_ENTRY];
+  real ff = area_ltc_form_factor(in.ltc_table, alpha, sp.wo, v, n, e);
+  real3 ls = r3_mul(r3_scale(area_ltc_albedo(m, e), ff),
+                    make_real3((real)rec[2], (real)rec[3], (real)rec[4]));
+  return binomial_polygon(g, b, m, sp.wo, d_n, v, n, ls, ff, e[6], e[7], l, facing);
+}
+
+/* Reflected radiance towards wo (RGB) of the binomial model for the queries q (one, or a block
+ * of lanes) with their uv (u, v) and footprints. Polygon lights by LTC in lanes; the other
+ * area methods only in one-query builds, keyed by `area_key` (area_query_key). */
+GLINT_FN real3 binomial_shade(EvalSpec spec, KernelInputs in, QueryInputs q, real u, real v,
+                              const GLINT_PRIVATE real *footprint, uint area_key) {
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  real3 radiance = zero;
   SmoothMaterial m = smooth_material_unpack(in.material, spec.ndf, spec.fresnel);
   BinomialParams b = binomial_params_unpack(in.params);
-  ShadingPoint sp = shading_point(spec, query_load(spec, in, i));
+  ShadingPoint sp = shading_point(spec, q);
   real3 wo = sp.wo;
-  if (!(wo.z > GLINT_R(0.0))) return radiance;
-  real footprint[4];
-  for (int k = 0; k < 4; ++k) footprint[k] = (real)in.footprint[4 * i + k];
-  FootprintGrids g = binomial_footprint_grids(b.density, (real)in.uv[2 * i], (real)in.uv[2 * i + 1],
-                                              footprint, in.seed_lo, in.seed_hi);
-  if (!(g.n_facets > GLINT_R(0.0))) return radiance;
+  glint_mask live = wo.z > GLINT_R(0.0);
+  if (!glint_any(live)) return radiance;
+  FootprintGrids g = binomial_footprint_grids(b.density, u, v, footprint, in.seed_lo, in.seed_hi);
+  live = live & (g.n_facets > GLINT_R(0.0));
+  if (!glint_any(live)) return radiance;
 
   real alpha = sqrt(m.alpha_x * m.alpha_y);
   real e[GLINT_LTC_ENTRY];
@@ -98,37 +155,45 @@ GLINT_FN real3 binomial_query(EvalSpec spec, KernelInputs in, uint i) {
   for (uint l = 0; l < n_lights; ++l) {
     PunctualLight light = punctual_light(spec, in, sp, l);
     real3 ls = r3_mul(smooth_reflect_cos(m, light.wi, wo), light.irradiance);
-    if (!(ls.x + ls.y + ls.z > GLINT_R(0.0))) continue;
+    glint_mask lit = live & (ls.x + ls.y + ls.z > GLINT_R(0.0));
+    if (!glint_any(lit)) continue;
     real prob = binomial_p_cone(m, b, light.wi, wo, light.solid_angle, d_h, d_n);
     real3 h = r3_normalize(r3_add(light.wi, wo));
     uint kind =
         light.kind == GLINT_LIGHT_KIND_DIRECTIONAL ? GLINT_KEY_DIRECTIONAL : GLINT_KEY_POINT;
-    radiance = r3_add(
-        radiance,
-        binomial_light(g, b, ls, prob, binomial_light_key(kind, light.index, h, b.slope_cell)));
+    radiance = r3_add(radiance,
+                      binomial_light(g, b, ls, prob,
+                                     binomial_light_key(kind, light.index, h, b.slope_cell), lit));
   }
 
+  for (uint l = 0; l < in.n_polygon; ++l) {
+#if !defined(__OPENCL_VERSION__) || GLINT_LANES == 1
+    if (in.area_method != GLINT_AREA_LTC) {
+      PolygonLight P = polygon_light(spec, in, sp, m, l, area_key);
+      if (P.n == 0) continue; /* faces away: no radiance, P.ltc unset */
+      radiance = r3_add(radiance, binomial_polygon(g, b, m, wo, d_n, P.v, P.n, P.radiance,
+                                                   P.form_factor, P.ltc[6], P.ltc[7], l, live));
+      continue;
+    }
+#endif
+    int n = (int)in.polygons[GLINT_POLYGON_FLOATS * l];
+    radiance = r3_add(radiance,
+                      n == 4 ? binomial_polygon_ltc(g, b, m, spec, in, sp, alpha, d_n, l, 4, live)
+                             : binomial_polygon_ltc(g, b, m, spec, in, sp, alpha, d_n, l, n, live));
+  }
+  return r3_select(zero, radiance, live);
+}
+
+#if !defined(__OPENCL_VERSION__) || GLINT_LANES == 1
+/* Query i (the host pass, the one-query kernel). */
+GLINT_FN real3 binomial_query(EvalSpec spec, KernelInputs in, uint i) {
+  real footprint[4];
+  for (int k = 0; k < 4; ++k) footprint[k] = (real)in.footprint[4 * i + k];
   uint area_key = area_query_key(in.seed_lo, in.seed_hi, in.wo + 3 * i,
                                  spec.has_frame ? in.position + 3 * i : 0);
-  for (uint l = 0; l < in.n_polygon; ++l) {
-    PolygonLight P = polygon_light(spec, in, sp, m, l, area_key);
-    real3 ls = P.radiance;
-    if (!(ls.x + ls.y + ls.z > GLINT_R(0.0))) continue;
-    /* Centre direction: for the angular key and the heuristic's h. */
-    real3 c = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-    for (int k = 0; k < P.n; ++k) c = r3_add(c, P.v[k]);
-    real3 wc = area_safe_normalize(c, make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0)));
-    real3 h =
-        area_safe_normalize(r3_add(wc, wo), make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0)));
-    real prob = b.p_mode == GLINT_P_MODE_HEURISTIC_R
-                    ? b.r * ndf_D(m.ndf, h, m.alpha_x, m.alpha_y) / d_n
-                    : P.form_factor * P.ltc[6] / P.ltc[7];
-    prob = clamp(prob, GLINT_R(0.0), GLINT_R(1.0));
-    radiance = r3_add(
-        radiance,
-        binomial_light(g, b, ls, prob, binomial_light_key(GLINT_KEY_POLYGON, l, h, b.slope_cell)));
-  }
-  return radiance;
+  return binomial_shade(spec, in, query_load(spec, in, i), (real)in.uv[2 * i],
+                        (real)in.uv[2 * i + 1], footprint, area_key);
 }
+#endif
 
 #endif /* GLINT_BINOMIAL_EVAL_H */

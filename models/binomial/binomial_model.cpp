@@ -1,6 +1,7 @@
 // The binomial model's entry in the model table (server/model.h): its
 // parameter block (glint.v1.BinomialParams), what it needs of lights and
-// queries, and one pass (one query per work-item: the counting branches).
+// queries, and its passes: 8 queries per work-item for directional, point and polygon lights
+// by LTC, one per work-item for polygon lights by the other area methods.
 #include <sstream>
 
 #include "models/binomial/binomial_params.h"
@@ -100,6 +101,16 @@ void BinomialExample(Material *m, glint::v1::QueryBatch *one_query) {
   for (float v : {1e-3f, 0.0f, 0.0f, 1e-3f}) one_query->add_footprint(v);
 }
 
+// The lane pass (binomial_lanes.cl) unless polygon lights need an area method other than LTC,
+// which branches per query (binomial.cl). Exactly one of the two runs.
+bool BinomialInLanes(const EvalPlan &plan) {
+  return plan.n_polygon == 0 || plan.area_method == GLINT_AREA_LTC;
+}
+
+bool BinomialOneQueryPerItem(const EvalPlan &plan) {
+  return !BinomialInLanes(plan);
+}
+
 std::vector<KernelSpec> BinomialWarmSpecs() {
   KernelSpec glints;  // the glint preview: a world frame, a sun and a rect light
   glints.model = glint::v1::BINOMIAL;
@@ -123,8 +134,10 @@ const Model kBinomialModel = {
     .id = glint::v1::BINOMIAL,
     .name = "BINOMIAL",
     .params_field = "binomial",
-    .passes = {{"models/binomial/binomial.cl", "glint_binomial", 1, nullptr, BinomialF32,
-                BinomialF64}},
+    .passes = {{"models/binomial/binomial_lanes.cl", "glint_binomial_lanes", 8, BinomialInLanes,
+                BinomialF32, BinomialF64},
+               {"models/binomial/binomial.cl", "glint_binomial", 1, BinomialOneQueryPerItem,
+                BinomialF32, BinomialF64}},
     .validate_params = ValidateBinomialParams,
     .validate_light = ValidateBinomialLight,
     .validate_queries = ValidateBinomialQueries,

@@ -1,0 +1,34 @@
+/* Entry of the binomial glint model (models/binomial/binomial_eval.h) for
+ * directional, point and polygon lights by LTC: each work-item evaluates
+ * GLINT_LANES (8) queries as the lanes of OpenCL vectors, the footprint grids,
+ * the LTC clips and the count draws per lane with selects (binomial_count.h
+ * says what diverges). Polygon lights by the other area methods run one query
+ * per work-item (binomial.cl). Light kinds the request lacks are compiled out
+ * (GLINT_HAS_DIRECTIONAL, GLINT_HAS_POINT). */
+#include "kernels/kernel_args.h"
+#include "kernels/simd_io.h"
+#include "models/binomial/binomial_eval.h"
+
+/* Component k of the `stride` floats per query of array a, for the queries [base, base +
+ * GLINT_LANES), in lanes; lanes past n repeat query n - 1 (as block_load3). */
+GLINT_FN real binomial_lanes_load(const __global float *a, uint stride, uint k, uint base, uint n) {
+  float t[GLINT_LANES];
+  for (uint j = 0; j < GLINT_LANES; ++j) t[j] = a[stride * (size_t)min(base + j, n - 1) + k];
+  return GLINT_FLOATS_TO_REAL(GLINT_VLOADN(0, t));
+}
+
+__kernel void glint_binomial_lanes(GLINT_KERNEL_ARGS) {
+  uint base = (uint)get_global_id(0) * GLINT_LANES;
+  /* Padding work-items; uniform for all lanes of a work-item, not divergent. */
+  if (base >= n) return;
+  EvalSpec spec = kernel_spec();
+  KernelInputs in = GLINT_KERNEL_INPUTS();
+  real fp[4]; /* du/dx, dv/dx, du/dy, dv/dy */
+  for (uint k = 0; k < 4; ++k) fp[k] = binomial_lanes_load(footprint, 4, k, base, n);
+  real u = binomial_lanes_load(uv, 2, 0, base, n);
+  real v = binomial_lanes_load(uv, 2, 1, base, n);
+  real3 L = binomial_shade(spec, in, block_load_queries(spec, in, base), u, v, fp, 0u);
+  /* Only when an earlier pass wrote `out`; the binomial model has one pass per request. */
+  if (accumulate) L = r3_add(block_load3(out, base, n), L);
+  block_store3(out, base, n, L);
+}

@@ -8,7 +8,9 @@
  * On the device one work-item evaluates GLINT_LANES queries (8, set by
  * server/device_engine.cpp): `real` is then an OpenCL vector (float8 or
  * double8), one lane per query, and every line of the shared headers is SIMD
- * code. The host sees plain scalars. Rules that keep one source valid for both:
+ * code. The host sees plain scalars, or with GLINT_HOST_LANES a class of
+ * GLINT_HOST_LANES lanes (kernels/host_lanes.h). Rules that keep one source
+ * valid for both:
  *  - `real3` is a struct of three `real`s; use the r3_* helpers (C++ also has
  *    operators, host-only, for code outside kernels/).
  *  - no branch on per-query values: on the device they are vectors and `if`
@@ -88,12 +90,20 @@ typedef int16 glint_mask;
 #include <cassert>
 #include <cmath>
 
+#if defined(GLINT_HOST_LANES) && GLINT_HOST_LANES > 1
+/* The host path with lanes: `real` holds GLINT_HOST_LANES queries (kernels/host_lanes.h). */
+#define GLINT_HOST_LANES_ACTIVE 1
+#include "kernels/host_lanes.h"
+#else
+#define GLINT_HOST_LANES_ACTIVE 0
 #if GLINT_USE_DOUBLE
 typedef double real;
 #else
 typedef float real;
 #endif
 #define GLINT_FN inline
+typedef int glint_mask; /* result of a comparison of two reals */
+#endif
 #define GLINT_GLOBAL
 #define GLINT_CONSTANT
 #define GLINT_PRIVATE
@@ -121,7 +131,6 @@ using std::sin;
 using std::sqrt;
 
 typedef unsigned int uint;
-typedef int glint_mask; /* result of a comparison of two reals */
 
 GLINT_FN real clamp(real x, real lo, real hi) {
   return fmin(fmax(x, lo), hi);
@@ -175,9 +184,11 @@ GLINT_FN real3 r3_normalize(real3 a) {
 /* OpenCL's select(a, b, c): c ? b : a, per lane. A conditional expression on
  * values that are already computed: a select instruction, never a branch
  * (for OpenCL vectors, `?:` with a vector condition is select()). */
+#if !(defined(GLINT_HOST_LANES_ACTIVE) && GLINT_HOST_LANES_ACTIVE)
 GLINT_FN real glint_select(real a, real b, glint_mask c) {
   return c ? b : a;
 }
+#endif
 GLINT_FN real3 r3_select(real3 a, real3 b, glint_mask c) {
   return make_real3(glint_select(a.x, b.x, c), glint_select(a.y, b.y, c),
                     glint_select(a.z, b.z, c));
@@ -193,6 +204,8 @@ GLINT_FN real3 r3_select(real3 a, real3 b, glint_mask c) {
  * extracts and tests the lanes one by one with a branch each, which cost ~20% of the binomial
  * lane kernel's exact-search loops (perf, issue 13). */
 #define glint_any(c) (__builtin_reduce_or(c) < 0)
+#elif defined(GLINT_HOST_LANES_ACTIVE) && GLINT_HOST_LANES_ACTIVE
+/* kernels/host_lanes.h */
 #else
 #define glint_any(c) (c)
 #endif

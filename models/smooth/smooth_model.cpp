@@ -8,6 +8,7 @@
 
 GLINT_DECLARE_HOST_SAMPLE(SmoothSample)
 GLINT_DECLARE_HOST_PASS(SmoothLights)
+GLINT_DECLARE_HOST_PASS(SmoothLightsLanes)
 GLINT_DECLARE_HOST_PASS(SmoothPolygons)
 
 namespace glint {
@@ -57,8 +58,10 @@ const Model kSmoothModel = {
     .params_field = nullptr,
     // 16 lanes: fp32 conductor probes +26% per CPU-second over 8 on the AVX-512 CPU device, fp64
     // unchanged, output bit-identical (issue 13; bench/mitsuba_compare.py, README "Performance").
+    // The host path runs this pass with lanes too (host_lanes.cpp; bit-identical to the scalar
+    // SmoothLights of host_passes.cpp, which tests/service/host_lanes_test.cpp compares it with).
     .passes = {{"models/smooth/smooth.cl", "glint_smooth", 16, HasProbesOrPunctualLights,
-                SmoothLightsF32, SmoothLightsF64},
+                SmoothLightsLanesF32, SmoothLightsLanesF64},
                {"models/smooth/smooth_area_lanes.cl", "glint_smooth_area_lanes", 8, HasPolygonsLtc,
                 SmoothPolygonsF32, SmoothPolygonsF64},
                {"models/smooth/smooth_area.cl", "glint_smooth_area", 1, HasPolygonsOtherMethod,

@@ -49,7 +49,8 @@ uint8_t *Varint(uint64_t v, uint8_t *p) {
 }  // namespace
 
 grpc::ByteBuffer EncodeChunk(uint64_t chunk_index, const std::string &settings,
-                             const QueryBatch &batch, uint32_t begin, uint32_t end) {
+                             const QueryBatch &batch, uint32_t begin, uint32_t end,
+                             glint::wire::SlicePool *pool) {
   const uint32_t count = end - begin;
   // Sizes inside out: the QueryBatch, the EvaluateRequest around it, the chunk around that.
   // Proto3 leaves out a zero scalar, as the generated serialiser does.
@@ -63,8 +64,9 @@ grpc::ByteBuffer EncodeChunk(uint64_t chunk_index, const std::string &settings,
   const size_t total = (chunk_index ? 1 + VarintSize(chunk_index) : 0) + 1 +
                        VarintSize(request_bytes) + request_bytes;
 
-  grpc_slice slice = grpc_slice_malloc(total);
-  uint8_t *p = GRPC_SLICE_START_PTR(slice);
+  uint8_t *p = nullptr;
+  grpc_slice slice = pool ? pool->Take(total, &p) : grpc_slice_malloc(total);
+  if (!pool) p = GRPC_SLICE_START_PTR(slice);
   if (chunk_index) {
     *p++ = uint8_t(Tag(glint::v1::EvaluateChunk::kChunkIndexFieldNumber, 0));
     p = Varint(chunk_index, p);
@@ -98,8 +100,8 @@ std::unique_ptr<RawChunkStream> OpenRawChunkStream(grpc::Channel *channel,
   const grpc::internal::RpcMethod method(kMethod, grpc::internal::RpcMethod::BIDI_STREAMING,
                                          channel->shared_from_this());
   return std::unique_ptr<RawChunkStream>(
-      grpc::internal::ClientReaderWriterFactory<
-          grpc::ByteBuffer, glint::v1::EvaluateChunkResult>::Create(channel, method, context));
+      grpc::internal::ClientReaderWriterFactory<grpc::ByteBuffer, grpc::ByteBuffer>::Create(
+          channel, method, context));
 }
 
 }  // namespace glint::client

@@ -13,19 +13,24 @@
 #include <string>
 
 #include "glint/v1/glint.grpc.pb.h"
+#include "proto/wire/slice_pool.h"
 
 namespace glint::client {
 
 // `settings` is a serialised EvaluateRequest without queries ("" for a chunk that reuses the
 // first chunk's settings). Requires begin <= end <= batch.count() and every array of `batch`
-// empty or components x count long (GlintClient checks the shapes before streaming).
+// empty or components x count long (GlintClient checks the shapes before streaming). With a
+// `pool` the chunk's memory comes from it and goes back once gRPC has sent it (no fresh pages
+// per chunk, proto/wire/slice_pool.h); without, from malloc.
 grpc::ByteBuffer EncodeChunk(uint64_t chunk_index, const std::string &settings,
-                             const glint::v1::QueryBatch &batch, uint32_t begin, uint32_t end);
+                             const glint::v1::QueryBatch &batch, uint32_t begin, uint32_t end,
+                             glint::wire::SlicePool *pool = nullptr);
 
 // A synchronous EvaluateStream whose writes are pre-encoded chunks (EncodeChunk) and whose
-// reads are parsed results: the generated stub's stream, with grpc::ByteBuffer as the written
-// type (the same method path and wire bytes).
-using RawChunkStream = grpc::ClientReaderWriter<grpc::ByteBuffer, glint::v1::EvaluateChunkResult>;
+// reads are raw results (decoded by glint::wire::DecodeChunkResult straight into the caller's
+// array): the generated stub's stream with grpc::ByteBuffer both ways (the same method path and
+// wire bytes).
+using RawChunkStream = grpc::ClientReaderWriter<grpc::ByteBuffer, grpc::ByteBuffer>;
 std::unique_ptr<RawChunkStream> OpenRawChunkStream(grpc::Channel *channel,
                                                    grpc::ClientContext *context);
 

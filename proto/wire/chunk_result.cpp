@@ -57,8 +57,8 @@ std::string ParseResponse(CodedInputStream *in, Sink *sink, DecodedChunkResult *
       uint32_t bytes = 0;
       if (!in->ReadVarint32(&bytes)) return "result.radiance: truncated length";
       if (bytes % sizeof(float)) return "result.radiance: packed length not a multiple of 4";
-      if (in->BytesUntilLimit() >= 0 && int64_t(bytes) > in->BytesUntilLimit())
-        return "result.radiance: packed length past the end of the message";
+      if (int64_t(bytes) > in->BytesUntilLimit())
+        return "result.radiance: packed length past the end of the result";
       r->radiance_floats += bytes / sizeof(float);
       if (!sink->Take(in, bytes / sizeof(float)))
         return *sink->written + bytes / sizeof(float) > sink->capacity
@@ -74,15 +74,18 @@ std::string ParseResponse(CodedInputStream *in, Sink *sink, DecodedChunkResult *
     } else if (tag == Tag(Response::kStatsFieldNumber, kLength)) {
       uint32_t bytes = 0;
       if (!in->ReadVarint32(&bytes) || bytes > INT32_MAX) return "result.stats: bad length";
+      // A nested limit is clamped to the enclosing one: check the length against it first.
+      if (int64_t(bytes) > in->BytesUntilLimit())
+        return "result.stats: length past the end of the result";
       const auto limit = in->PushLimit(int(bytes));
       // Merged, as protobuf merges a repeated occurrence of a message field.
       if (!r->stats.MergePartialFromCodedStream(in) || !in->ConsumedEntireMessage())
         return "result.stats: does not parse";
       in->PopLimit(limit);
-    } else if (field == Response::kCountFieldNumber || field == Response::kRadianceFieldNumber ||
-               field == Response::kStatsFieldNumber) {
-      return "result: field " + std::to_string(field) + " has the wrong wire type";
+    } else if (field == 0) {
+      return "result: field number 0";
     } else if (!WireFormatLite::SkipField(in, tag)) {
+      // Unknown, or a known field with another wire type: protobuf skips both.
       return "result: unknown field " + std::to_string(field) + " truncated";
     }
   }
@@ -167,10 +170,10 @@ std::string DecodeChunkResult(grpc::ByteBuffer *body, float *out, uint64_t capac
         problem = ParseResponse(&in, &sink, r);
         if (problem.empty() && in.BytesUntilLimit() != 0) problem = "result: truncated";
         in.PopLimit(limit);
-      } else if (field == Result::kChunkIndexFieldNumber ||
-                 field == Result::kFirstQueryFieldNumber || field == Result::kResultFieldNumber) {
-        problem = "field " + std::to_string(field) + " has the wrong wire type";
+      } else if (field == 0) {
+        problem = "field number 0";
       } else if (!WireFormatLite::SkipField(&in, tag)) {
+        // Unknown, or a known field with another wire type: protobuf skips both.
         problem = "unknown field " + std::to_string(field) + " truncated";
       }
     }

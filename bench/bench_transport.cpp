@@ -196,6 +196,11 @@ int Main(int argc, char **argv) {
       const uint32_t b = uint32_t(k) * per, e = std::min(n, b + per);
       return glint::client::EncodeChunk(k, k ? std::string() : settings, request.queries(), b, e);
     });
+    chunk_time("EncodeChunkReferencing (views, no copy)", [&](size_t k) {
+      const uint32_t b = uint32_t(k) * per, e = std::min(n, b + per);
+      return glint::client::EncodeChunkReferencing(k, k ? std::string() : settings,
+                                                   request.queries(), b, e);
+    });
   }
   double sum = 0, sum_cpu = 0;
   for (const Step &s : steps) sum += s.ms, sum_cpu += s.cpu_ms;

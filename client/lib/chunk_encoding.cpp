@@ -49,8 +49,7 @@ uint8_t *Varint(uint64_t v, uint8_t *p) {
 }  // namespace
 
 grpc::ByteBuffer EncodeChunk(uint64_t chunk_index, const std::string &settings,
-                             const QueryBatch &batch, uint32_t begin, uint32_t end,
-                             glint::wire::SlicePool *pool) {
+                             const QueryBatch &batch, uint32_t begin, uint32_t end) {
   const uint32_t count = end - begin;
   // Sizes inside out: the QueryBatch, the EvaluateRequest around it, the chunk around that.
   // Proto3 leaves out a zero scalar, as the generated serialiser does.
@@ -64,9 +63,8 @@ grpc::ByteBuffer EncodeChunk(uint64_t chunk_index, const std::string &settings,
   const size_t total = (chunk_index ? 1 + VarintSize(chunk_index) : 0) + 1 +
                        VarintSize(request_bytes) + request_bytes;
 
-  uint8_t *p = nullptr;
-  grpc_slice slice = pool ? pool->Take(total, &p) : grpc_slice_malloc(total);
-  if (!pool) p = GRPC_SLICE_START_PTR(slice);
+  grpc_slice slice = grpc_slice_malloc(total);
+  uint8_t *p = GRPC_SLICE_START_PTR(slice);
   if (chunk_index) {
     *p++ = uint8_t(Tag(glint::v1::EvaluateChunk::kChunkIndexFieldNumber, 0));
     p = Varint(chunk_index, p);
@@ -92,6 +90,57 @@ grpc::ByteBuffer EncodeChunk(uint64_t chunk_index, const std::string &settings,
   }
   grpc::Slice owned(slice, grpc::Slice::STEAL_REF);
   return grpc::ByteBuffer(&owned, 1);
+}
+
+namespace {
+void NoRelease(void *) {}
+}  // namespace
+
+grpc::ByteBuffer EncodeChunkReferencing(uint64_t chunk_index, const std::string &settings,
+                                        const QueryBatch &batch, uint32_t begin, uint32_t end) {
+  const uint32_t count = end - begin;
+  // Sizes as in EncodeChunk.
+  size_t queries_bytes = count ? 1 + VarintSize(count) : 0;
+  for (const Packed &a : kPacked) {
+    if ((batch.*a.get)().empty() || count == 0) continue;
+    const size_t bytes = size_t(count) * size_t(a.components) * sizeof(float);
+    queries_bytes += VarintSize(Tag(a.field, 2)) + VarintSize(bytes) + bytes;
+  }
+  const size_t request_bytes = settings.size() + 1 + VarintSize(queries_bytes) + queries_bytes;
+  // One slice for everything up to the first array's tag and length, then per array: the rows in
+  // place, followed by the next array's tag and length (or nothing after the last).
+  std::vector<grpc::Slice> slices;
+  std::string head;
+  head.reserve(32 + settings.size());
+  uint8_t buf[32];
+  auto put = [&](uint8_t *e) { head.append(reinterpret_cast<const char *>(buf), size_t(e - buf)); };
+  if (chunk_index) {
+    buf[0] = uint8_t(Tag(glint::v1::EvaluateChunk::kChunkIndexFieldNumber, 0));
+    put(Varint(chunk_index, buf + 1));
+  }
+  buf[0] = uint8_t(Tag(glint::v1::EvaluateChunk::kRequestFieldNumber, 2));
+  put(Varint(request_bytes, buf + 1));
+  head += settings;
+  buf[0] = uint8_t(Tag(glint::v1::EvaluateRequest::kQueriesFieldNumber, 2));
+  put(Varint(queries_bytes, buf + 1));
+  if (count) {
+    buf[0] = uint8_t(Tag(QueryBatch::kCountFieldNumber, 0));
+    put(Varint(count, buf + 1));
+  }
+  for (const Packed &a : kPacked) {
+    const auto &field = (batch.*a.get)();
+    if (field.empty() || count == 0) continue;
+    const size_t bytes = size_t(count) * size_t(a.components) * sizeof(float);
+    put(Varint(bytes, Varint(Tag(a.field, 2), buf)));
+    slices.emplace_back(head);
+    head.clear();
+    // const_cast: gRPC's slice type is mutable, but an outgoing message is only read.
+    void *rows = const_cast<float *>(field.data() + size_t(begin) * size_t(a.components));
+    slices.emplace_back(grpc_slice_new_with_user_data(rows, bytes, &NoRelease, nullptr),
+                        grpc::Slice::STEAL_REF);
+  }
+  if (!head.empty()) slices.emplace_back(head);
+  return grpc::ByteBuffer(slices.data(), slices.size());
 }
 
 std::unique_ptr<RawChunkStream> OpenRawChunkStream(grpc::Channel *channel,

@@ -13,18 +13,22 @@
 #include <string>
 
 #include "glint/v1/glint.grpc.pb.h"
-#include "proto/wire/slice_pool.h"
 
 namespace glint::client {
 
 // `settings` is a serialised EvaluateRequest without queries ("" for a chunk that reuses the
 // first chunk's settings). Requires begin <= end <= batch.count() and every array of `batch`
-// empty or components x count long (GlintClient checks the shapes before streaming). With a
-// `pool` the chunk's memory comes from it and goes back once gRPC has sent it (no fresh pages
-// per chunk, proto/wire/slice_pool.h); without, from malloc.
+// empty or components x count long (GlintClient checks the shapes before streaming).
 grpc::ByteBuffer EncodeChunk(uint64_t chunk_index, const std::string &settings,
-                             const glint::v1::QueryBatch &batch, uint32_t begin, uint32_t end,
-                             glint::wire::SlicePool *pool = nullptr);
+                             const glint::v1::QueryBatch &batch, uint32_t begin, uint32_t end);
+
+// The same bytes with no copy of the queries (issue 12, "zero-copy views of packed floats"): the
+// buffer's slices reference the [begin, end) rows of `batch`'s arrays in place, between small
+// slices holding the tags and lengths. `batch` must stay alive and unchanged until gRPC is done
+// with the buffer: for a stream, until its Finish() has returned.
+grpc::ByteBuffer EncodeChunkReferencing(uint64_t chunk_index, const std::string &settings,
+                                        const glint::v1::QueryBatch &batch, uint32_t begin,
+                                        uint32_t end);
 
 // A synchronous EvaluateStream whose writes are pre-encoded chunks (EncodeChunk) and whose
 // reads are raw results (decoded by glint::wire::DecodeChunkResult straight into the caller's

@@ -613,8 +613,8 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
   PrepareContext(&context);
   SetDeadline(&context, deadline);
   AddAdmissionMetadata(request, &context);
-  // Chunks are encoded straight from the request's arrays (client/lib/chunk_encoding.h: one copy
-  // of the queries instead of a sliced message plus its serialisation).
+  // Chunks reference the request's arrays in place (client/lib/chunk_encoding.h: no copy of the
+  // queries before the socket's own).
   std::unique_ptr<RawChunkStream> stream = OpenRawChunkStream(channel_.get(), &context);
   const std::string settings = StreamSettings(request);
 
@@ -631,8 +631,9 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
         const auto end =
             static_cast<uint32_t>(std::min<uint64_t>(uint64_t{begin} + chunk_queries, count));
         // The first chunk carries every setting; the others only queries.
-        const grpc::ByteBuffer chunk = EncodeChunk(
-            k, k == 0 ? settings : kNoSettings, request.queries(), begin, end, chunk_pool_.get());
+        // The chunk's slices reference `request`'s rows, alive until after Finish() below.
+        const grpc::ByteBuffer chunk = EncodeChunkReferencing(k, k == 0 ? settings : kNoSettings,
+                                                              request.queries(), begin, end);
         // false: the call is over (server error or our own cancel); Finish says why.
         if (!stream->Write(chunk)) return;
       }

@@ -17,7 +17,6 @@
 #include "client/lib/retry.h"
 #include "glint/v1/glint.grpc.pb.h"
 #include "glint/v1/glint.pb.h"
-#include "proto/wire/slice_pool.h"
 
 namespace glint::client {
 
@@ -158,11 +157,6 @@ class GlintClient {
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<glint::v1::GlintService::Stub> stub_;
   size_t servers_ = 1;  // addresses in a --server list
-  // Memory of the stream chunks being sent, reused across chunks and calls (issue 12: no fresh
-  // pages per chunk); holds at most kChunkBuffersKept idle chunks (8 MiB each by default).
-  static constexpr size_t kChunkBuffersKept = 4;
-  std::shared_ptr<glint::wire::SlicePool> chunk_pool_ =
-      glint::wire::SlicePool::Create(kChunkBuffersKept);
   // The array a streamed batch's results were decoded into last, kept for the next one (its pages
   // mapped already); one output array (12 bytes per query of the largest batch) when idle.
   std::mutex output_mutex_;

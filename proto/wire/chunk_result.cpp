@@ -35,6 +35,61 @@ uint8_t *Varint(uint64_t v, uint8_t *p) {
   return CodedOutputStream::WriteVarint64ToArray(v, p);
 }
 
+// Protobuf's parser (ParseContext) is stricter than CodedInputStream's readers in three places,
+// and the decoder follows the parser: a tag is a varint of at most 5 bytes (its value cut to 32
+// bits) whose field number is not 0; a length is a varint of at most 5 bytes below
+// INT_MAX - 16; unknown groups nest at most 100 deep (counted from the top-level message, one
+// level used by each enclosing message).
+constexpr int kRecursionLimit = 100;
+
+// False for a malformed tag; *tag = 0 at the legitimate end of the message (or of a limit).
+bool ReadTag(CodedInputStream *in, uint32_t *tag) {
+  const int before = in->CurrentPosition();
+  *tag = in->ReadTag();
+  if (*tag == 0) return in->ConsumedEntireMessage();
+  return in->CurrentPosition() - before <= 5 && WireFormatLite::GetTagFieldNumber(*tag) != 0;
+}
+
+bool ReadLength(CodedInputStream *in, int *bytes) {
+  const int before = in->CurrentPosition();
+  uint64_t v = 0;
+  if (!in->ReadVarint64(&v) || in->CurrentPosition() - before > 5 || v > uint64_t(INT32_MAX - 16))
+    return false;
+  *bytes = int(v);
+  return true;
+}
+
+// Skips an unknown field (or a known one with another wire type) as protobuf's parser does.
+bool SkipField(CodedInputStream *in, uint32_t tag, int depth) {
+  switch (WireFormatLite::GetTagWireType(tag)) {
+    case WireFormatLite::WIRETYPE_VARINT: {
+      uint64_t v = 0;
+      return in->ReadVarint64(&v);
+    }
+    case WireFormatLite::WIRETYPE_FIXED64:
+      return in->Skip(8);
+    case WireFormatLite::WIRETYPE_LENGTH_DELIMITED: {
+      int bytes = 0;
+      return ReadLength(in, &bytes) && in->Skip(bytes);
+    }
+    case WireFormatLite::WIRETYPE_START_GROUP: {
+      if (--depth < 0) return false;
+      const uint32_t end = WireFormatLite::MakeTag(WireFormatLite::GetTagFieldNumber(tag),
+                                                   WireFormatLite::WIRETYPE_END_GROUP);
+      for (;;) {
+        uint32_t inner = 0;
+        if (!ReadTag(in, &inner) || inner == 0) return false;
+        if (inner == end) return true;
+        if (!SkipField(in, inner, depth)) return false;
+      }
+    }
+    case WireFormatLite::WIRETYPE_FIXED32:
+      return in->Skip(4);
+    default:  // END_GROUP without its START_GROUP, or wire types 6 and 7
+      return false;
+  }
+}
+
 // The radiance floats of one EvaluateResponse, appended at out[*written].
 struct Sink {
   float *out;
@@ -48,48 +103,50 @@ struct Sink {
   }
 };
 
+// The fields of an EvaluateResponse up to the current limit (the enclosing `result` field).
 std::string ParseResponse(CodedInputStream *in, Sink *sink, DecodedChunkResult *r) {
-  while (uint32_t tag = in->ReadTag()) {
-    const int field = WireFormatLite::GetTagFieldNumber(tag);
+  const int depth = kRecursionLimit - 1;  // inside the top-level message
+  for (;;) {
+    uint32_t tag = 0;
+    if (!ReadTag(in, &tag)) return "result: invalid tag";
+    if (tag == 0) return "";
     if (tag == Tag(Response::kCountFieldNumber, kVarint)) {
       if (!in->ReadVarint32(&r->count)) return "result.count: truncated varint";
     } else if (tag == Tag(Response::kRadianceFieldNumber, kLength)) {
-      uint32_t bytes = 0;
-      if (!in->ReadVarint32(&bytes)) return "result.radiance: truncated length";
-      if (bytes % sizeof(float)) return "result.radiance: packed length not a multiple of 4";
-      if (int64_t(bytes) > in->BytesUntilLimit())
+      int bytes = 0;
+      if (!ReadLength(in, &bytes)) return "result.radiance: bad length";
+      if (bytes % int(sizeof(float))) return "result.radiance: packed length not a multiple of 4";
+      if (bytes > in->BytesUntilLimit())
         return "result.radiance: packed length past the end of the result";
-      r->radiance_floats += bytes / sizeof(float);
-      if (!sink->Take(in, bytes / sizeof(float)))
-        return *sink->written + bytes / sizeof(float) > sink->capacity
-                   ? "result.radiance: more floats than the chunk's queries x 3"
-                   : "result.radiance: truncated";
+      r->radiance_floats += uint64_t(bytes) / sizeof(float);
+      if (!sink->Take(in, uint64_t(bytes) / sizeof(float)))
+        return "result.radiance: more floats than the chunk's queries x 3";
     } else if (tag == Tag(Response::kRadianceFieldNumber, kFixed32)) {
       // Unpacked (a parser must accept either form of a repeated scalar).
       ++r->radiance_floats;
-      if (!sink->Take(in, 1))
-        return *sink->written + 1 > sink->capacity
-                   ? "result.radiance: more floats than the chunk's queries x 3"
-                   : "result.radiance: truncated";
+      if (*sink->written + 1 > sink->capacity)
+        return "result.radiance: more floats than the chunk's queries x 3";
+      if (!sink->Take(in, 1)) return "result.radiance: truncated";
     } else if (tag == Tag(Response::kStatsFieldNumber, kLength)) {
-      uint32_t bytes = 0;
-      if (!in->ReadVarint32(&bytes) || bytes > INT32_MAX) return "result.stats: bad length";
+      int bytes = 0;
+      if (!ReadLength(in, &bytes)) return "result.stats: bad length";
       // A nested limit is clamped to the enclosing one: check the length against it first.
-      if (int64_t(bytes) > in->BytesUntilLimit())
-        return "result.stats: length past the end of the result";
-      const auto limit = in->PushLimit(int(bytes));
-      // Merged, as protobuf merges a repeated occurrence of a message field.
-      if (!r->stats.MergePartialFromCodedStream(in) || !in->ConsumedEntireMessage())
+      if (bytes > in->BytesUntilLimit()) return "result.stats: length past the end of the result";
+      const auto limit = in->PushLimit(bytes);
+      // Merged, as protobuf merges a repeated occurrence of a message field; at the nesting
+      // depth protobuf's parser would be at (top level, result, stats).
+      in->SetRecursionLimit(kRecursionLimit - 2);
+      // It may also stop at an end-group tag, which it leaves as the last tag: refused.
+      in->SetLastTag(0);
+      if (!r->stats.MergePartialFromCodedStream(in) || !in->LastTagWas(0) ||
+          !in->ConsumedEntireMessage())
         return "result.stats: does not parse";
       in->PopLimit(limit);
-    } else if (field == 0) {
-      return "result: field number 0";
-    } else if (!WireFormatLite::SkipField(in, tag)) {
-      // Unknown, or a known field with another wire type: protobuf skips both.
-      return "result: unknown field " + std::to_string(field) + " truncated";
+    } else if (!SkipField(in, tag, depth)) {
+      return "result: unknown field " + std::to_string(WireFormatLite::GetTagFieldNumber(tag)) +
+             " malformed";
     }
   }
-  return in->ConsumedEntireMessage() ? "" : "result: invalid tag";
 }
 
 }  // namespace
@@ -150,31 +207,29 @@ std::string DecodeChunkResult(grpc::ByteBuffer *body, float *out, uint64_t capac
     grpc::ProtoBufferReader reader(body);
     CodedInputStream in(&reader);
     while (problem.empty()) {
-      const uint32_t tag = in.ReadTag();
-      if (tag == 0) {
-        if (!in.ConsumedEntireMessage()) problem = "invalid tag";
+      uint32_t tag = 0;
+      if (!ReadTag(&in, &tag)) {
+        problem = "invalid tag";
         break;
       }
-      const int field = WireFormatLite::GetTagFieldNumber(tag);
+      if (tag == 0) break;
       if (tag == Tag(Result::kChunkIndexFieldNumber, kVarint)) {
         if (!in.ReadVarint64(&r->chunk_index)) problem = "chunk_index: truncated varint";
       } else if (tag == Tag(Result::kFirstQueryFieldNumber, kVarint)) {
         if (!in.ReadVarint64(&r->first_query)) problem = "first_query: truncated varint";
       } else if (tag == Tag(Result::kResultFieldNumber, kLength)) {
-        uint32_t bytes = 0;
-        if (!in.ReadVarint32(&bytes) || bytes > INT32_MAX) {
+        int bytes = 0;
+        if (!ReadLength(&in, &bytes)) {
           problem = "result: bad length";
           break;
         }
-        const auto limit = in.PushLimit(int(bytes));
+        const auto limit = in.PushLimit(bytes);
         problem = ParseResponse(&in, &sink, r);
         if (problem.empty() && in.BytesUntilLimit() != 0) problem = "result: truncated";
         in.PopLimit(limit);
-      } else if (field == 0) {
-        problem = "field number 0";
-      } else if (!WireFormatLite::SkipField(&in, tag)) {
-        // Unknown, or a known field with another wire type: protobuf skips both.
-        problem = "unknown field " + std::to_string(field) + " truncated";
+      } else if (!SkipField(&in, tag, kRecursionLimit)) {
+        problem = "unknown field " + std::to_string(WireFormatLite::GetTagFieldNumber(tag)) +
+                  " malformed";
       }
     }
   }

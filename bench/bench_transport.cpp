@@ -5,6 +5,10 @@
 // (HTTP/2 framing, the socket both ways, thread hand-offs) and the scheduler.
 //
 //   build/bench/bench_transport [--queries N] [--repeat R] [--chunk-bytes B] [--cache-dir DIR]
+//                               [--end-to-end-only] [--server ADDR]
+//
+// --server ADDR times the end-to-end call against a running glintd (its CPU time is then not in
+// the CPU column, which counts this process only).
 //
 // Prints one line per step: median milliseconds of R runs and the rate in queries/s.
 #include <grpcpp/grpcpp.h>
@@ -57,6 +61,7 @@ int Main(int argc, char **argv) {
   int repeat = 5;
   size_t chunk_bytes = 0;
   bool e2e_only = false;
+  std::string server;  // --server ADDR: the end-to-end call goes to a running glintd there
   std::string cache_dir = DefaultCacheDir();
   for (int i = 1; i < argc; i += 2) {
     const std::string a = argv[i];
@@ -72,12 +77,15 @@ int Main(int argc, char **argv) {
       repeat = std::max(1, std::atoi(argv[i + 1]));
     } else if (a == "--chunk-bytes") {
       chunk_bytes = size_t(std::atoll(argv[i + 1]));
+    } else if (a == "--server") {
+      server = argv[i + 1];
+      e2e_only = true;
     } else if (a == "--cache-dir") {
       cache_dir = argv[i + 1];
     } else {
       std::fprintf(stderr,
                    "usage: bench_transport [--queries N] [--repeat R] [--chunk-bytes B] "
-                   "[--end-to-end-only] [--cache-dir DIR]\n");
+                   "[--end-to-end-only] [--server ADDR] [--cache-dir DIR]\n");
       return 2;
     }
   }
@@ -196,12 +204,20 @@ int Main(int argc, char **argv) {
       const uint32_t b = uint32_t(k) * per, e = std::min(n, b + per);
       return glint::client::EncodeChunk(k, k ? std::string() : settings, request.queries(), b, e);
     });
+    chunk_time("EncodeChunkReferencing (views, no copy)", [&](size_t k) {
+      const uint32_t b = uint32_t(k) * per, e = std::min(n, b + per);
+      return glint::client::EncodeChunkReferencing(k, k ? std::string() : settings,
+                                                   request.queries(), b, e);
+    });
   }
   double sum = 0, sum_cpu = 0;
   for (const Step &s : steps) sum += s.ms, sum_cpu += s.cpu_ms;
 
   glint::client::ClientOptions options;
   if (chunk_bytes) options.max_chunk_bytes = chunk_bytes;
+  // --server: a glintd process (its own malloc settings and threads), this process the client.
+  std::unique_ptr<glint::client::GlintClient> remote;
+  if (!server.empty()) remote = std::make_unique<glint::client::GlintClient>(server, options);
   LoopbackService service(engine.get(), options);
   if (!service.ok()) {
     std::fprintf(stderr, "bench_transport: could not start the loopback service\n");
@@ -210,7 +226,8 @@ int Main(int argc, char **argv) {
   glint::client::EvaluateInfo info;
   std::vector<float> e2e;
   time("end to end (client library, loopback TCP)", [&] {
-    grpc::Status s = service.Evaluate(request, &e2e, &info);
+    grpc::Status s = remote ? remote->Evaluate(request, &e2e, {}, &info)
+                            : service.Evaluate(request, &e2e, &info);
     if (!s.ok()) std::fprintf(stderr, "end to end: %s\n", s.error_message().c_str());
   });
   const double whole = steps.back().ms, whole_cpu = steps.back().cpu_ms;

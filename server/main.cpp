@@ -2,7 +2,6 @@
 // default kernels, reports SERVING, and shuts down cleanly on SIGINT/SIGTERM.
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
-#include <malloc.h>
 
 #include <csignal>
 #include <cstdio>
@@ -14,6 +13,7 @@
 
 #include "server/health_service.h"
 #include "server/kserve_service.h"
+#include "server/malloc_policy.h"
 #include "server/model_table.h"
 #include "server/normal_map_store.h"
 #include "server/ops.h"
@@ -212,12 +212,10 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
 }  // namespace
 
 int main(int argc, char **argv) {
-  // Request bodies, parsed arrays and replies are megabytes each: served from mmap and returned
-  // to the system when freed. glibc's default threshold rises to the largest block freed (up to
-  // 32 MiB), after which such blocks come from the heaps of gRPC's many threads and stay
-  // resident. With this and refusing a full server's requests before parsing them, the peak RSS
-  // growth of the memory test's overload (robustness_test Memory.*) fell from 347 to 227 MB.
-  mallopt(M_MMAP_THRESHOLD, 1 << 20);
+  // Request bodies, parsed arrays and replies are megabytes each: kept in two shared heaps for
+  // reuse instead of mapped afresh per message (server/malloc_policy.h says why and the bound).
+  if (!glint::ConfigureMallocForMessages())
+    std::fprintf(stderr, "glintd: warning: glibc refused a malloc setting (mallopt)\n");
   Flags flags;
   if (!ParseFlags(argc, argv, &flags)) return 2;
   if (flags.list_devices) {

@@ -12,6 +12,9 @@
 #include <sstream>
 #include <vector>
 
+#include "proto/wire/chunk_result.h"
+#include "proto/wire/slice_pool.h"
+#include "server/chunk_pool.h"
 #include "server/eval_plan.h"
 #include "server/metadata_admission.h"
 #include "server/model_table.h"
@@ -89,6 +92,16 @@ Status ParseChunkReusing(const grpc::ByteBuffer *body, glint::v1::EvaluateChunk 
                                  "-byte body does not parse as a " + chunk->GetTypeName() +
                                  " (truncated, or not this message); check that client and "
                                  "server use the same proto/glint/v1/glint.proto");
+}
+
+// Memory of the streams' reply radiance, shared by every stream (issue 12: the device writes
+// into pages that stay mapped instead of a fresh array per chunk). Idle, it holds at most
+// kReplyBuffersKept replies (12 bytes per query of the largest chunks).
+constexpr size_t kReplyBuffersKept = 4;
+glint::wire::SlicePool &ReplyPool() {
+  static const std::shared_ptr<glint::wire::SlicePool> pool =
+      glint::wire::SlicePool::Create(kReplyBuffersKept);
+  return *pool;
 }
 
 // Serialises a response into the raw reply buffer.
@@ -197,6 +210,17 @@ Status GlintServiceImpl::RunBatch(int worker, const glint::v1::EvaluateRequest &
                                   const glint::v1::QueryBatch &queries, uint64_t first_query,
                                   bool streamed, glint::v1::EvaluateResponse *response,
                                   std::string *kernel, grpc::CallbackServerContext *ctx) {
+  response->set_count(queries.count());
+  response->mutable_radiance()->Resize(int(queries.count()) * 3, 0.0f);
+  return RunBatchInto(worker, settings, queries, first_query, streamed,
+                      response->mutable_radiance()->mutable_data(), response->mutable_stats(),
+                      kernel, ctx);
+}
+
+Status GlintServiceImpl::RunBatchInto(int worker, const glint::v1::EvaluateRequest &settings,
+                                      const glint::v1::QueryBatch &queries, uint64_t first_query,
+                                      bool streamed, float *out, glint::v1::EvaluateStats *stats,
+                                      std::string *kernel, grpc::CallbackServerContext *ctx) {
   Status s =
       ValidateQueries(queries, settings.lights_size() > 0, options_.limits, first_query, streamed);
   if (s.ok()) s = ValidateQueriesForModel(queries, settings, first_query);
@@ -206,19 +230,16 @@ Status GlintServiceImpl::RunBatch(int worker, const glint::v1::EvaluateRequest &
   if (!s.ok()) return s;
   if (kernel) *kernel = plan.spec.Describe();
   const auto start = Clock::now();
-  response->set_count(queries.count());
-  response->mutable_radiance()->Resize(int(queries.count()) * 3, 0.0f);
-  float *out = response->mutable_radiance()->mutable_data();
   SliceOptions slicing;
   slicing.per_query_cost = EstimateRequestCost(settings, 1).per_query;
   slicing.target_ms = options_.slice_ms;
   slicing.stop = [this, ctx] { return StopReason(ctx); };
   s = EvaluateSliced(engine_, worker, plan, queries, out, slicing);
-  response->mutable_stats()->set_compute_ms(MsSince(start));
-  response->mutable_stats()->set_device(DeviceName());
+  stats->set_compute_ms(MsSince(start));
+  stats->set_device(DeviceName());
   if (options_.metrics && s.ok())
     options_.metrics->CountEvaluated(ModelName(settings), queries.count(),
-                                     response->stats().compute_ms() / 1e3);
+                                     stats->compute_ms() / 1e3);
   return s;
 }
 
@@ -334,7 +355,10 @@ class GlintServiceImpl::StreamReactor
           spare_.pop_back();
         }
       }
-      if (!chunk) chunk = std::make_shared<Chunk>();
+      if (!chunk) {
+        chunk = std::make_shared<Chunk>();
+        StreamChunkPool().Take(&chunk->message);  // arrays left by an earlier stream
+      }
       failed = Accept(&chunk);
     }
     {
@@ -370,7 +394,11 @@ class GlintServiceImpl::StreamReactor
     Pump();
   }
 
-  void OnDone() override { delete this; }
+  void OnDone() override {
+    // No job is outstanding: the evaluated chunks' arrays go on to later streams.
+    for (const std::shared_ptr<Chunk> &c : spare_) StreamChunkPool().Give(&c->message);
+    delete this;
+  }
 
  private:
   // A parsed chunk with the settings in force for it.
@@ -396,8 +424,11 @@ class GlintServiceImpl::StreamReactor
     if (c.message.request().has_material() || read_index_ == 0) {
       // The first chunk sets material, lights, precision and seed; a later
       // chunk that carries a material replaces them.
-      auto settings = std::make_shared<glint::v1::EvaluateRequest>(c.message.request());
-      settings->clear_queries();
+      // Copied without the queries (megabytes; the settings are a few hundred bytes).
+      glint::v1::EvaluateRequest *request = c.message.mutable_request();
+      std::unique_ptr<glint::v1::QueryBatch> queries(request->release_queries());
+      auto settings = std::make_shared<glint::v1::EvaluateRequest>(*request);
+      request->set_allocated_queries(queries.release());
       Status s = ValidateSettings(*settings, service_->options().limits);
       if (!s.ok()) return ChunkStatus(read_index_, s);
       settings_ = std::move(settings);
@@ -477,17 +508,24 @@ class GlintServiceImpl::StreamReactor
     return service_->scheduler().TrySubmit([this, chunk](int worker) -> Scheduler::Respond {
       if (Metrics *m = service_->options().metrics)
         m->ObserveQueueWait(MsSince(chunk->queued) / 1e3);
-      glint::v1::EvaluateChunkResult result;
-      result.set_chunk_index(chunk->index);
-      result.set_first_query(chunk->first_query);
+      // The device writes the radiance straight into a pooled reply slice, which the reply's
+      // envelope wraps without a copy (proto/wire/chunk_result.h).
+      const uint32_t count = chunk->message.request().queries().count();
+      uint8_t *radiance = nullptr;
+      grpc_slice slice = ReplyPool().Take(size_t(count) * 3 * sizeof(float), &radiance);
+      glint::v1::EvaluateStats stats;
       // The engine's own code (INTERNAL for a device failure, INVALID_ARGUMENT for a bad
       // query, ...), exactly as the unary path would return it.
-      Status s =
-          service_->RunBatch(worker, *chunk->settings, chunk->message.request().queries(),
-                             chunk->first_query, true, result.mutable_result(), nullptr, ctx_);
+      Status s = service_->RunBatchInto(
+          worker, *chunk->settings, chunk->message.request().queries(), chunk->first_query, true,
+          reinterpret_cast<float *>(radiance), &stats, nullptr, ctx_);
       grpc::Status status = ChunkStatus(chunk->index, s);
       grpc::ByteBuffer reply;
-      if (status.ok()) status = SerializeReply(result, &reply);
+      if (status.ok())
+        reply =
+            glint::wire::EncodeChunkResult(chunk->index, chunk->first_query, count, slice, stats);
+      else
+        grpc_slice_unref(slice);
       return [this, chunk, status, reply = std::move(reply)]() mutable {
         {
           std::lock_guard<std::mutex> lock(mu_);

@@ -113,6 +113,12 @@ class GlintServiceImpl final : public GlintRawService {
                   const glint::v1::QueryBatch &queries, uint64_t first_query, bool streamed,
                   glint::v1::EvaluateResponse *response, std::string *kernel = nullptr,
                   grpc::CallbackServerContext *ctx = nullptr);
+  // RunBatch writing the radiance (3 x queries.count() floats) to `out` and the stats to
+  // `stats` (the stream writes into its pooled reply buffer, proto/wire/chunk_result.h).
+  Status RunBatchInto(int worker, const glint::v1::EvaluateRequest &settings,
+                      const glint::v1::QueryBatch &queries, uint64_t first_query, bool streamed,
+                      float *out, glint::v1::EvaluateStats *stats, std::string *kernel = nullptr,
+                      grpc::CallbackServerContext *ctx = nullptr);
 
   // Admission before a job is queued: UNAVAILABLE while shutting down, then the cost limits.
   Status Admit(const glint::v1::EvaluateRequest &settings, uint64_t query_count) const;

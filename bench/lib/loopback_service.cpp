@@ -1,10 +1,20 @@
 #include "bench/lib/loopback_service.h"
 
+#include "server/malloc_policy.h"
+
 namespace glint::bench {
 
 namespace {
 
+// glintd's malloc settings (server/malloc_policy.h), so that the end_to_end rows measure them;
+// applied once, before the service's threads start.
+bool MallocConfigured() {
+  static const bool ok = ConfigureMallocForMessages();
+  return ok;
+}
+
 ServiceOptions Options(const DeviceEngine *engine, ShmRegistry *shm) {
+  (void)MallocConfigured();
   ServiceOptions o;
   o.shm = shm;
   o.log_requests = false;

@@ -92,14 +92,65 @@ grpc::ByteBuffer EncodeChunk(uint64_t chunk_index, const std::string &settings,
   return grpc::ByteBuffer(&owned, 1);
 }
 
+namespace {
+void NoRelease(void *) {}
+}  // namespace
+
+grpc::ByteBuffer EncodeChunkReferencing(uint64_t chunk_index, const std::string &settings,
+                                        const QueryBatch &batch, uint32_t begin, uint32_t end) {
+  const uint32_t count = end - begin;
+  // Sizes as in EncodeChunk.
+  size_t queries_bytes = count ? 1 + VarintSize(count) : 0;
+  for (const Packed &a : kPacked) {
+    if ((batch.*a.get)().empty() || count == 0) continue;
+    const size_t bytes = size_t(count) * size_t(a.components) * sizeof(float);
+    queries_bytes += VarintSize(Tag(a.field, 2)) + VarintSize(bytes) + bytes;
+  }
+  const size_t request_bytes = settings.size() + 1 + VarintSize(queries_bytes) + queries_bytes;
+  // One slice for everything up to the first array's tag and length, then per array: the rows in
+  // place, followed by the next array's tag and length (or nothing after the last).
+  std::vector<grpc::Slice> slices;
+  std::string head;
+  head.reserve(32 + settings.size());
+  uint8_t buf[32];
+  auto put = [&](uint8_t *e) { head.append(reinterpret_cast<const char *>(buf), size_t(e - buf)); };
+  if (chunk_index) {
+    buf[0] = uint8_t(Tag(glint::v1::EvaluateChunk::kChunkIndexFieldNumber, 0));
+    put(Varint(chunk_index, buf + 1));
+  }
+  buf[0] = uint8_t(Tag(glint::v1::EvaluateChunk::kRequestFieldNumber, 2));
+  put(Varint(request_bytes, buf + 1));
+  head += settings;
+  buf[0] = uint8_t(Tag(glint::v1::EvaluateRequest::kQueriesFieldNumber, 2));
+  put(Varint(queries_bytes, buf + 1));
+  if (count) {
+    buf[0] = uint8_t(Tag(QueryBatch::kCountFieldNumber, 0));
+    put(Varint(count, buf + 1));
+  }
+  for (const Packed &a : kPacked) {
+    const auto &field = (batch.*a.get)();
+    if (field.empty() || count == 0) continue;
+    const size_t bytes = size_t(count) * size_t(a.components) * sizeof(float);
+    put(Varint(bytes, Varint(Tag(a.field, 2), buf)));
+    slices.emplace_back(head);
+    head.clear();
+    // const_cast: gRPC's slice type is mutable, but an outgoing message is only read.
+    void *rows = const_cast<float *>(field.data() + size_t(begin) * size_t(a.components));
+    slices.emplace_back(grpc_slice_new_with_user_data(rows, bytes, &NoRelease, nullptr),
+                        grpc::Slice::STEAL_REF);
+  }
+  if (!head.empty()) slices.emplace_back(head);
+  return grpc::ByteBuffer(slices.data(), slices.size());
+}
+
 std::unique_ptr<RawChunkStream> OpenRawChunkStream(grpc::Channel *channel,
                                                    grpc::ClientContext *context) {
   static const char kMethod[] = "/glint.v1.GlintService/EvaluateStream";
   const grpc::internal::RpcMethod method(kMethod, grpc::internal::RpcMethod::BIDI_STREAMING,
                                          channel->shared_from_this());
   return std::unique_ptr<RawChunkStream>(
-      grpc::internal::ClientReaderWriterFactory<
-          grpc::ByteBuffer, glint::v1::EvaluateChunkResult>::Create(channel, method, context));
+      grpc::internal::ClientReaderWriterFactory<grpc::ByteBuffer, grpc::ByteBuffer>::Create(
+          channel, method, context));
 }
 
 }  // namespace glint::client

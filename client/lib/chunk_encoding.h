@@ -22,10 +22,19 @@ namespace glint::client {
 grpc::ByteBuffer EncodeChunk(uint64_t chunk_index, const std::string &settings,
                              const glint::v1::QueryBatch &batch, uint32_t begin, uint32_t end);
 
+// The same bytes with no copy of the queries (issue 12, "zero-copy views of packed floats"): the
+// buffer's slices reference the [begin, end) rows of `batch`'s arrays in place, between small
+// slices holding the tags and lengths. `batch` must stay alive and unchanged until gRPC is done
+// with the buffer: for a stream, until its Finish() has returned.
+grpc::ByteBuffer EncodeChunkReferencing(uint64_t chunk_index, const std::string &settings,
+                                        const glint::v1::QueryBatch &batch, uint32_t begin,
+                                        uint32_t end);
+
 // A synchronous EvaluateStream whose writes are pre-encoded chunks (EncodeChunk) and whose
-// reads are parsed results: the generated stub's stream, with grpc::ByteBuffer as the written
-// type (the same method path and wire bytes).
-using RawChunkStream = grpc::ClientReaderWriter<grpc::ByteBuffer, glint::v1::EvaluateChunkResult>;
+// reads are raw results (decoded by glint::wire::DecodeChunkResult straight into the caller's
+// array): the generated stub's stream with grpc::ByteBuffer both ways (the same method path and
+// wire bytes).
+using RawChunkStream = grpc::ClientReaderWriter<grpc::ByteBuffer, grpc::ByteBuffer>;
 std::unique_ptr<RawChunkStream> OpenRawChunkStream(grpc::Channel *channel,
                                                    grpc::ClientContext *context);
 

@@ -16,6 +16,7 @@
 #include "client/lib/chunk_encoding.h"
 #include "client/lib/server_list.h"
 #include "grpc/health/v1/health.grpc.pb.h"
+#include "proto/wire/chunk_result.h"
 
 namespace glint::client {
 namespace {
@@ -596,13 +597,24 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
   info->chunks = chunks;
   info->chunk_queries = chunk_queries;
 
-  std::vector<float> out(uint64_t{count} * 3);
+  // Results are decoded into an array kept from the previous call (its pages already mapped) and
+  // swapped into `radiance` on success; `radiance` is untouched on failure.
+  std::vector<float> out;
+  {
+    std::lock_guard<std::mutex> lock(output_mutex_);
+    out.swap(spare_output_);
+  }
+  out.resize(uint64_t{count} * 3);
+  auto keep_spare = [&] {
+    std::lock_guard<std::mutex> lock(output_mutex_);
+    if (out.capacity() > spare_output_.capacity()) spare_output_.swap(out);
+  };
   grpc::ClientContext context;
   PrepareContext(&context);
   SetDeadline(&context, deadline);
   AddAdmissionMetadata(request, &context);
-  // Chunks are encoded straight from the request's arrays (client/lib/chunk_encoding.h: one copy
-  // of the queries instead of a sliced message plus its serialisation).
+  // Chunks reference the request's arrays in place (client/lib/chunk_encoding.h: no copy of the
+  // queries before the socket's own).
   std::unique_ptr<RawChunkStream> stream = OpenRawChunkStream(channel_.get(), &context);
   const std::string settings = StreamSettings(request);
 
@@ -619,8 +631,9 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
         const auto end =
             static_cast<uint32_t>(std::min<uint64_t>(uint64_t{begin} + chunk_queries, count));
         // The first chunk carries every setting; the others only queries.
-        const grpc::ByteBuffer chunk =
-            EncodeChunk(k, k == 0 ? settings : kNoSettings, request.queries(), begin, end);
+        // The chunk's slices reference `request`'s rows, alive until after Finish() below.
+        const grpc::ByteBuffer chunk = EncodeChunkReferencing(k, k == 0 ? settings : kNoSettings,
+                                                              request.queries(), begin, end);
         // false: the call is over (server error or our own cancel); Finish says why.
         if (!stream->Write(chunk)) return;
       }
@@ -635,60 +648,70 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
   grpc::Status protocol_error;
   uint64_t received = 0;
   uint64_t done = 0;
-  glint::v1::EvaluateChunkResult result;
-  while (stream->Read(&result)) {
+  grpc::ByteBuffer raw;
+  while (stream->Read(&raw)) {
     const uint64_t first = received * chunk_queries;
     const uint64_t n = std::min<uint64_t>(chunk_queries, count - std::min<uint64_t>(first, count));
-    const std::string problem = ChunkResultProblem(result, received, chunks, first, n);
+    // Decoded straight into this chunk's rows (glint::wire::DecodeChunkResult: one copy).
+    glint::wire::DecodedChunkResult result;
+    std::string problem = glint::wire::DecodeChunkResult(
+        &raw, out.data() + std::min<uint64_t>(first, count) * 3, n * 3, &result);
+    if (problem.empty())
+      problem = ChunkResultProblem(result.chunk_index, result.first_query, result.radiance_floats,
+                                   received, chunks, first, n);
     if (!problem.empty()) {
       protocol_error = grpc::Status(grpc::StatusCode::INTERNAL, problem);
       context.TryCancel();
       break;
     }
-    std::copy(result.result().radiance().begin(), result.result().radiance().end(),
-              out.begin() + static_cast<std::ptrdiff_t>(first * 3));
-    if (info->device.empty()) info->device = result.result().stats().device();
+    if (info->device.empty()) info->device = result.stats.device();
     ++received;
     done += n;
     if (progress) progress(done, count);
   }
   if (!protocol_error.ok()) {
     // Drain so that Finish does not wait on unread messages of a call we cancelled.
-    while (stream->Read(&result)) {
+    while (stream->Read(&raw)) {
     }
   }
   writer.join();
   grpc::Status status = stream->Finish();
-  if (writer_failed) return grpc::Status(grpc::StatusCode::INTERNAL, writer_error);
-  if (!protocol_error.ok()) return protocol_error;
-  if (!status.ok()) return status;
-  if (received != chunks) {
-    return grpc::Status(grpc::StatusCode::DATA_LOSS, "stream ended after " +
-                                                         std::to_string(received) + " of " +
-                                                         std::to_string(chunks) + " chunk results");
+  if (status.ok() && received != chunks) {
+    status = grpc::Status(grpc::StatusCode::DATA_LOSS,
+                          "stream ended after " + std::to_string(received) + " of " +
+                              std::to_string(chunks) + " chunk results");
   }
-  *radiance = std::move(out);
-  return grpc::Status::OK;
+  if (writer_failed) status = grpc::Status(grpc::StatusCode::INTERNAL, writer_error);
+  if (!protocol_error.ok() && !writer_failed) status = protocol_error;
+  if (status.ok()) radiance->swap(out);  // the caller's old array becomes the next call's spare
+  keep_spare();
+  return status;
 }
 
 std::string ChunkResultProblem(const glint::v1::EvaluateChunkResult &result, uint64_t received,
                                uint64_t chunks, uint64_t first, uint64_t n) {
+  return ChunkResultProblem(result.chunk_index(), result.first_query(),
+                            static_cast<uint64_t>(result.result().radiance_size()), received,
+                            chunks, first, n);
+}
+
+std::string ChunkResultProblem(uint64_t chunk_index, uint64_t first_query, uint64_t radiance_floats,
+                               uint64_t received, uint64_t chunks, uint64_t first, uint64_t n) {
   if (received >= chunks) {
-    return "server sent a result for chunk " + std::to_string(result.chunk_index()) +
-           " after all " + std::to_string(chunks) + " chunks were answered";
+    return "server sent a result for chunk " + std::to_string(chunk_index) + " after all " +
+           std::to_string(chunks) + " chunks were answered";
   }
-  if (result.chunk_index() != received) {
-    return "server answered chunk " + std::to_string(result.chunk_index()) + " where chunk " +
+  if (chunk_index != received) {
+    return "server answered chunk " + std::to_string(chunk_index) + " where chunk " +
            std::to_string(received) + " was expected";
   }
-  if (result.first_query() != first) {
+  if (first_query != first) {
     return "chunk " + std::to_string(received) + " reports first_query " +
-           std::to_string(result.first_query()) + ", expected " + std::to_string(first);
+           std::to_string(first_query) + ", expected " + std::to_string(first);
   }
-  if (static_cast<uint64_t>(result.result().radiance_size()) != n * 3) {
-    return "chunk " + std::to_string(received) + " carries " +
-           std::to_string(result.result().radiance_size()) + " radiance floats for " +
-           std::to_string(n) + " queries";
+  if (radiance_floats != n * 3) {
+    return "chunk " + std::to_string(received) + " carries " + std::to_string(radiance_floats) +
+           " radiance floats for " + std::to_string(n) + " queries";
   }
   return "";
 }

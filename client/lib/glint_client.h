@@ -119,7 +119,7 @@ class GlintClient {
   // unary; a larger one is split with SliceQueries and sent over EvaluateStream, the first
   // chunk carrying every setting (material, lights, precision, seed, area method). The result is
   // bit-identical either way (the server's determinism contract). `progress` is called as results
-  // arrive.
+  // arrive. `radiance` is untouched on failure.
   grpc::Status Evaluate(const glint::v1::EvaluateRequest &request, std::vector<float> *radiance,
                         ProgressFn progress = {}, EvaluateInfo *info = nullptr);
 
@@ -157,6 +157,10 @@ class GlintClient {
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<glint::v1::GlintService::Stub> stub_;
   size_t servers_ = 1;  // addresses in a --server list
+  // The array a streamed batch's results were decoded into last, kept for the next one (its pages
+  // mapped already); one output array (12 bytes per query of the largest batch) when idle.
+  std::mutex output_mutex_;
+  std::vector<float> spare_output_;
   std::mutex caps_mutex_;
   std::optional<glint::v1::Capabilities> caps_;
 };
@@ -181,5 +185,9 @@ std::string FormatStatus(const grpc::Status &status);
 // `n` queries starting at stream query `first`, or "" when it is what was asked for.
 std::string ChunkResultProblem(const glint::v1::EvaluateChunkResult &result, uint64_t received,
                                uint64_t chunks, uint64_t first, uint64_t n);
+// The same for a result decoded off the wire (glint::wire::DecodeChunkResult) that carried
+// `radiance_floats` floats.
+std::string ChunkResultProblem(uint64_t chunk_index, uint64_t first_query, uint64_t radiance_floats,
+                               uint64_t received, uint64_t chunks, uint64_t first, uint64_t n);
 
 }  // namespace glint::client

@@ -1,8 +1,9 @@
-// EncodeChunk (client/lib/chunk_encoding.h) writes EvaluateStream chunks by hand from the
-// caller's arrays. Its bytes must parse, with protobuf's own parser, into exactly the
-// EvaluateChunk that protobuf's generated code builds from SliceQueries: for every combination
-// of present arrays, first and later chunks, a chunk index that needs a multi-byte varint,
-// and a slice at the end of the batch.
+// EncodeChunk and EncodeChunkReferencing (client/lib/chunk_encoding.h) write EvaluateStream
+// chunks by hand from the caller's arrays (a copy, or slices viewing them in place). Their bytes
+// must parse, with protobuf's own parser, into exactly the EvaluateChunk that protobuf's
+// generated code builds from SliceQueries: for every combination of present arrays, first and
+// later chunks, a chunk index that needs a multi-byte varint, and a slice at the end of the
+// batch.
 #include "client/lib/chunk_encoding.h"
 
 #include <google/protobuf/util/message_differencer.h>
@@ -84,6 +85,11 @@ TEST(ChunkEncoding, ParsesAsTheChunkProtobufBuilds) {
             << "\nwant: " << want.ShortDebugString().substr(0, 300);
         // The same length as protobuf's own serialisation: no field written twice or left out.
         EXPECT_EQ(bytes.size(), want.ByteSizeLong());
+        // The referencing form (slices viewing the batch's rows) writes the same bytes.
+        EXPECT_EQ(Bytes(EncodeChunkReferencing(index, first ? settings_bytes : std::string(), batch,
+                                               begin, end)),
+                  bytes)
+            << "arrays " << arrays << " index " << index << " [" << begin << ", " << end << ")";
       }
     }
   }

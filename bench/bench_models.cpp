@@ -264,10 +264,10 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
     return ok;
   };
   double t = 0;
-  // end_to_end times the batch its device row timed in this run (issue 12: the two rates side
-  // by side on the same batch, 1M queries for the probes).
+  // end_to_end and shared_memory time the batch their device row timed in this run (issue 12:
+  // the rates side by side on the same batch, 1M queries for the probes).
   uint32_t same_as_device = 0;
-  if (path == "end_to_end")
+  if (path == "end_to_end" || path == "shared_memory")
     for (const Row &d : rows_)
       if (d.path == "device" && d.model == row->model && d.variant == row->variant &&
           d.lights == row->lights && d.precision == row->precision)

@@ -278,9 +278,8 @@ Status CheckArraySize(const RepeatedField<float> &v, uint32_t count, int per, bo
 }
 
 // True when every value of `v` (`floats` of them) is finite and, for a unit array (3 floats per
-// query), every vector's squared length lies inside [(1 - tol)^2, (1 + tol)^2] narrowed by a
-// relative 1e-9: then sqrt, correctly rounded (error ~1e-16), gives |length - 1| < tol and the
-// exact check passes. Without branches, so the loop vectorises; false means "look closer" (the
+// query), every vector's squared length lies inside [(1 - tol)^2, (1 + tol)^2] narrowed by the
+// rounding error of computing it (below): then the exact check (in double) passes too. Without branches, so the loop vectorises; false means "look closer" (the
 // exact loop decides), never "invalid". A NaN or infinite component makes the squared length
 // NaN or infinite, which fails the comparison.
 bool ClearlyValid(const float *v, uint64_t floats, bool unit, double tol) {
@@ -290,11 +289,15 @@ bool ClearlyValid(const float *v, uint64_t floats, bool unit, double tol) {
     return ok;
   }
   if (!(tol > 0.0 && tol < 1.0)) return false;
-  const double lo = (1.0 - tol) * (1.0 - tol) * (1.0 + 1e-9);
-  const double hi = (1.0 + tol) * (1.0 + tol) * (1.0 - 1e-9);
+  // In float (twice the lanes of double): x^2 + y^2 + z^2 of floats is within a relative
+  // 4 * 2^-24 < 2.4e-7 of the exact squared length (three rounded products, two rounded sums;
+  // Higham, Accuracy and Stability of Numerical Algorithms, 2nd ed., eq. 3.4-3.5), and the bounds
+  // are narrowed by 1e-6 relative, which also covers rounding them to float. A square that
+  // overflows to Inf or underflows fails the comparison and goes to the exact loop.
+  const float lo = float((1.0 - tol) * (1.0 - tol) * (1.0 + 1e-6));
+  const float hi = float((1.0 + tol) * (1.0 + tol) * (1.0 - 1e-6));
   for (uint64_t k = 0; k + 2 < floats; k += 3) {
-    const double s =
-        double(v[k]) * v[k] + double(v[k + 1]) * v[k + 1] + double(v[k + 2]) * v[k + 2];
+    const float s = v[k] * v[k] + v[k + 1] * v[k + 1] + v[k + 2] * v[k + 2];
     ok &= (s >= lo) & (s <= hi);
   }
   return ok;

@@ -12,6 +12,7 @@
 //    leave the other queries' results bit-identical to a batch without them;
 //  - a region whose object is truncated under the kernels (PoCL's threads fault) is lost, not
 //    fatal: the engine returns, the region reads zeros and refuses every later call;
+//  - the client library's zero-copy blocks (ShmSession::PrepareInPlace) give the TCP results;
 //  - glintd: a client truncating its region mid-call gets a clean refusal, the lost region stays
 //    refused, a fresh one works, and the server goes on serving.
 #include <fcntl.h>
@@ -356,6 +357,36 @@ TEST_F(ShmViewServer, InPlaceAndCopiedAreBitIdenticalToTcp) {
           << "input offset " << in_offset << ", " << request.lights_size() << " lights";
       ASSERT_TRUE(caller.Unregister("io").ok());
     }
+  }
+}
+
+// The client library's zero-copy use (ShmSession::PrepareInPlace / EvaluateInPlace): queries
+// written straight into the blocks, the radiance read where the kernels wrote it, bit-identical
+// to the arrays over TCP; one session serving two shapes in turn.
+TEST_F(ShmViewServer, ClientInPlaceBlocksAreBitIdenticalToTcp) {
+  glint::client::GlintClient client(server_->address());
+  glint::client::ShmSession session(&client);
+  for (const EvaluateRequest &request : {Probe(30000, 12), Lit(9000, 13), Probe(100, 14, false)}) {
+    std::vector<float> tcp;
+    ASSERT_TRUE(client.Evaluate(request, &tcp).ok());
+    const glint::v1::QueryBatch &q = request.queries();
+    glint::client::ShmSession::InPlaceBlocks blocks;
+    grpc::Status s = session.PrepareInPlace(q, q.count(), &blocks);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    ASSERT_EQ(blocks.count, q.count());
+    for (auto [block, array] : {std::pair{blocks.uv, &q.uv()},
+                                {blocks.footprint, &q.footprint()},
+                                {blocks.wo, &q.wo()},
+                                {blocks.wi, &q.wi()},
+                                {blocks.position, &q.position()},
+                                {blocks.normal, &q.normal()},
+                                {blocks.tangent, &q.tangent()}}) {
+      ASSERT_EQ(block == nullptr, array->empty());
+      if (block) std::copy(array->begin(), array->end(), block);
+    }
+    s = session.EvaluateInPlace(request);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    EXPECT_EQ(std::memcmp(tcp.data(), blocks.radiance, tcp.size() * sizeof(float)), 0);
   }
 }
 

@@ -8,11 +8,12 @@
 //   end_to_end  glintd's service in this process on loopback through the client library
 //               (protobuf + gRPC both ways; fp32, each model's first variant per light set),
 //               on the batch the device row of the same run timed,
-//   shared_memory  the same service through same-host shared memory (client/lib/
-//               shm_transport.h: a region registered once; each timed call packs the queries
-//               into it, sends the small request, the server copies them out, evaluates, writes
-//               the radiance back, the client copies it out; same rows as end_to_end;
-//               --shm-direct-output: the kernels write the region directly),
+//   shared_memory  the same service through same-host shared memory, zero-copy (client/lib/
+//               shm_transport.h ShmSession::PrepareInPlace: a region registered once, the
+//               queries written into it before the clock starts; each timed call sends the small
+//               request, glintd validates and evaluates the queries in place and its kernels
+//               write the radiance into the region; same rows and batch as end_to_end;
+//               bench_shm_steps times the copying ShmSession::Evaluate),
 // in fp32 and fp64. One row per measurement:
 //   evals_per_s      queries / median seconds of --repeat runs; the batch (the shared queries
 //                    tiled) grows until one run takes >= the minimum time or reaches 2^20 queries,
@@ -244,11 +245,20 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
       return ok;
     }
     if (path == "shared_memory") {
+      // Zero-copy: the queries written into the registered region before the clock starts (as
+      // the application producing them there would, and as Triton's perf_analyzer prepares its
+      // shared-memory inputs), the radiance read where the kernels wrote it. The client
+      // library's copying ShmSession::Evaluate is timed by bench/bench_shm_steps.cpp.
+      grpc::Status s = service_->PrepareSharedInPlace(r);
+      if (!s.ok()) {
+        *why = "shared_memory: " + s.error_message();
+        return false;
+      }
       glint::client::EvaluateInfo info;
       const auto t0 = Clock::now();
-      grpc::Status s = service_->EvaluateShared(r, &o, &info);
+      s = service_->EvaluateSharedInPlace(r, &info);
       *seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-      row->transport = o_.shm_direct_output ? "shm-direct" : "shm";
+      row->transport = "shm-in-place";
       if (!s.ok()) *why = "shared_memory: " + s.error_message(), ok = false;
       return ok;
     }
@@ -264,10 +274,10 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
     return ok;
   };
   double t = 0;
-  // end_to_end times the batch its device row timed in this run (issue 12: the two rates side
-  // by side on the same batch, 1M queries for the probes).
+  // end_to_end and shared_memory time the batch their device row timed in this run (issue 12:
+  // the rates side by side on the same batch, 1M queries for the probes).
   uint32_t same_as_device = 0;
-  if (path == "end_to_end")
+  if (path == "end_to_end" || path == "shared_memory")
     for (const Row &d : rows_)
       if (d.path == "device" && d.model == row->model && d.variant == row->variant &&
           d.lights == row->lights && d.precision == row->precision)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <tuple>
 
 #include "server/kernel_source.h"
 #include "server/model_table.h"
@@ -45,17 +46,18 @@ Status MakeInput(cl_context ctx, const Array &a, ClBuffer *buf) {
   return MakeInput(ctx, a.data(), size_t(a.size()), buf);
 }
 
-Status MakeArguments(cl_context ctx, const EvalPlan &plan, const glint::v1::QueryBatch &q,
-                     cl_mem ltc_table, cl_mem model_table, float *out_rgb, KernelArguments *a) {
-  a->n = q.count();
-  for (auto [input, buf] : {std::pair{&q.uv(), &a->uv},
-                            {&q.footprint(), &a->footprint},
-                            {&q.wo(), &a->wo},
-                            {&q.wi(), &a->wi},
-                            {&q.position(), &a->position},
-                            {&q.normal(), &a->normal},
-                            {&q.tangent(), &a->tangent}}) {
-    Status s = MakeInput(ctx, *input, buf);
+Status MakeArguments(cl_context ctx, const EvalPlan &plan, const QueryView &q, cl_mem ltc_table,
+                     cl_mem model_table, float *out_rgb, KernelArguments *a) {
+  a->n = q.count;
+  // Floats per query of each array (an absent one, null, binds the dummy buffer).
+  for (auto [input, per, buf] : {std::tuple{q.uv, 2u, &a->uv},
+                                 {q.footprint, 4u, &a->footprint},
+                                 {q.wo, 3u, &a->wo},
+                                 {q.wi, 3u, &a->wi},
+                                 {q.position, 3u, &a->position},
+                                 {q.normal, 3u, &a->normal},
+                                 {q.tangent, 3u, &a->tangent}}) {
+    Status s = MakeInput(ctx, input, input ? size_t(q.count) * per : 0, buf);
     if (!s.ok()) return s;
   }
   for (Status s :
@@ -232,6 +234,11 @@ Status DeviceEngine::KernelFor(Queue &queue, const ModelPass &pass, const Kernel
 
 Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const glint::v1::QueryBatch &q,
                               float *out_rgb) {
+  return Evaluate(worker, plan, QueryView::Of(q), out_rgb);
+}
+
+Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const QueryView &q,
+                              float *out_rgb) {
   Queue &queue = *queues_.at(size_t(worker));
   if (plan.spec.fp64 && !runtime_->info().fp64) return Fp64Unavailable(runtime_->info());
   const Model *model = FindModel(plan.spec.model);
@@ -241,7 +248,7 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const glint::v1:
   if (model->request_table && !plan.request_table)
     return Status::Internal(std::string(model->name) +
                             ": the plan has no request table (ResolveRequestTable not called)");
-  const cl_uint n = q.count();
+  const cl_uint n = q.count;
   if (n == 0) return Status::Ok();
 
   std::vector<const ModelPass *> passes;
@@ -307,7 +314,7 @@ Status DeviceEngine::Sample(int worker, const EvalPlan &plan, const glint::v1::Q
     if (!t.ok()) return t;
     model_table = request_table.get();
   }
-  Status s = MakeArguments(runtime_->context(), plan, q,
+  Status s = MakeArguments(runtime_->context(), plan, QueryView::Of(q),
                            ltc_tables_[plan.spec.ndf == GLINT_NDF_BECKMANN ? 1 : 0].get(),
                            model_table, out, &args);
   if (!s.ok()) return s;

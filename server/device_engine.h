@@ -19,6 +19,7 @@
 #include "server/cl_runtime.h"
 #include "server/eval_plan.h"
 #include "server/model.h"
+#include "server/query_view.h"
 #include "server/status.h"
 
 namespace glint {
@@ -45,6 +46,9 @@ class DeviceEngine {
   // command queue of `worker`.
   Status Evaluate(int worker, const EvalPlan &plan, const glint::v1::QueryBatch &queries,
                   float *out_rgb);
+  // The same on raw arrays (server/query_view.h), wrapped in place (CL_MEM_USE_HOST_PTR): the
+  // arrays must stay mapped and float-aligned until the call returns.
+  Status Evaluate(int worker, const EvalPlan &plan, const QueryView &queries, float *out_rgb);
 
   // Runs the model's sample pass (server/model.h ModelSampler): writes kSampleFloats (7) floats
   // per sample, samples_per_query per query, to `out` (server/sample.h checks the request).

@@ -2,7 +2,9 @@
 
 #include <setjmp.h>
 #include <signal.h>
+#include <sys/mman.h>
 
+#include <cstdint>
 #include <cstring>
 #include <mutex>
 
@@ -14,8 +16,39 @@ namespace {
 __attribute__((tls_model("initial-exec"))) thread_local sigjmp_buf *t_landing = nullptr;
 struct sigaction g_previous;
 
+// The watched mappings. A slot is in use while `begin` is non-zero; it is filled `end` and
+// `lost` first and `begin` last, and emptied `begin` first, so the handler (which only reads)
+// never pairs a begin with another mapping's end.
+struct Watch {
+  std::atomic<uintptr_t> begin{0};
+  std::atomic<uintptr_t> end{0};
+  std::atomic<std::atomic<bool> *> lost{nullptr};
+};
+Watch g_watch[kWatchSlots];
+
+// Replaces the watched mapping holding `addr` by anonymous memory; false when none holds it.
+// mmap is a plain system call here (not on POSIX's async-signal-safe list, but it takes no
+// user-space lock); the fault is synchronous, so no other handler code is interrupted.
+bool Rescue(uintptr_t addr) {
+  for (Watch &w : g_watch) {
+    const uintptr_t begin = w.begin.load(std::memory_order_acquire);
+    if (begin == 0 || addr < begin) continue;
+    const uintptr_t end = w.end.load(std::memory_order_relaxed);
+    if (addr >= end) continue;
+    void *p = mmap(reinterpret_cast<void *>(begin), end - begin, PROT_READ | PROT_WRITE,
+                   MAP_FIXED | MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (p == MAP_FAILED) return false;
+    if (std::atomic<bool> *lost = w.lost.load(std::memory_order_relaxed))
+      lost->store(true, std::memory_order_release);
+    return true;
+  }
+  return false;
+}
+
 void OnSigbus(int sig, siginfo_t *info, void *context) {
   if (sigjmp_buf *landing = t_landing) siglongjmp(*landing, 1);
+  // A watched mapping: retry the access on the zero pages.
+  if (info && Rescue(reinterpret_cast<uintptr_t>(info->si_addr))) return;
   // Not a guarded copy: behave as if we were not installed.
   if ((g_previous.sa_flags & SA_SIGINFO) && g_previous.sa_sigaction) {
     g_previous.sa_sigaction(sig, info, context);
@@ -40,11 +73,32 @@ __attribute__((noinline)) void Copy(void *dst, const void *src, size_t bytes) {
   std::memcpy(dst, src, bytes);
 }
 
+std::once_flag g_installed;
+
 }  // namespace
 
+int WatchMapping(void *begin, size_t bytes, std::atomic<bool> *lost) {
+  std::call_once(g_installed, Install);
+  static std::mutex mutex;  // between watchers; the handler needs none
+  std::lock_guard<std::mutex> lock(mutex);
+  for (int i = 0; i < kWatchSlots; ++i) {
+    Watch &w = g_watch[i];
+    if (w.begin.load(std::memory_order_relaxed) != 0) continue;
+    w.end.store(reinterpret_cast<uintptr_t>(begin) + bytes, std::memory_order_relaxed);
+    w.lost.store(lost, std::memory_order_relaxed);
+    w.begin.store(reinterpret_cast<uintptr_t>(begin), std::memory_order_release);
+    return i;
+  }
+  return -1;
+}
+
+void UnwatchMapping(int handle) {
+  if (handle < 0 || handle >= kWatchSlots) return;
+  g_watch[handle].begin.store(0, std::memory_order_release);
+}
+
 bool GuardedCopy(void *dst, const void *src, size_t bytes) {
-  static std::once_flag installed;
-  std::call_once(installed, Install);
+  std::call_once(g_installed, Install);
   sigjmp_buf landing;
   // savemask 1: the jump restores the signal mask, so the next SIGBUS is delivered again.
   if (sigsetjmp(landing, 1) != 0) {

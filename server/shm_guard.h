@@ -3,13 +3,29 @@
 // glintd. GuardedCopy catches that fault on the copying thread (a SIGBUS handler that jumps back
 // when, and only when, the faulting thread is inside a GuardedCopy) and reports it as false; any
 // other SIGBUS keeps its usual meaning (the previous handler, or the default action).
+//
+// Mappings that other threads read and write without a copy (the device engine's kernels on a
+// region, server/shm_io.cpp) are watched instead (WatchMapping): a SIGBUS inside a watched
+// mapping, on any thread, maps anonymous zero pages over the whole mapping (MAP_FIXED; what
+// Wayland compositors do for wl_shm pools) and sets its `lost` flag, and the faulting access is
+// retried: it then reads zeros or writes memory nobody reads. The call that was using the
+// mapping sees `lost` afterwards and refuses to answer; the region stays lost (its mapping no
+// longer shows the object) until it is unregistered.
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 
 namespace glint {
 
 // memcpy(dst, src, bytes); false when a page of either side was gone (SIGBUS).
 bool GuardedCopy(void *dst, const void *src, size_t bytes);
+
+// Watches [begin, begin + bytes) (page-aligned start, as mmap returned it) until UnwatchMapping;
+// `lost` must outlive the watch. Returns a handle, or -1 when the fixed table (kWatchSlots
+// mappings for the whole process) is full.
+constexpr int kWatchSlots = 1024;
+int WatchMapping(void *begin, size_t bytes, std::atomic<bool> *lost);
+void UnwatchMapping(int handle);
 
 }  // namespace glint

@@ -32,7 +32,7 @@ std::vector<Block> Blocks(const glint::v1::SharedMemoryIo &io) {
           {[](Q *q) { return q->mutable_tangent(); }, 3, io.frame()}};
 }
 
-// Scratch memory a worker keeps between shared-memory calls: 1M probes with a frame.
+// Scratch memory a worker keeps between shared-memory calls (copy path): 1M probes with a frame.
 constexpr size_t kKeepBytes = size_t(80) << 20;
 
 Status Truncated(const std::string &field, const ShmRegion &region, const char *what) {
@@ -128,56 +128,124 @@ Status StoreSharedRadiance(const SharedMemoryCall &call, const float *rgb) {
   return Status::Ok();
 }
 
-// Evaluate's shared-memory path: RunBatch (server/service.cpp) with the queries copied out of the
-// input region and the radiance written into the output region.
+// The queries of `call` as views into the input region (the SharedMemoryIo layout: each present
+// block contiguous, in Blocks order).
+QueryView SharedQueryView(const SharedMemoryCall &call, const glint::v1::SharedMemoryIo &io) {
+  QueryView v;
+  v.count = call.count;
+  const float *at = reinterpret_cast<const float *>(call.input);
+  auto take = [&](bool present, uint32_t per) -> const float * {
+    if (!present) return nullptr;
+    const float *block = at;
+    at += uint64_t(call.count) * per;
+    return block;
+  };
+  v.uv = take(io.uv(), 2);
+  v.footprint = take(io.footprint(), 4);
+  v.wo = take(true, 3);
+  v.wi = take(io.wi(), 3);
+  v.position = take(io.frame(), 3);
+  v.normal = take(io.frame(), 3);
+  v.tangent = take(io.frame(), 3);
+  return v;
+}
+
+bool EvaluatesInPlace(const SharedMemoryCall &call, const glint::v1::EvaluateRequest &settings,
+                      bool on_device) {
+  if (!on_device) return false;  // the host path reads QueryBatch arrays
+  if (reinterpret_cast<uintptr_t>(call.input) % alignof(float) != 0) return false;
+  // Kernels whose every step is arithmetic on the query's own floats: no table index, loop count
+  // or branch into memory derived from query data, so bytes the client changes after validation
+  // can only change its own results (tests/service/shm_view_test.cpp runs them on NaN, Inf,
+  // huge, denormal and random bit patterns). Polygon lights index the LTC tables by the
+  // query's angles and loop over clipped edges: copied.
+  if (settings.material().model() != glint::v1::SMOOTH) return false;
+  for (const glint::v1::Light &light : settings.lights())
+    if (light.has_polygon()) return false;
+  return true;
+}
+
+namespace {
+
+Status Lost(const SharedMemoryCall &call) {
+  for (const ShmRegion *r : {call.in.get(), call.out.get()})
+    if (r->lost())
+      return Status::InvalidArgument(
+          "shared_memory: region \"" + r->info().name() + "\" lost its pages during the call " +
+          "(its object " + r->info().key() +
+          " was truncated); nothing was answered, and the region must be registered again");
+  return Status::Ok();
+}
+
+}  // namespace
+
+// Evaluate's shared-memory path: RunBatch (server/service.cpp) on the queries in the input
+// region, the radiance written by the kernels into the output region. The queries are read in
+// place (views: no copy) when EvaluatesInPlace, else copied out first. What a client that races
+// its own region gets:
+//  - truncating the object mid-call: the SIGBUS handler (server/shm_guard.h) maps zero pages
+//    over the region and the call is refused (INVALID_ARGUMENT, "lost its pages"), as is every
+//    later call on that region; the server and other clients are untouched;
+//  - writing the input blocks mid-call: in place, validation and the kernels may see different
+//    bytes, so its results are undefined (not necessarily finite) for its own queries only;
+//    copied, the kernels see exactly the validated bytes.
 Status GlintServiceImpl::RunShared(int worker, const glint::v1::EvaluateRequest &settings,
                                    const std::string &owner, glint::v1::EvaluateResponse *response,
                                    std::string *kernel, grpc::CallbackServerContext *ctx) {
   if (!options_.shm)
     return Status::FailedPrecondition("shared_memory: this server has no shared-memory support");
   const glint::v1::SharedMemoryIo &io = settings.shared_memory();
-  // Per worker thread and reused: the arrays keep their capacity across calls (Clear), so a
-  // steady stream of large calls does not page-fault fresh memory in every call (measured: a
-  // fifth of the time of a 1M-probe call). Released after a call larger than kKeepBytes.
+  // Per worker thread and reused (the copy path): the arrays keep their capacity across calls
+  // (Clear), so a steady stream of large calls does not page-fault fresh memory in every call
+  // (measured: a fifth of the time of a 1M-probe call). Released after a call larger than
+  // kKeepBytes.
   thread_local glint::v1::QueryBatch queries;
-  thread_local std::vector<float> scratch;
   struct Release {
     ~Release() {
-      if (size_t(queries.ByteSizeLong()) + scratch.capacity() * sizeof(float) > kKeepBytes) {
-        glint::v1::QueryBatch().Swap(&queries);
-        std::vector<float>().swap(scratch);
-      }
+      if (size_t(queries.ByteSizeLong()) > kKeepBytes) glint::v1::QueryBatch().Swap(&queries);
     }
   } release;
   SharedMemoryCall call;
   // At the time of the call, not of admission: the fstat inside sees truncation up to now.
   Status s = ResolveSharedMemoryCall(*options_.shm, owner, io, &call);
-  if (s.ok()) s = LoadSharedQueries(call, io, &queries);
-  if (s.ok()) s = ValidateQueries(queries, settings.lights_size() > 0, options_.limits, 0, false);
-  if (s.ok()) s = ValidateQueriesForModel(queries, settings, 0);
   if (!s.ok()) return s;
-  EvalPlan plan = MakeEvalPlan(settings, queries);
+  const bool in_place = EvaluatesInPlace(call, settings, engine_ != nullptr);
+  QueryView view;
+  if (in_place) {
+    view = SharedQueryView(call, io);
+  } else {
+    s = LoadSharedQueries(call, io, &queries);
+    view = QueryView::Of(queries);
+  }
+  if (s.ok()) s = ValidateQueryView(view, settings.lights_size() > 0, options_.limits, 0, false);
+  // A region truncated under the validation reads as zeros: say why, not "length 0".
+  if (Status lost = Lost(call); !lost.ok()) return lost;
+  if (s.ok() && !in_place) s = ValidateQueriesForModel(queries, settings, 0);
+  if (!s.ok()) return s;
+  glint::v1::QueryBatch shape;  // MakeEvalPlan reads only which arrays are present
+  if (view.wi) shape.add_wi(0.0f);
+  if (view.normal) shape.add_normal(0.0f);
+  EvalPlan plan = MakeEvalPlan(settings, in_place ? shape : queries);
   s = ResolveRequestTable(settings.material(), &plan);
   if (!s.ok()) return s;
   if (kernel) *kernel = plan.spec.Describe();
   const auto start = std::chrono::steady_clock::now();
-  const bool direct = options_.shm->limits().direct_output;
-  float *out = call.output;
-  if (!direct) {
-    scratch.resize(size_t(call.count) * 3);
-    out = scratch.data();
-  } else if (Status again =
-                 call.out->CheckRange(io.output_offset(), uint64_t(call.count) * 3 * sizeof(float),
-                                      "shared_memory.output_offset");
-             !again.ok()) {
-    return again;  // the last check before the device writes the mapping unguarded
-  }
   SliceOptions slicing;
   slicing.per_query_cost = EstimateRequestCost(settings, 1).per_query;
   slicing.target_ms = options_.slice_ms;
   slicing.stop = [this, ctx] { return StopReason(ctx); };
-  s = EvaluateSliced(engine_, worker, plan, queries, out, slicing);
-  if (s.ok() && !direct) s = StoreSharedRadiance(call, out);
+  if (in_place) {
+    s = RunInSlices(
+        call.count, true, slicing,
+        [&](uint32_t begin, uint32_t size) {
+          return engine_->Evaluate(worker, plan, view.Slice(begin, size),
+                                   call.output + size_t(begin) * 3);
+        },
+        nullptr);
+  } else {
+    s = EvaluateSliced(engine_, worker, plan, queries, call.output, slicing);
+  }
+  if (Status lost = Lost(call); !lost.ok()) return lost;
   response->set_count(call.count);
   response->mutable_stats()->set_compute_ms(
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());

@@ -11,6 +11,7 @@
 
 #include "glint/v1/glint.pb.h"
 #include "server/auth.h"
+#include "server/query_view.h"
 #include "server/shm_regions.h"
 #include "server/status.h"
 
@@ -42,6 +43,15 @@ Status ResolveSharedMemoryCall(const ShmRegistry &registry, const std::string &o
 // validation and kernels then apply), under the SIGBUS guard.
 Status LoadSharedQueries(const SharedMemoryCall &call, const glint::v1::SharedMemoryIo &io,
                          glint::v1::QueryBatch *queries);
+
+// The input blocks of `call` as views into the region (server/query_view.h).
+QueryView SharedQueryView(const SharedMemoryCall &call, const glint::v1::SharedMemoryIo &io);
+
+// Whether RunShared evaluates `call` on those views (no copy): on the device, with a
+// float-aligned input, for kernels that stay safe on any bytes (SMOOTH without polygon lights).
+// Otherwise the queries are copied out of the region first (LoadSharedQueries).
+bool EvaluatesInPlace(const SharedMemoryCall &call, const glint::v1::EvaluateRequest &settings,
+                      bool on_device);
 
 // Copies 3 * count floats of radiance into the output region, under the SIGBUS guard.
 Status StoreSharedRadiance(const SharedMemoryCall &call, const float *rgb);

@@ -8,6 +8,8 @@
 #include <cerrno>
 #include <cstring>
 
+#include "server/shm_guard.h"
+
 namespace glint {
 namespace {
 
@@ -49,6 +51,7 @@ Status ValidateShmKey(const std::string &key, const std::string &field) {
 }
 
 ShmRegion::~ShmRegion() {
+  UnwatchMapping(watch_);
   if (map_) munmap(map_, map_bytes_);
   if (fd_ >= 0) close(fd_);
 }
@@ -59,6 +62,12 @@ Status ShmRegion::CheckRange(uint64_t offset, uint64_t bytes, const std::string 
     return Status::InvalidArgument(field + ": bytes [" + std::to_string(offset) + ", " +
                                    std::to_string(offset + bytes) + ") lie beyond region \"" +
                                    info_.name() + "\" of " + std::to_string(size) + " bytes");
+  if (lost())
+    return Status::FailedPrecondition(
+        field + ": region \"" + info_.name() + "\" lost its pages in an earlier call (object " +
+        info_.key() +
+        " was truncated while the server used it); unregister it and register it "
+        "again");
   struct stat st {};
   if (fstat(fd_, &st) != 0)
     return Status::Internal("fstat of region \"" + info_.name() + "\" failed: " + Errno());
@@ -123,6 +132,10 @@ Status ShmRegistry::Register(const std::string &owner,
   if (map == MAP_FAILED)
     return Status::InvalidArgument("key: mmap of " + r.key() + " failed: " + Errno());
   region->map_ = map;
+  region->watch_ = WatchMapping(map, region->map_bytes_, &region->lost_);
+  if (region->watch_ < 0)
+    return Status::ResourceExhausted("regions: " + std::to_string(kWatchSlots) +
+                                     " mapped on this server, the most it watches at once");
   region->window_ = static_cast<uint8_t *>(map) + (r.offset() - base);
   region->info_.set_name(r.name());
   region->info_.set_key(r.key());

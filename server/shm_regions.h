@@ -9,6 +9,7 @@
 // use by a running call stays mapped until that call is done, even when unregistered meanwhile.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -24,10 +25,9 @@ namespace glint {
 struct ShmLimits {
   uint32_t max_regions = 16;               // per owner; 0 disables shared memory
   uint64_t max_bytes = uint64_t(4) << 30;  // registered window bytes per owner
-  // The kernels write the radiance straight into the output region (CL_MEM_USE_HOST_PTR on the
-  // mapping) instead of into private memory copied out under the SIGBUS guard. Faster, but a
-  // client that shrinks the object while its call runs then crashes the server (SIGBUS in a
-  // device thread, which no guard can catch).
+  // Obsolete (--shm-direct-output, accepted and ignored): the kernels always write the radiance
+  // straight into the output region now, because every mapping is watched (server/shm_guard.h
+  // WatchMapping): a client that shrinks its object mid-call loses its own call, not the server.
   bool direct_output = false;
 };
 
@@ -40,7 +40,12 @@ class ShmRegion {
   // OK when the window [offset, offset + bytes) of this region still lies inside the object
   // (fstat now: the client may have truncated it since registration). `field` names the request
   // field in the message.
+  // Also refused once the region is lost().
   Status CheckRange(uint64_t offset, uint64_t bytes, const std::string &field) const;
+  // True once a thread faulted on the mapping (its object shrank under it) and the SIGBUS
+  // handler replaced the mapping by zero pages (server/shm_guard.h): the region no longer shows
+  // the client's object, and every later call on it is refused.
+  bool lost() const { return lost_.load(std::memory_order_acquire); }
 
  private:
   friend class ShmRegistry;
@@ -50,6 +55,8 @@ class ShmRegion {
   void *map_ = nullptr;  // page-aligned start of the mapping
   size_t map_bytes_ = 0;
   uint8_t *window_ = nullptr;  // map_ + (offset % page size)
+  mutable std::atomic<bool> lost_{false};
+  int watch_ = -1;  // WatchMapping handle
 };
 
 class ShmRegistry {

@@ -4,8 +4,14 @@
 #include <cmath>
 #include <sstream>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "server/model_table.h"
+
+#ifdef __SSE2__
+#include <immintrin.h>
+#endif
 
 namespace glint {
 namespace {
@@ -276,23 +282,64 @@ Status CheckArraySize(const RepeatedField<float> &v, uint32_t count, int per, bo
 }
 
 // True when every value of `v` (`floats` of them) is finite and, for a unit array (3 floats per
-// query), every vector's squared length lies inside [(1 - tol)^2, (1 + tol)^2] narrowed by a
-// relative 1e-9: then sqrt, correctly rounded (error ~1e-16), gives |length - 1| < tol and the
-// exact check passes. Without branches, so the loop vectorises; false means "look closer" (the
-// exact loop decides), never "invalid". A NaN or infinite component makes the squared length
-// NaN or infinite, which fails the comparison.
+// query), every vector's squared length lies inside [(1 - tol)^2, (1 + tol)^2] narrowed by the
+// rounding error of computing it (below): then the exact check (in double) passes too. Without
+// branches, so the loop vectorises; false means "look closer" (the exact loop decides), never
+// "invalid". A NaN or infinite component makes the squared length NaN or infinite, which fails the
+// comparison.
 bool ClearlyValid(const float *v, uint64_t floats, bool unit, double tol) {
   bool ok = true;
   if (!unit) {
-    for (uint64_t k = 0; k < floats; ++k) ok &= (v[k] - v[k] == 0.0f);  // false for NaN, +-Inf
+    uint64_t k = 0;
+#ifdef __SSE2__
+    // Four floats at a time (the compilers leave the loop below scalar).
+    const __m128 zero = _mm_setzero_ps();
+    __m128 good = _mm_cmpeq_ps(zero, zero);
+    for (; k + 4 <= floats; k += 4) {
+      const __m128 a = _mm_loadu_ps(v + k);
+      good = _mm_and_ps(good, _mm_cmpeq_ps(_mm_sub_ps(a, a), zero));
+    }
+    ok = _mm_movemask_ps(good) == 0xf;
+#endif
+    for (; k < floats; ++k) ok &= (v[k] - v[k] == 0.0f);  // false for NaN, +-Inf
     return ok;
   }
   if (!(tol > 0.0 && tol < 1.0)) return false;
-  const double lo = (1.0 - tol) * (1.0 - tol) * (1.0 + 1e-9);
-  const double hi = (1.0 + tol) * (1.0 + tol) * (1.0 - 1e-9);
-  for (uint64_t k = 0; k + 2 < floats; k += 3) {
-    const double s =
-        double(v[k]) * v[k] + double(v[k + 1]) * v[k + 1] + double(v[k + 2]) * v[k + 2];
+  // In float (twice the lanes of double): x^2 + y^2 + z^2 of floats is within a relative
+  // 4 * 2^-24 < 2.4e-7 of the exact squared length (three rounded products, two rounded sums;
+  // Higham, Accuracy and Stability of Numerical Algorithms, 2nd ed., eq. 3.4-3.5), and the bounds
+  // are narrowed by 1e-6 relative, which also covers rounding them to float. A square that
+  // overflows to Inf or underflows fails the comparison and goes to the exact loop.
+  const float lo = float((1.0 - tol) * (1.0 - tol) * (1.0 + 1e-6));
+  const float hi = float((1.0 + tol) * (1.0 + tol) * (1.0 - 1e-6));
+  uint64_t k = 0;
+#ifdef __SSE2__
+  // Four vectors (12 floats, three loads) at a time: the compilers leave the stride-3 loop below
+  // scalar. Squares elementwise, then the three squares of each vector gathered into lanes and
+  // summed in the scalar loop's order, (x^2 + y^2) + z^2.
+  const __m128 vlo = _mm_set1_ps(lo), vhi = _mm_set1_ps(hi);
+  __m128 good = _mm_castsi128_ps(_mm_set1_epi32(-1));
+  for (; k + 12 <= floats; k += 12) {
+    const __m128 q0 = _mm_loadu_ps(v + k), q1 = _mm_loadu_ps(v + k + 4),
+                 q2 = _mm_loadu_ps(v + k + 8);
+    const __m128 s0 = _mm_mul_ps(q0, q0), s1 = _mm_mul_ps(q1, q1), s2 = _mm_mul_ps(q2, q2);
+    // s0 = x0 y0 z0 x1, s1 = y1 z1 x2 y2, s2 = z2 x3 y3 z3 (squared).
+    const __m128 x01 = _mm_shuffle_ps(s0, s1, _MM_SHUFFLE(0, 0, 3, 0));  // x0 x1 y1 y1
+    const __m128 x23 = _mm_shuffle_ps(s1, s2, _MM_SHUFFLE(0, 1, 0, 2));  // x2 y1 x3 z2
+    const __m128 x = _mm_shuffle_ps(x01, x23, _MM_SHUFFLE(2, 0, 1, 0));  // x0 x1 x2 x3
+    const __m128 y01 = _mm_shuffle_ps(s0, s1, _MM_SHUFFLE(0, 0, 0, 1));  // y0 x0 y1 y1
+    const __m128 y23 = _mm_shuffle_ps(s1, s2, _MM_SHUFFLE(0, 2, 0, 3));  // y2 y1 y3 z2
+    const __m128 y = _mm_shuffle_ps(y01, y23, _MM_SHUFFLE(2, 0, 2, 0));  // y0 y1 y2 y3
+    const __m128 z01 = _mm_shuffle_ps(s0, s1, _MM_SHUFFLE(1, 1, 2, 2));  // z0 z0 z1 z1
+    const __m128 z23 = _mm_shuffle_ps(s2, s2, _MM_SHUFFLE(3, 3, 0, 0));  // z2 z2 z3 z3
+    const __m128 z = _mm_shuffle_ps(z01, z23, _MM_SHUFFLE(2, 0, 2, 0));  // z0 z1 z2 z3
+    const __m128 sum = _mm_add_ps(_mm_add_ps(x, y), z);
+    good = _mm_and_ps(good, _mm_and_ps(_mm_cmpge_ps(sum, vlo), _mm_cmple_ps(sum, vhi)));
+  }
+  ok = _mm_movemask_ps(good) == 0xf;
+#endif
+  for (; k + 2 < floats; k += 3) {
+    const float s = v[k] * v[k] + v[k + 1] * v[k + 1] + v[k + 2] * v[k + 2];
     ok &= (s >= lo) & (s <= hi);
   }
   return ok;
@@ -407,12 +454,28 @@ Status ValidateQueries(const glint::v1::QueryBatch &q, bool has_lights,
   if (s.ok()) s = CheckArraySize(q.tangent(), n, 3, false, "queries.tangent");
   if (!s.ok()) return s;
 
-  const bool frame = !q.normal().empty();
-  if (frame != !q.position().empty() || frame != !q.tangent().empty()) {
+  return ValidateQueryView(QueryView::Of(q), has_lights, limits, first_query, streamed);
+}
+
+Status ValidateQueryView(const QueryView &q, bool has_lights, const ValidationLimits &limits,
+                         uint64_t first_query, bool streamed) {
+  const uint32_t n = q.count;
+  if (n == 0) return Status::InvalidArgument("queries.count: 0; expected at least one query");
+  if (n > limits.max_batch) {
+    return Status::InvalidArgument(
+        "queries.count: " + std::to_string(n) + " exceeds the limit of " +
+        std::to_string(limits.max_batch) + " queries per " +
+        (streamed ? "stream chunk; send smaller chunks"
+                  : "call; send the batch over EvaluateStream in chunks of at most " +
+                        std::to_string(limits.max_batch)));
+  }
+  if (!q.wo) return Status::InvalidArgument("queries.wo: absent; expected 3 x count values");
+  const bool frame = q.normal != nullptr;
+  if (frame != (q.position != nullptr) || frame != (q.tangent != nullptr)) {
     return Status::InvalidArgument(
         "queries.position/normal/tangent: give all three arrays (a world-space frame) or none");
   }
-  const bool probe = !q.wi().empty();
+  const bool probe = q.wi != nullptr;
   if (probe && has_lights) {
     return Status::InvalidArgument(
         "lights: a BRDF probe batch (queries.wi set) must carry no lights");
@@ -424,32 +487,54 @@ Status ValidateQueries(const glint::v1::QueryBatch &q, bool has_lights,
 
   const double tol = limits.unit_tolerance;
   struct Array {
-    const RepeatedField<float> &v;
+    const float *v;  // null: absent
     int per;
     const char *name;
     bool unit;
   };
-  const Array arrays[] = {{q.wo(), 3, "queries.wo", true},
-                          {q.wi(), 3, "queries.wi", true},
-                          {q.uv(), 2, "queries.uv", false},
-                          {q.footprint(), 4, "queries.footprint", false},
-                          {q.position(), 3, "queries.position", false},
-                          {q.normal(), 3, "queries.normal", true},
-                          {q.tangent(), 3, "queries.tangent", true}};
+  const Array arrays[] = {{q.wo, 3, "queries.wo", true},
+                          {q.wi, 3, "queries.wi", true},
+                          {q.uv, 2, "queries.uv", false},
+                          {q.footprint, 4, "queries.footprint", false},
+                          {q.position, 3, "queries.position", false},
+                          {q.normal, 3, "queries.normal", true},
+                          {q.tangent, 3, "queries.tangent", true}};
   // Fast acceptance (issue 12): a batch without a frame whose arrays are all ClearlyValid needs
   // no per-query loop; any other batch goes through the exact loop, which also names the first
-  // bad query.
+  // bad query. Large batches are scanned in query ranges on several threads (a pure read; the
+  // verdict is the AND of the ranges', so it does not depend on the split).
   if (!frame) {
+    auto clear_range = [&](uint32_t begin, uint32_t end) {
+      bool clear = true;
+      for (const Array &a : arrays)
+        if (a.v)
+          clear = clear && ClearlyValid(a.v + uint64_t(begin) * a.per,
+                                        uint64_t(end - begin) * a.per, a.unit, tol);
+      return clear;
+    };
+    constexpr uint32_t kPerThread = 1u << 17;  // below this a thread costs more than it saves
+    const uint32_t threads =
+        std::clamp<uint32_t>(n / kPerThread, 1, std::max(1u, std::thread::hardware_concurrency()));
     bool clear = true;
-    for (const Array &a : arrays)
-      if (!a.v.empty()) clear = clear && ClearlyValid(a.v.data(), uint64_t(n) * a.per, a.unit, tol);
+    if (threads == 1) {
+      clear = clear_range(0, n);
+    } else {
+      std::vector<char> verdict(threads, 0);
+      std::vector<std::thread> pool;
+      auto bounds = [&](uint32_t t) { return uint32_t(uint64_t(n) * t / threads); };
+      for (uint32_t t = 1; t < threads; ++t)
+        pool.emplace_back([&, t] { verdict[t] = clear_range(bounds(t), bounds(t + 1)); });
+      verdict[0] = clear_range(0, bounds(1));
+      for (std::thread &th : pool) th.join();
+      for (char v : verdict) clear = clear && v;
+    }
     if (clear) return Status::Ok();
   }
   // Query-major order so the reported index is the first bad query overall.
   for (uint32_t i = 0; i < n; ++i) {
     for (const Array &a : arrays) {
-      if (a.v.empty()) continue;
-      const float *v = a.v.data() + uint64_t(i) * a.per;
+      if (!a.v) continue;
+      const float *v = a.v + uint64_t(i) * a.per;
       if (!AllFinite(v, a.per)) {
         return Status::InvalidArgument(Indexed(a.name, first_query + i) + ": " + Vec(v, a.per) +
                                        " is not finite");
@@ -460,8 +545,8 @@ Status ValidateQueries(const glint::v1::QueryBatch &q, bool has_lights,
         return CheckUnit(v, Indexed(a.name, first_query + i), tol);
     }
     if (frame) {
-      const float *nv = q.normal().data() + 3 * uint64_t(i);
-      const float *tv = q.tangent().data() + 3 * uint64_t(i);
+      const float *nv = q.normal + 3 * uint64_t(i);
+      const float *tv = q.tangent + 3 * uint64_t(i);
       double c = (double(nv[0]) * tv[0] + double(nv[1]) * tv[1] + double(nv[2]) * tv[2]) /
                  (Length3(nv) * Length3(tv));
       if (std::fabs(c) > limits.max_tangent_normal_cos) {

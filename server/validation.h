@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "glint/v1/glint.pb.h"
+#include "server/query_view.h"
 #include "server/status.h"
 
 namespace glint {
@@ -30,6 +31,12 @@ Status ValidateSettings(const glint::v1::EvaluateRequest &request, const Validat
 Status ValidateQueries(const glint::v1::QueryBatch &queries, bool has_lights,
                        const ValidationLimits &limits, uint64_t first_query = 0,
                        bool streamed = false);
+
+// ValidateQueries on raw arrays (server/query_view.h; e.g. views into a shared-memory region):
+// the same checks and messages, minus the array sizes, which the view's count fixes. Large
+// batches are scanned on several threads; a refusal names the first bad query all the same.
+Status ValidateQueryView(const QueryView &queries, bool has_lights, const ValidationLimits &limits,
+                         uint64_t first_query = 0, bool streamed = false);
 
 // Checks what the material's model needs from a batch that passed ValidateQueries (the model's
 // validate_queries, server/model.h; e.g. BINOMIAL needs uv and footprint and refuses probes).

@@ -1,6 +1,10 @@
 #include "bench/lib/loopback_service.h"
 
+<<<<<<< HEAD
 #include "server/malloc_policy.h"
+=======
+#include <algorithm>
+>>>>>>> s6-shm
 
 namespace glint::bench {
 
@@ -68,6 +72,29 @@ grpc::Status LoopbackService::EvaluateShared(const glint::v1::EvaluateRequest &r
                                              glint::client::EvaluateInfo *info) {
   if (!session_) session_ = std::make_unique<glint::client::ShmSession>(client_.get());
   return session_->Evaluate(request, radiance, {}, info);
+}
+
+grpc::Status LoopbackService::PrepareSharedInPlace(const glint::v1::EvaluateRequest &request) {
+  if (!session_) session_ = std::make_unique<glint::client::ShmSession>(client_.get());
+  const glint::v1::QueryBatch &q = request.queries();
+  grpc::Status s = session_->PrepareInPlace(q, q.count(), &blocks_);
+  if (!s.ok()) return s;
+  auto put = [&](float *block, const google::protobuf::RepeatedField<float> &a) {
+    if (block) std::copy(a.begin(), a.end(), block);
+  };
+  put(blocks_.uv, q.uv());
+  put(blocks_.footprint, q.footprint());
+  put(blocks_.wo, q.wo());
+  put(blocks_.wi, q.wi());
+  put(blocks_.position, q.position());
+  put(blocks_.normal, q.normal());
+  put(blocks_.tangent, q.tangent());
+  return grpc::Status::OK;
+}
+
+grpc::Status LoopbackService::EvaluateSharedInPlace(const glint::v1::EvaluateRequest &request,
+                                                    glint::client::EvaluateInfo *info) {
+  return session_->EvaluateInPlace(request, info);
 }
 
 }  // namespace glint::bench

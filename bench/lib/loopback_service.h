@@ -38,8 +38,17 @@ class LoopbackService {
   grpc::Status EvaluateShared(const glint::v1::EvaluateRequest &request,
                               std::vector<float> *radiance,
                               glint::client::EvaluateInfo *info = nullptr);
+  // Zero-copy shared memory (ShmSession::PrepareInPlace): PrepareSharedInPlace writes the
+  // request's queries into the session's region (untimed, as an application producing them
+  // there would), EvaluateSharedInPlace sends the call; the radiance is left in the region
+  // (SharedRadiance, 3 floats per query).
+  grpc::Status PrepareSharedInPlace(const glint::v1::EvaluateRequest &request);
+  grpc::Status EvaluateSharedInPlace(const glint::v1::EvaluateRequest &request,
+                                     glint::client::EvaluateInfo *info = nullptr);
+  const float *SharedRadiance() const { return blocks_.radiance; }
 
  private:
+  glint::client::ShmSession::InPlaceBlocks blocks_;
   ShmRegistry shm_;
   Scheduler scheduler_;
   GlintServiceImpl service_;

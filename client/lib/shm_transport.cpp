@@ -47,6 +47,19 @@ std::string UniqueSuffix() {
          std::to_string(uint64_t(rd()) << 32 | rd());
 }
 
+// Every field of `request` but the queries (a copy of those would cost as much as the transfer
+// saved).
+glint::v1::EvaluateRequest SettingsOf(const glint::v1::EvaluateRequest &request) {
+  glint::v1::EvaluateRequest call;
+  google::protobuf::FieldMask settings;
+  const google::protobuf::Descriptor *d = request.GetDescriptor();
+  for (int i = 0; i < d->field_count(); ++i)
+    if (d->field(i)->name() != "queries") settings.add_paths(d->field(i)->name());
+  google::protobuf::util::FieldMaskUtil::MergeMessageTo(
+      request, settings, google::protobuf::util::FieldMaskUtil::MergeOptions(), &call);
+  return call;
+}
+
 }  // namespace
 
 Transport ParseTransport(const std::string &name) {
@@ -191,14 +204,7 @@ grpc::Status ShmSession::Evaluate(const glint::v1::EvaluateRequest &request,
   if (grpc::Status s = Prepare(q, n); !s.ok()) return s;
   auto stub = glint::v1::GlintService::NewStub(client_->channel());
   // The settings once; each call carries them and a SharedMemoryIo naming this region.
-  // Every field but the queries (a copy of those would cost as much as the transfer saved).
-  glint::v1::EvaluateRequest call;
-  google::protobuf::FieldMask settings;
-  const google::protobuf::Descriptor *d = request.GetDescriptor();
-  for (int i = 0; i < d->field_count(); ++i)
-    if (d->field(i)->name() != "queries") settings.add_paths(d->field(i)->name());
-  google::protobuf::util::FieldMaskUtil::MergeMessageTo(
-      request, settings, google::protobuf::util::FieldMaskUtil::MergeOptions(), &call);
+  glint::v1::EvaluateRequest call = SettingsOf(request);
   const size_t out_offset = OutputOffset(SharedMemoryInputBytes(q, chunk_));
   uint64_t calls = 0;
   for (uint32_t begin = 0; begin < n; begin += chunk_) {
@@ -230,6 +236,76 @@ grpc::Status ShmSession::Evaluate(const glint::v1::EvaluateRequest &request,
     info->streamed = false;
     info->chunks = calls;
     info->chunk_queries = chunk_;
+    info->attempts = 1;
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status ShmSession::PrepareInPlace(const glint::v1::QueryBatch &shape, uint32_t count,
+                                        InPlaceBlocks *blocks) {
+  in_place_.Clear();
+  if (count == 0)
+    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "count: 0; expected at least 1");
+  if (shape.wo().empty())
+    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                        "shape.wo: empty; every query has wo (give shape one value in it)");
+  if (grpc::Status s = Prepare(shape, count); !s.ok()) return s;
+  if (count > chunk_)
+    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                        "count: " + std::to_string(count) + " exceeds the server's max_batch " +
+                            std::to_string(max_batch_) + " (one in-place call)");
+  *blocks = InPlaceBlocks();
+  blocks->count = count;
+  float *at = reinterpret_cast<float *>(buffer_->data());
+  float **fields[] = {&blocks->uv,       &blocks->footprint, &blocks->wo,     &blocks->wi,
+                      &blocks->position, &blocks->normal,    &blocks->tangent};
+  size_t k = 0;
+  for (const Block &b : Blocks(shape)) {  // SharedMemoryIo order, as PackSharedQueries
+    if (!b.array->empty()) {
+      *fields[k] = at;
+      at += size_t(count) * b.per;
+    }
+    ++k;
+  }
+  const size_t in_bytes = SharedMemoryInputBytes(shape, count);
+  blocks->radiance = reinterpret_cast<const float *>(buffer_->data() + OutputOffset(in_bytes));
+  in_place_.set_count(count);
+  in_place_.set_uv(!shape.uv().empty());
+  in_place_.set_footprint(!shape.footprint().empty());
+  in_place_.set_wi(!shape.wi().empty());
+  in_place_.set_frame(!shape.normal().empty());
+  in_place_.set_input_byte_size(in_bytes);
+  in_place_.set_input_region(name_);
+  in_place_.set_input_offset(0);
+  in_place_.set_output_region(name_);
+  in_place_.set_output_offset(OutputOffset(in_bytes));
+  return grpc::Status::OK;
+}
+
+grpc::Status ShmSession::EvaluateInPlace(const glint::v1::EvaluateRequest &settings,
+                                         EvaluateInfo *info) {
+  if (in_place_.count() == 0 || name_.empty())
+    return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
+                        "EvaluateInPlace: call PrepareInPlace first");
+  glint::v1::EvaluateRequest call = SettingsOf(settings);
+  *call.mutable_shared_memory() = in_place_;
+  auto stub = glint::v1::GlintService::NewStub(client_->channel());
+  grpc::ClientContext ctx;
+  client_->PrepareContext(&ctx);
+  if (client_->options().evaluate_timeout.count() > 0)
+    ctx.set_deadline(std::chrono::system_clock::now() + client_->options().evaluate_timeout);
+  glint::v1::EvaluateResponse response;
+  grpc::Status s = stub->Evaluate(&ctx, call, &response);
+  if (!s.ok()) return s;
+  if (response.count() != in_place_.count())
+    return grpc::Status(grpc::StatusCode::INTERNAL,
+                        "shared-memory Evaluate answered " + std::to_string(response.count()) +
+                            " queries; expected " + std::to_string(in_place_.count()));
+  if (info) {
+    info->device = response.stats().device();
+    info->streamed = false;
+    info->chunks = 1;
+    info->chunk_queries = in_place_.count();
     info->attempts = 1;
   }
   return grpc::Status::OK;

@@ -71,6 +71,25 @@ class ShmSession {
   // Unregisters and unlinks now (the destructor does it otherwise).
   void Close();
 
+  // Zero-copy use, as with Triton's system shared memory: the application writes its queries
+  // straight into the region and reads the radiance where glintd's kernels wrote it, so no
+  // query or result is copied on either side (glintd reads them in place; server/shm_io.h).
+  // PrepareInPlace sizes the region for `count` queries (at most the server's max_batch) with
+  // the arrays that are non-empty in `shape` (its values are not read) and returns the blocks;
+  // EvaluateInPlace evaluates what the blocks hold with `settings` (material, lights, precision,
+  // ...; its queries are ignored). The blocks stay valid until the next Prepare or Close.
+  struct InPlaceBlocks {
+    uint32_t count = 0;
+    // Floats per query: uv 2, footprint 4, the others 3; null when absent from `shape`.
+    float *uv = nullptr, *footprint = nullptr, *wo = nullptr, *wi = nullptr;
+    float *position = nullptr, *normal = nullptr, *tangent = nullptr;
+    const float *radiance = nullptr;  // 3 per query, written by EvaluateInPlace
+  };
+  grpc::Status PrepareInPlace(const glint::v1::QueryBatch &shape, uint32_t count,
+                              InPlaceBlocks *blocks);
+  grpc::Status EvaluateInPlace(const glint::v1::EvaluateRequest &settings,
+                               EvaluateInfo *info = nullptr);
+
   const ShmBuffer *buffer() const { return buffer_.get(); }
   const std::string &region_name() const { return name_; }
 
@@ -79,7 +98,8 @@ class ShmSession {
   std::unique_ptr<ShmBuffer> buffer_;
   std::string name_;  // registered region name, "" when none
   uint32_t chunk_ = 0;
-  uint32_t max_batch_ = 0;  // the server's (Capabilities), fetched by the first Prepare
+  uint32_t max_batch_ = 0;              // the server's (Capabilities), fetched by the first Prepare
+  glint::v1::SharedMemoryIo in_place_;  // the layout PrepareInPlace made; count 0: none
 };
 
 // Evaluates over `transport`: kTcp = GlintClient::Evaluate; kShm = an ShmSession for this call

@@ -540,3 +540,53 @@ TEST(Validation, FastAcceptanceAgreesWithThePerQueryRuleAtTheToleranceEdges) {
 
 }  // namespace
 }  // namespace glint
+
+namespace glint {
+namespace {
+
+// The fast acceptance scan of unit arrays works on four vectors at a time (SSE) and a scalar
+// tail: a bad vector at any position (each lane of each block of four, and the tail) in wo or
+// wi, too long, too short, NaN or infinite in any component, is refused naming that query; so is
+// a NaN or an infinity anywhere in uv or footprint.
+TEST(Validation, FastScanFindsABadVectorAtEveryPosition) {
+  const uint32_t n = 23;  // five blocks of four vectors and a tail of three
+  ASSERT_TRUE(Validate(GoodProbe(n)).ok());
+  const float inf = std::numeric_limits<float>::infinity();
+  for (bool wi : {false, true}) {
+    for (uint32_t i = 0; i < n; ++i) {
+      for (float scale : {1.01f, 0.99f, std::nanf(""), inf}) {
+        EvaluateRequest r = GoodProbe(n);
+        auto *a = wi ? r.mutable_queries()->mutable_wi() : r.mutable_queries()->mutable_wo();
+        const int c = int(i % 3);
+        a->Set(int(3 * i) + c, a->Get(int(3 * i) + c) * scale);
+        if (a->Get(int(3 * i) + c) == 0.0f) a->Set(int(3 * i) + c, scale);  // 0 * scale
+        const Status s = Validate(r);
+        const std::string want =
+            std::string(wi ? "queries.wi[" : "queries.wo[") + std::to_string(i) + "]";
+        EXPECT_FALSE(s.ok()) << want << " x " << scale;
+        EXPECT_EQ(s.message().rfind(want, 0), 0u) << s.message();
+      }
+    }
+  }
+  // The finiteness scan of the other arrays (four floats at a time and a tail): uv has 46
+  // floats, footprint 92; a NaN or an infinity in any of them is refused naming its query.
+  for (bool footprint : {false, true}) {
+    const int per = footprint ? 4 : 2;
+    for (int k = 0; k < int(n) * per; ++k) {
+      for (float bad : {std::nanf(""), inf, -inf}) {
+        EvaluateRequest r = GoodProbe(n);
+        auto *a = footprint ? r.mutable_queries()->mutable_footprint()
+                            : r.mutable_queries()->mutable_uv();
+        for (int j = 0; j < int(n) * per; ++j) a->Add(0.25f);
+        a->Set(k, bad);
+        const Status s = Validate(r);
+        const std::string want = std::string(footprint ? "queries.footprint[" : "queries.uv[") +
+                                 std::to_string(k / per) + "]";
+        EXPECT_EQ(s.message().rfind(want, 0), 0u) << s.message();
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace glint

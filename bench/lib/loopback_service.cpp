@@ -1,10 +1,8 @@
 #include "bench/lib/loopback_service.h"
 
-<<<<<<< HEAD
-#include "server/malloc_policy.h"
-=======
 #include <algorithm>
->>>>>>> s6-shm
+
+#include "server/malloc_policy.h"
 
 namespace glint::bench {
 

@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "server/eval_plan.h"
+#include "server/model_table.h"
 #include "server/request_cost.h"
 #include "server/service.h"
 #include "server/shm_guard.h"
@@ -160,6 +161,10 @@ bool EvaluatesInPlace(const SharedMemoryCall &call, const glint::v1::EvaluateReq
   // huge, denormal and random bit patterns). Polygon lights index the LTC tables by the
   // query's angles and loop over clipped edges: copied.
   if (settings.material().model() != glint::v1::SMOOTH) return false;
+  // The in-place path runs ValidateQueryView only: a model that checks more (validate_queries)
+  // gets its batch copied and checked as over TCP.
+  const Model *model = FindModel(settings.material().model());
+  if (!model || model->validate_queries) return false;
   for (const glint::v1::Light &light : settings.lights())
     if (light.has_polygon()) return false;
   return true;

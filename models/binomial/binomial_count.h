@@ -453,12 +453,16 @@ GLINT_FN real binomial_whole_prob(real n, BinomialProb prob, real threshold, rea
   glint_mask clearly_exact = (n <= GLINT_R(GLINT_BINOMIAL_EXACT_MAX)) |
                              (GLINT_R(4.0) * threshold > n) |
                              (n * p * (GLINT_R(1.0) - p) < GLINT_R(0.5) * threshold);
-  /* p1 = (1 - sqrt(1 - 4 threshold / n)) / 2 without cancellation (NaN where clearly exact,
-   * unused there). */
-  real p1 = GLINT_R(2.0) * threshold /
-            (n * (GLINT_R(1.0) + sqrt(GLINT_R(1.0) - GLINT_R(4.0) * threshold / n)));
-  real p2 = GLINT_R(1.0) - p1;
-  glint_mask approx = active & !clearly_exact & !(p < p1);
+  /* p1 = (1 - sqrt(1 - 4 threshold / n)) / 2 without cancellation, when a lane is not clearly
+   * exact (NaN in the clearly exact lanes of a mixed work-item, unused there). */
+  glint_mask approx = active & !clearly_exact;
+  real p1 = GLINT_R(0.0), p2 = GLINT_R(1.0);
+  if (glint_any(approx)) {
+    p1 = GLINT_R(2.0) * threshold /
+         (n * (GLINT_R(1.0) + sqrt(GLINT_R(1.0) - GLINT_R(4.0) * threshold / n)));
+    p2 = GLINT_R(1.0) - p1;
+    approx = approx & !(p < p1);
+  }
   real x = GLINT_R(0.0);
   if (glint_any(approx)) {
     /* asin(sqrt(fmin(p, p2))): the light's theta unless p > p2 */

@@ -27,7 +27,8 @@ GLINT_FN real3 kemppinen_reflect_at(SmoothMaterial m, const GLINT_PRIVATE Kemppi
                                     const GLINT_PRIVATE KemppinenQueryLevels *levels, real3 wi,
                                     real3 wo, real3 radiance) {
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-  real3 ls = r3_mul(smooth_reflect_cos(m, wi, wo), radiance);
+  real3 fc = smooth_reflect_cos(m, wi, wo);
+  real3 ls = r3_mul(fc, radiance);
   glint_mask live = ls.x + ls.y + ls.z > GLINT_R(0.0);
   if (!glint_any(live)) return zero; /* host: the early return; device: whole blocks */
   /* Dead lanes (wi = -wo: h = 0) compute on a safe h and are dropped. */
@@ -36,7 +37,10 @@ GLINT_FN real3 kemppinen_reflect_at(SmoothMaterial m, const GLINT_PRIVATE Kemppi
   real3 h = r3_div(hv, glint_select(GLINT_R(1.0), hl, hl > GLINT_R(0.0)));
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
   real3 s = kemppinen_glint_factor_at(p, levels, m.ndf, h, m.alpha_x, m.alpha_y, D);
-  return r3_select(zero, r3_mul(ls, s), live);
+  /* (f cos D_star / D) radiance: the radiance last, so that a light whose smooth term overflows
+   * to +Inf (fp32: 3e38 W/m^2 on a sharp lobe) meets the glint factor's exact zeros as 0, not
+   * as Inf * 0 = NaN (found by the stability sweep); an Inf that remains saturates at store. */
+  return r3_select(zero, r3_mul(r3_mul(fc, s), radiance), live);
 }
 
 /* The same from the footprint (one light; the sampler's weight). */

@@ -433,9 +433,9 @@ Status ValidateSettings(const glint::v1::EvaluateRequest &request, const Validat
   return Status::Ok();
 }
 
-Status ValidateQueries(const glint::v1::QueryBatch &q, bool has_lights,
-                       const ValidationLimits &limits, uint64_t first_query, bool streamed) {
-  const uint32_t n = q.count();
+namespace {
+
+Status CheckQueryCount(uint32_t n, const ValidationLimits &limits, bool streamed) {
   if (n == 0) return Status::InvalidArgument("queries.count: 0; expected at least one query");
   if (n > limits.max_batch) {
     return Status::InvalidArgument(
@@ -445,6 +445,15 @@ Status ValidateQueries(const glint::v1::QueryBatch &q, bool has_lights,
                   : "call; send the batch over EvaluateStream in chunks of at most " +
                         std::to_string(limits.max_batch)));
   }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status ValidateQueries(const glint::v1::QueryBatch &q, bool has_lights,
+                       const ValidationLimits &limits, uint64_t first_query, bool streamed) {
+  const uint32_t n = q.count();
+  if (Status s = CheckQueryCount(n, limits, streamed); !s.ok()) return s;
   Status s = CheckArraySize(q.wo(), n, 3, true, "queries.wo");
   if (s.ok()) s = CheckArraySize(q.uv(), n, 2, false, "queries.uv");
   if (s.ok()) s = CheckArraySize(q.footprint(), n, 4, false, "queries.footprint");
@@ -460,15 +469,7 @@ Status ValidateQueries(const glint::v1::QueryBatch &q, bool has_lights,
 Status ValidateQueryView(const QueryView &q, bool has_lights, const ValidationLimits &limits,
                          uint64_t first_query, bool streamed) {
   const uint32_t n = q.count;
-  if (n == 0) return Status::InvalidArgument("queries.count: 0; expected at least one query");
-  if (n > limits.max_batch) {
-    return Status::InvalidArgument(
-        "queries.count: " + std::to_string(n) + " exceeds the limit of " +
-        std::to_string(limits.max_batch) + " queries per " +
-        (streamed ? "stream chunk; send smaller chunks"
-                  : "call; send the batch over EvaluateStream in chunks of at most " +
-                        std::to_string(limits.max_batch)));
-  }
+  if (Status s = CheckQueryCount(n, limits, streamed); !s.ok()) return s;
   if (!q.wo) return Status::InvalidArgument("queries.wo: absent; expected 3 x count values");
   const bool frame = q.normal != nullptr;
   if (frame != (q.position != nullptr) || frame != (q.tangent != nullptr)) {

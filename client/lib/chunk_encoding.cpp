@@ -46,19 +46,25 @@ uint8_t *Varint(uint64_t v, uint8_t *p) {
   return CodedOutputStream::WriteVarint64ToArray(v, p);
 }
 
-}  // namespace
-
-grpc::ByteBuffer EncodeChunk(uint64_t chunk_index, const std::string &settings,
-                             const QueryBatch &batch, uint32_t begin, uint32_t end) {
-  const uint32_t count = end - begin;
-  // Sizes inside out: the QueryBatch, the EvaluateRequest around it, the chunk around that.
-  // Proto3 leaves out a zero scalar, as the generated serialiser does.
+// The encoded size of a QueryBatch of `count` queries of `batch`'s arrays; the EvaluateRequest and
+// the chunk around it are sized from it inside out. Proto3 leaves out a zero scalar, as the
+// generated serialiser does.
+size_t QueriesBytes(const QueryBatch &batch, uint32_t count) {
   size_t queries_bytes = count ? 1 + VarintSize(count) : 0;
   for (const Packed &a : kPacked) {
     if ((batch.*a.get)().empty() || count == 0) continue;
     const size_t bytes = size_t(count) * size_t(a.components) * sizeof(float);
     queries_bytes += VarintSize(Tag(a.field, 2)) + VarintSize(bytes) + bytes;
   }
+  return queries_bytes;
+}
+
+}  // namespace
+
+grpc::ByteBuffer EncodeChunk(uint64_t chunk_index, const std::string &settings,
+                             const QueryBatch &batch, uint32_t begin, uint32_t end) {
+  const uint32_t count = end - begin;
+  const size_t queries_bytes = QueriesBytes(batch, count);
   const size_t request_bytes = settings.size() + 1 + VarintSize(queries_bytes) + queries_bytes;
   const size_t total = (chunk_index ? 1 + VarintSize(chunk_index) : 0) + 1 +
                        VarintSize(request_bytes) + request_bytes;
@@ -99,13 +105,7 @@ void NoRelease(void *) {}
 grpc::ByteBuffer EncodeChunkReferencing(uint64_t chunk_index, const std::string &settings,
                                         const QueryBatch &batch, uint32_t begin, uint32_t end) {
   const uint32_t count = end - begin;
-  // Sizes as in EncodeChunk.
-  size_t queries_bytes = count ? 1 + VarintSize(count) : 0;
-  for (const Packed &a : kPacked) {
-    if ((batch.*a.get)().empty() || count == 0) continue;
-    const size_t bytes = size_t(count) * size_t(a.components) * sizeof(float);
-    queries_bytes += VarintSize(Tag(a.field, 2)) + VarintSize(bytes) + bytes;
-  }
+  const size_t queries_bytes = QueriesBytes(batch, count);
   const size_t request_bytes = settings.size() + 1 + VarintSize(queries_bytes) + queries_bytes;
   // One slice for everything up to the first array's tag and length, then per array: the rows in
   // place, followed by the next array's tag and length (or nothing after the last).

@@ -437,8 +437,11 @@ TEST_F(ShmViewServer, RefusalsNameTheFieldAndTheFirstBadQuery) {
 // works, and the server goes on serving.
 TEST_F(ShmViewServer, TruncationMidCallIsRefusedAndTheRegionStaysRefused) {
   Caller caller(server_->address());
-  EvaluateRequest slow = Lit(400000, 10);
-  for (int i = 0; i < 40; ++i) AddPointLight(&slow);
+  // ~170 ms on two idle cores (400000 queries x 41 lights took 44 ms: a truncation at 40 ms
+  // could land after the call), truncated after 10 ms: either the call's fstat sees the
+  // truncation or its reads and writes do.
+  EvaluateRequest slow = Lit(1000000, 10);
+  for (int i = 0; i < 62; ++i) AddPointLight(&slow);
   auto buffer = Buffer(RegionBytes(slow, 0));
   ASSERT_TRUE(caller.Register("slow", *buffer).ok());
   uint64_t out_offset = 0;
@@ -446,7 +449,7 @@ TEST_F(ShmViewServer, TruncationMidCallIsRefusedAndTheRegionStaysRefused) {
   const int fd = shm_open(buffer->key().c_str(), O_RDWR, 0);
   ASSERT_GE(fd, 0);
   std::thread truncate([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(40));
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
     EXPECT_EQ(ftruncate(fd, 0), 0);
   });
   glint::v1::EvaluateResponse response;

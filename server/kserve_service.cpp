@@ -296,6 +296,7 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
     t.total_ns = NsBetween(received, Clock::now());
     Record(model_index, false, t);
     glint_->LogLine("ModelInfer model=" + model->name + " " + busy.message());
+    AddRetryPushback(ctx, glint_->options().slice_ms);
     reactor->Finish(ToGrpcStatus(busy));
   }
   return reactor;

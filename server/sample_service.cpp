@@ -49,6 +49,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Sample(grpc::CallbackServerContext *
   if (!queued) {
     Status busy = OverloadStatus(*scheduler_);
     LogLine("Sample n=" + std::to_string(request->queries().count()) + " " + busy.message());
+    AddRetryPushback(ctx, options_.slice_ms);
     reactor->Finish(ToGrpcStatus(busy));
   }
   return reactor;

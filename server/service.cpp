@@ -4,7 +4,9 @@
 #include <grpcpp/support/proto_buffer_reader.h>
 #include <grpcpp/support/proto_buffer_writer.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <deque>
 #include <mutex>
@@ -171,6 +173,11 @@ Status OverloadStatus(const Scheduler &scheduler) {
                                    "send to another replica");
 }
 
+void AddRetryPushback(grpc::ServerContextBase *ctx, double wait_ms) {
+  ctx->AddTrailingMetadata("glint-retry-pushback-ms",
+                           std::to_string(static_cast<int64_t>(std::ceil(std::max(0.0, wait_ms)))));
+}
+
 GlintServiceImpl::GlintServiceImpl(DeviceEngine *engine, Scheduler *scheduler,
                                    ServiceOptions options)
     : engine_(engine), scheduler_(scheduler), options_(std::move(options)) {}
@@ -256,8 +263,11 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
     return reactor;
   }
   // Full already: refused before the body is parsed (no second copy of it in memory).
-  Status s = scheduler_->pending() >= scheduler_->max_pending() ? OverloadStatus(*scheduler_)
-                                                                : Status::Ok();
+  Status s = Status::Ok();
+  if (scheduler_->pending() >= scheduler_->max_pending()) {
+    s = OverloadStatus(*scheduler_);
+    AddRetryPushback(ctx, options_.slice_ms);
+  }
   // The client's claim (query count, model) before the body is parsed.
   if (s.ok()) s = AdmitFromMetadata(*ctx, options_.limits, /*per_message=*/true);
   if (s.ok()) s = ParseBody(body, &reactor->request, "request");
@@ -302,6 +312,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   if (!queued) {
     Status busy = OverloadStatus(*scheduler_);
     LogLine("Evaluate n=" + std::to_string(request->queries().count()) + " " + busy.message());
+    AddRetryPushback(ctx, options_.slice_ms);
     reactor->Finish(ToGrpcStatus(busy));
   }
   return reactor;
@@ -334,6 +345,7 @@ class GlintServiceImpl::StreamReactor
         failure_ = ToGrpcStatus(service_->Admit({}, 0));
       } else if (service_->scheduler().pending() >= service_->scheduler().max_pending()) {
         Status busy = OverloadStatus(service_->scheduler());
+        AddRetryPushback(ctx_, service_->options().slice_ms);
         failure_ = ToGrpcStatus(Status::ResourceExhausted(
             busy.message() + " (refused on opening the stream, before its first chunk was read)"));
       } else if (Status s = AdmitFromMetadata(*ctx_, service_->options().limits, false); !s.ok()) {
@@ -497,7 +509,10 @@ class GlintServiceImpl::StreamReactor
       // Queue full: record the refusal and decide again.
       std::lock_guard<std::mutex> lock(mu_);
       computing_ = false;
-      if (!failure_) failure_ = ToGrpcStatus(OverloadStatus(service_->scheduler()));
+      if (!failure_) {
+        failure_ = ToGrpcStatus(OverloadStatus(service_->scheduler()));
+        AddRetryPushback(ctx_, service_->options().slice_ms);
+      }
       waiting_.clear();
     }
   }

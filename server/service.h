@@ -169,4 +169,10 @@ grpc::Status ChunkStatus(uint64_t chunk_index, const Status &status);
 // The message a client gets when the queue is full.
 Status OverloadStatus(const Scheduler &scheduler);
 
+// Marks the call's refusal as one that can succeed later (a full queue, not a limit): trailing
+// metadata `glint-retry-pushback-ms` = `wait_ms`, as gRFC A6's server pushback under our own name
+// (gRPC reserves `grpc-` keys). Clients (client/lib/retry.h) retry RESOURCE_EXHAUSTED only with
+// it, so a request over --max-request-cost or a size limit is not sent again and again.
+void AddRetryPushback(grpc::ServerContextBase *ctx, double wait_ms);
+
 }  // namespace glint

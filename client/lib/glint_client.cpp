@@ -268,7 +268,7 @@ void AddAdmissionMetadata(const glint::v1::EvaluateRequest &request, grpc::Clien
 grpc::Status GlintClient::GetCapabilities(glint::v1::Capabilities *capabilities) {
   const auto deadline = std::chrono::system_clock::now() + options_.rpc_timeout;
   return CallWithRetries(options_.retry, SteadyDeadline(deadline),
-                         [&] { return FetchCapabilities(capabilities, deadline); });
+                         [&](RetryHint *) { return FetchCapabilities(capabilities, deadline); });
 }
 
 grpc::Status GlintClient::FetchCapabilities(glint::v1::Capabilities *capabilities,
@@ -352,9 +352,9 @@ grpc::Status GlintClient::Evaluate(const glint::v1::EvaluateRequest &request,
   int attempts = 0;
   grpc::Status status = CallWithRetries(
       options_.retry, SteadyDeadline(deadline),
-      [&] {
+      [&](RetryHint *hint) {
         *info = EvaluateInfo();
-        return EvaluateOnce(request, radiance, progress, info, deadline);
+        return EvaluateOnce(request, radiance, progress, info, deadline, hint);
       },
       &attempts);
   info->attempts = attempts;
@@ -364,7 +364,8 @@ grpc::Status GlintClient::Evaluate(const glint::v1::EvaluateRequest &request,
 grpc::Status GlintClient::EvaluateOnce(const glint::v1::EvaluateRequest &request,
                                        std::vector<float> *radiance, const ProgressFn &progress,
                                        EvaluateInfo *info,
-                                       std::chrono::system_clock::time_point deadline) {
+                                       std::chrono::system_clock::time_point deadline,
+                                       RetryHint *hint) {
   glint::v1::Capabilities caps;
   if (grpc::Status status = CachedCapabilities(&caps, deadline); !status.ok()) return status;
 
@@ -388,7 +389,7 @@ grpc::Status GlintClient::EvaluateOnce(const glint::v1::EvaluateRequest &request
   constexpr uint32_t kSpreadMinQueries = 4096;
   const bool spread = servers_ > 1 && count >= kSpreadMinQueries * servers_;
   if (!spread && count <= max_batch && request_bytes <= budget && response_bytes <= budget) {
-    grpc::Status status = EvaluateUnary(request, radiance, info, deadline);
+    grpc::Status status = EvaluateUnary(request, radiance, info, deadline, hint);
     if (status.ok() && progress) progress(count, count);
     return status;
   }
@@ -419,19 +420,23 @@ grpc::Status GlintClient::EvaluateOnce(const glint::v1::EvaluateRequest &request
         std::max<uint64_t>(kSpreadMinQueries / 2, std::min<uint64_t>(chunk_queries, even)));
     return EvaluateSpread(request, chunk_queries, radiance, progress, info, deadline);
   }
-  return EvaluateStreamed(request, chunk_queries, radiance, progress, info, deadline);
+  return EvaluateStreamed(request, chunk_queries, radiance, progress, info, deadline, hint);
 }
 
 grpc::Status GlintClient::EvaluateUnary(const glint::v1::EvaluateRequest &request,
                                         std::vector<float> *radiance, EvaluateInfo *info,
-                                        std::chrono::system_clock::time_point deadline) {
+                                        std::chrono::system_clock::time_point deadline,
+                                        RetryHint *hint) {
   grpc::ClientContext context;
   PrepareContext(&context);
   SetDeadline(&context, deadline);
   AddAdmissionMetadata(request, &context);
   glint::v1::EvaluateResponse response;
   grpc::Status status = stub_->Evaluate(&context, request, &response);
-  if (!status.ok()) return status;
+  if (!status.ok()) {
+    hint->ReadFrom(context);
+    return status;
+  }
   const uint64_t expected = uint64_t{request.queries().count()} * 3;
   if (static_cast<uint64_t>(response.radiance_size()) != expected) {
     return grpc::Status(grpc::StatusCode::INTERNAL,
@@ -497,12 +502,14 @@ grpc::Status GlintClient::EvaluateSpread(const glint::v1::EvaluateRequest &reque
       // Each chunk retried on its own: a replica that goes away costs only its chunks, which
       // round_robin then sends to the others.
       if (status.ok())
-        status = CallWithRetries(options_.retry, SteadyDeadline(deadline), [&] {
+        status = CallWithRetries(options_.retry, SteadyDeadline(deadline), [&](RetryHint *hint) {
           grpc::ClientContext context;
           PrepareContext(&context);
           SetDeadline(&context, deadline);
           response.Clear();
-          return stub_->Evaluate(&context, part, &response);
+          const grpc::Status s = stub_->Evaluate(&context, part, &response);
+          if (!s.ok()) hint->ReadFrom(context);
+          return s;
         });
       if (status.ok() &&
           static_cast<uint64_t>(response.radiance_size()) != uint64_t{end - begin} * 3)
@@ -590,7 +597,8 @@ static std::string StreamSettings(const glint::v1::EvaluateRequest &request) {
 grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &request,
                                            uint32_t chunk_queries, std::vector<float> *radiance,
                                            const ProgressFn &progress, EvaluateInfo *info,
-                                           std::chrono::system_clock::time_point deadline) {
+                                           std::chrono::system_clock::time_point deadline,
+                                           RetryHint *hint) {
   const uint32_t count = request.queries().count();
   const uint64_t chunks = (uint64_t{count} + chunk_queries - 1) / chunk_queries;
   info->streamed = true;
@@ -676,6 +684,7 @@ grpc::Status GlintClient::EvaluateStreamed(const glint::v1::EvaluateRequest &req
   }
   writer.join();
   grpc::Status status = stream->Finish();
+  if (!status.ok()) hint->ReadFrom(context);
   if (status.ok() && received != chunks) {
     status = grpc::Status(grpc::StatusCode::DATA_LOSS,
                           "stream ended after " + std::to_string(received) + " of " +

@@ -67,8 +67,9 @@ struct ClientOptions {
   // Deadline of one Evaluate call, unary or streamed, from its start, over all its attempts
   // (0 = none).
   std::chrono::milliseconds evaluate_timeout{0};
-  // GetCapabilities and Evaluate retry UNAVAILABLE and RESOURCE_EXHAUSTED with jittered
-  // exponential backoff (client/lib/retry.h) within their deadline; max_attempts 1 disables.
+  // GetCapabilities and Evaluate retry UNAVAILABLE, and RESOURCE_EXHAUSTED that the server
+  // marks as "may succeed later" (a full queue, not a limit), with jittered exponential backoff
+  // (client/lib/retry.h) within their deadline; max_attempts 1 disables.
   RetryPolicy retry;
   ChannelSecurity security;
 };
@@ -135,13 +136,14 @@ class GlintClient {
                                   std::chrono::system_clock::time_point deadline);
   grpc::Status FetchCapabilities(glint::v1::Capabilities *capabilities,
                                  std::chrono::system_clock::time_point deadline);
-  // One attempt of Evaluate; `deadline` is system_clock::time_point::max() for none.
+  // One attempt of Evaluate; `deadline` is system_clock::time_point::max() for none. `hint`
+  // receives the server's retry pushback of the call that failed.
   grpc::Status EvaluateOnce(const glint::v1::EvaluateRequest &request, std::vector<float> *radiance,
                             const ProgressFn &progress, EvaluateInfo *info,
-                            std::chrono::system_clock::time_point deadline);
+                            std::chrono::system_clock::time_point deadline, RetryHint *hint);
   grpc::Status EvaluateUnary(const glint::v1::EvaluateRequest &request,
                              std::vector<float> *radiance, EvaluateInfo *info,
-                             std::chrono::system_clock::time_point deadline);
+                             std::chrono::system_clock::time_point deadline, RetryHint *hint);
   // Chunks of `chunk_queries` as concurrent unary calls over a server list's round_robin
   // channel, each retried on its own; results written by position, so bit-identical to one
   // server.
@@ -150,7 +152,8 @@ class GlintClient {
                               EvaluateInfo *info, std::chrono::system_clock::time_point deadline);
   grpc::Status EvaluateStreamed(const glint::v1::EvaluateRequest &request, uint32_t chunk_queries,
                                 std::vector<float> *radiance, const ProgressFn &progress,
-                                EvaluateInfo *info, std::chrono::system_clock::time_point deadline);
+                                EvaluateInfo *info, std::chrono::system_clock::time_point deadline,
+                                RetryHint *hint);
 
   std::string address_;
   ClientOptions options_;

@@ -1,7 +1,8 @@
 // Client retries against a real glintd with --max-pending 1 (one request queued or running).
 // A slow request (REFERENCE quadrature of a polygon light) holds the only slot; while it runs a
-// client without retries is refused (RESOURCE_EXHAUSTED), and eight concurrent clients with
-// retries all get every answer, each equal to the answer of a quiet server, after retrying.
+// call is refused (RESOURCE_EXHAUSTED with the server's retry pushback), and eight concurrent
+// clients with retries all get every answer, each equal to the answer of a quiet server, after
+// retrying. A request over --max-request-cost is refused without pushback and not retried.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -12,6 +13,7 @@
 
 #include "client/lib/glint_client.h"
 #include "client/lib/load_runner.h"
+#include "glint/v1/glint.grpc.pb.h"
 #include "glintd_process.h"
 
 namespace {
@@ -76,17 +78,23 @@ TEST(RetryEndToEnd, ConcurrentClientsOfAFullServerAllSucceed) {
     slow_status = client.Evaluate(Slow(), &rgb);
     slow_done = true;
   });
-  ClientOptions no_retry;
-  no_retry.retry.max_attempts = 1;
-  GlintClient impatient(server->address(), no_retry);
-  std::vector<float> rgb;
+  auto stub = glint::v1::GlintService::NewStub(
+      grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials()));
   grpc::Status refused;
+  std::string pushback;
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
   do {
-    refused = impatient.Evaluate(small, &rgb);
+    grpc::ClientContext context;
+    glint::v1::EvaluateResponse response;
+    refused = stub->Evaluate(&context, small, &response);
+    const auto &trailers = context.GetServerTrailingMetadata();
+    const auto it = trailers.find(glint::client::kRetryPushbackMetadata);
+    pushback = it == trailers.end() ? "" : std::string(it->second.data(), it->second.size());
   } while (refused.ok() && !slow_done && std::chrono::steady_clock::now() < give_up);
   ASSERT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED)
       << "the slow request never held the slot; slow finished: " << slow_done;
+  // --slice-ms's default: the pushback glintd sends with a full queue.
+  EXPECT_EQ(pushback, "50") << refused.error_message();
 
   // Eight clients, three requests each, while the slot is taken: they are refused and retry.
   // Budget: 60 attempts with waits up to 500 ms, ~15 s expected, far above the slow request.
@@ -128,3 +136,30 @@ TEST(RetryEndToEnd, ConcurrentClientsOfAFullServerAllSucceed) {
 }
 
 }  // namespace
+
+// A limit, not a full queue: refused with RESOURCE_EXHAUSTED naming the cost, without pushback,
+// so a client with retries enabled asks once instead of max_attempts times.
+TEST(RetryEndToEnd, CostRefusalIsNotRetried) {
+  TempDir dir("glint_retry_cost");
+  std::string error;
+  auto server = Glintd::Start(GLINTD_PATH, dir, "glintd",
+                              {"--device", "host", "--max-request-cost", "100"}, &error);
+  ASSERT_NE(server, nullptr) << error;
+  ClientOptions o;
+  o.retry.max_attempts = 5;
+  GlintClient client(server->address(), o);
+  std::vector<float> rgb;
+  glint::client::EvaluateInfo info;
+  const grpc::Status s = client.Evaluate(Smooth(1024), &rgb, {}, &info);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  EXPECT_NE(s.error_message().find("--max-request-cost"), std::string::npos) << s.error_message();
+  EXPECT_EQ(info.attempts, 1);
+
+  auto stub = glint::v1::GlintService::NewStub(
+      grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials()));
+  grpc::ClientContext context;
+  glint::v1::EvaluateResponse response;
+  EXPECT_EQ(stub->Evaluate(&context, Smooth(1024), &response).error_code(),
+            grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(context.GetServerTrailingMetadata().count(glint::client::kRetryPushbackMetadata), 0u);
+}

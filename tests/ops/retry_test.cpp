@@ -1,5 +1,6 @@
 // CallWithRetries (client/lib/retry.h) with a scripted attempt function and a recording sleep:
-// which codes are retried, the attempt bound, the deadline, and the jitter's distribution.
+// which codes are retried (RESOURCE_EXHAUSTED only with the server's pushback), the attempt
+// bound, the deadline, the pushback as a lower bound of the wait, and the jitter's distribution.
 #include "client/lib/retry.h"
 
 #include <gtest/gtest.h>
@@ -14,18 +15,28 @@ namespace {
 using std::chrono::milliseconds;
 
 struct Script {
-  explicit Script(std::vector<grpc::StatusCode> c) : codes(std::move(c)) {}
+  // A full queue's refusal: RESOURCE_EXHAUSTED with glintd's pushback (`pushback_ms` below).
+  // DO_NOT_USE is never a real status, so it can stand for this one in a script.
+  static constexpr grpc::StatusCode kBusy = grpc::StatusCode::DO_NOT_USE;
+
+  explicit Script(std::vector<grpc::StatusCode> c, int64_t pushback = 0)
+      : codes(std::move(c)), pushback_ms(pushback) {}
   std::vector<grpc::StatusCode> codes;  // returned in order; the last one repeats
+  int64_t pushback_ms;
   size_t calls = 0;
   std::vector<Clock::duration> sleeps;
 
-  grpc::Status Next() {
-    const grpc::StatusCode c = codes[std::min(calls++, codes.size() - 1)];
+  grpc::Status Next(RetryHint *hint) {
+    grpc::StatusCode c = codes[std::min(calls++, codes.size() - 1)];
+    if (c == kBusy) {
+      hint->pushback = milliseconds(pushback_ms);
+      c = grpc::StatusCode::RESOURCE_EXHAUSTED;
+    }
     return c == grpc::StatusCode::OK ? grpc::Status::OK : grpc::Status(c, "scripted");
   }
   grpc::Status Run(const RetryPolicy &policy, Clock::time_point deadline, int *attempts) {
     return CallWithRetries(
-        policy, deadline, [this] { return Next(); }, attempts,
+        policy, deadline, [this](RetryHint *hint) { return Next(hint); }, attempts,
         [this](Clock::duration d) { sleeps.push_back(d); });
   }
 };
@@ -37,8 +48,7 @@ TEST(Retry, CeilingGrowsByTheMultiplierUpToTheCap) {
 }
 
 TEST(Retry, TransientCodesAreRetriedWithinTheirCeilings) {
-  Script s{
-      {grpc::StatusCode::UNAVAILABLE, grpc::StatusCode::RESOURCE_EXHAUSTED, grpc::StatusCode::OK}};
+  Script s{{grpc::StatusCode::UNAVAILABLE, Script::kBusy, grpc::StatusCode::OK}};
   int attempts = 0;
   EXPECT_TRUE(s.Run(RetryPolicy{}, Clock::time_point::max(), &attempts).ok());
   EXPECT_EQ(attempts, 3);
@@ -47,9 +57,12 @@ TEST(Retry, TransientCodesAreRetriedWithinTheirCeilings) {
   EXPECT_LE(s.sleeps[1], milliseconds(200));  // uniform(0, 200 ms)
 }
 
+// RESOURCE_EXHAUSTED without the server's pushback is a limit (--max-request-cost, message size,
+// memory budget): the same request would be refused again.
 TEST(Retry, OtherCodesAreReturnedAtOnce) {
   for (const auto code : {grpc::StatusCode::INVALID_ARGUMENT, grpc::StatusCode::UNAUTHENTICATED,
-                          grpc::StatusCode::INTERNAL, grpc::StatusCode::DEADLINE_EXCEEDED}) {
+                          grpc::StatusCode::INTERNAL, grpc::StatusCode::DEADLINE_EXCEEDED,
+                          grpc::StatusCode::RESOURCE_EXHAUSTED}) {
     Script s({code, grpc::StatusCode::OK});
     int attempts = 0;
     EXPECT_EQ(s.Run(RetryPolicy{}, Clock::time_point::max(), &attempts).error_code(), code);
@@ -68,10 +81,20 @@ TEST(Retry, AttemptsAreBounded) {
   EXPECT_EQ(attempts, 4);
   EXPECT_EQ(s.sleeps.size(), 3u);
   p.max_attempts = 1;
-  Script once({grpc::StatusCode::RESOURCE_EXHAUSTED});
+  Script once({Script::kBusy});
   EXPECT_EQ(once.Run(p, Clock::time_point::max(), &attempts).error_code(),
             grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_EQ(attempts, 1);
+}
+
+// The server's pushback is a lower bound of the wait: 300 ms above a first ceiling of 100 ms.
+TEST(Retry, PushbackLengthensTheWait) {
+  Script s({Script::kBusy, Script::kBusy, grpc::StatusCode::OK}, 300);
+  int attempts = 0;
+  EXPECT_TRUE(s.Run(RetryPolicy{}, Clock::time_point::max(), &attempts).ok());
+  EXPECT_EQ(attempts, 3);
+  ASSERT_EQ(s.sleeps.size(), 2u);
+  for (const auto wait : s.sleeps) EXPECT_EQ(wait, milliseconds(300));
 }
 
 // A deadline that has passed: no wait can end before it, so no retry is made.

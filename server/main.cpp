@@ -19,6 +19,7 @@
 #include "server/ops.h"
 #include "server/service.h"
 #include "server/warmup.h"
+#include "server/without_reflection.h"
 
 namespace {
 
@@ -230,6 +231,10 @@ int main(int argc, char **argv) {
     return 0;
   }
 
+  // SIGHUP re-reads --auth-tokens (server/auth.h installs that handler); without tokens there
+  // is nothing to reload, and its default action (terminate, no drain) would end the server on
+  // an ops habit like `systemctl reload` or a log rotation.
+  signal(SIGHUP, SIG_IGN);
   // Block the stop signals in every thread; main waits for them with sigwait.
   sigset_t stop_signals;
   sigemptyset(&stop_signals);
@@ -295,6 +300,7 @@ int main(int argc, char **argv) {
   // Reflection is gRPC's own service, which the token check cannot guard: off with tokens.
   if (!ops.auth()) grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
+  if (ops.auth()) builder.SetOption(std::make_unique<glint::WithoutReflection>());
   int port = 0;
   builder.AddListeningPort(flags.listen, ops.ServerCredentials(), &port);
   ops.WarnIfExposed(flags.listen);

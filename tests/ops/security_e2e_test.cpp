@@ -78,6 +78,33 @@ class Pki {
   const TempDir &dir_;
 };
 
+// One ServerReflectionInfo exchange asking list_services (ServerReflectionRequest field 7, an
+// empty string: bytes 0x3a 0x00, encoded by hand so the test needs no reflection stubs).
+// Returns the call's status; `reply` receives the response bytes, which name the services.
+grpc::Status ListServicesByReflection(const std::string &address, std::string *reply) {
+  auto channel = grpc::CreateChannel(address, grpc::InsecureChannelCredentials());
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+  const grpc::internal::RpcMethod method(
+      "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo",
+      grpc::internal::RpcMethod::BIDI_STREAMING, channel);
+  std::unique_ptr<grpc::ClientReaderWriter<grpc::ByteBuffer, grpc::ByteBuffer>> stream(
+      grpc::internal::ClientReaderWriterFactory<grpc::ByteBuffer, grpc::ByteBuffer>::Create(
+          channel.get(), method, &context));
+  const grpc::Slice request(std::string("\x3a\x00", 2));
+  grpc::ByteBuffer out(&request, 1), in;
+  stream->Write(out);
+  stream->WritesDone();
+  reply->clear();
+  while (stream->Read(&in)) {
+    std::vector<grpc::Slice> slices;
+    if (in.Dump(&slices).ok())
+      for (const auto &slice : slices)
+        reply->append(reinterpret_cast<const char *>(slice.begin()), slice.size());
+  }
+  return stream->Finish();
+}
+
 class Security : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -257,6 +284,13 @@ TEST_F(Security, TokensGuardEveryRpcButHealthAndAreReloadedOnSighup) {
     EXPECT_EQ(stub->Sample(&c, {}, &response).error_code(), code) << authorization;
   }
 
+  // Reflection is gRPC's own service, which the token check cannot guard: not served at all
+  // (the linked plugin registers itself; glintd removes it when tokens are on).
+  std::string services;
+  EXPECT_EQ(ListServicesByReflection(address, &services).error_code(),
+            grpc::StatusCode::UNIMPLEMENTED);
+  EXPECT_EQ(services.find("glint.v1.GlintService"), std::string::npos);
+
   // SIGHUP: the new file replaces the old tokens.
   Write(F("tokens"), "gamma-token-789\n");
   ASSERT_EQ(kill(server->pid(), SIGHUP), 0);
@@ -282,6 +316,23 @@ TEST_F(Security, TokensGuardEveryRpcButHealthAndAreReloadedOnSighup) {
   for (const char *secret : {"alpha-token", "beta-token", "gamma-token", "wrong-token"}) {
     EXPECT_EQ(log.find(secret), std::string::npos) << "token in the log:\n" << log;
   }
+}
+
+// Without tokens: reflection describes the service to tools like grpcurl, and SIGHUP (an ops
+// habit: reload, log rotation) has nothing to reload and leaves the server running (its default
+// action used to terminate it without a drain).
+TEST_F(Security, WithoutTokensReflectionIsOnAndSighupIsHarmless) {
+  auto server = Start("open", {});
+  ASSERT_NE(server, nullptr);
+  std::string services;
+  const grpc::Status listed = ListServicesByReflection(server->address(), &services);
+  EXPECT_TRUE(listed.ok()) << listed.error_message();
+  EXPECT_NE(services.find("glint.v1.GlintService"), std::string::npos);
+  for (int k = 0; k < 3; ++k) ASSERT_EQ(kill(server->pid(), SIGHUP), 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(waitpid(server->pid(), nullptr, WNOHANG), 0) << "glintd exited on SIGHUP";
+  EXPECT_EQ(Health(server->address()), grpc::health::v1::HealthCheckResponse::SERVING);
+  EXPECT_TRUE(Capabilities(server->address(), ChannelSecurity{}).ok());
 }
 
 TEST_F(Security, EmptyTokenFileIsRefusedAtStart) {

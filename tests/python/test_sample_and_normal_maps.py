@@ -65,6 +65,14 @@ def test_upload_normal_map_gives_the_cli_digest_and_the_map_evaluates(client, cl
     assert up.returncode == 0, up.stderr
     assert up.stdout.strip() == digest
     assert "already held" in up.stderr  # stored once
+    # The digest `glint normal-map` prints is the one the server holds (bumpy and brushed maps'
+    # generator floats are renormalised by the decoder: their digests used to differ).
+    assert f"({digest})" in made.stderr, made.stderr
+    brushed = tmp_path / "brushed.exr"
+    made = subprocess.run([cli.binary, "normal-map", "brushed", "--size", "16", "--out", str(brushed)],
+                          capture_output=True, text=True)
+    assert made.returncode == 0, made.stderr
+    assert f"({client.upload_normal_map(brushed)})" in made.stderr, made.stderr
 
     material = {"model": "NORMAL_MAP", "schlick": {"f0": [1, 1, 1]},
                 "normal_map": {"digest": digest, "intrinsic_roughness": 0.05}}

@@ -5,6 +5,9 @@
 #include <charconv>
 
 namespace glint {
+namespace {
+constexpr size_t kMetricsHttpThreads = 32;
+}  // namespace
 
 MetricsHttpServer::MetricsHttpServer() = default;
 
@@ -32,6 +35,13 @@ bool MetricsHttpServer::Start(const std::string &address, const Metrics *metrics
     host = host.substr(1, host.size() - 2);  // [::1]:9090
   }
   server_ = std::make_unique<httplib::Server>();
+  // cpp-httplib holds a pool thread per open connection until it is read or times out (5 s by
+  // default, 8 threads here): a dozen clients sending half a request stalled every scrape for
+  // ~10 s (an outside-client probe). A scrape is one small GET, so short read and keep-alive
+  // timeouts and a larger pool keep a handful of idle or slow peers from starving it.
+  server_->new_task_queue = [] { return new httplib::ThreadPool(kMetricsHttpThreads); };
+  server_->set_read_timeout(std::chrono::seconds(1));
+  server_->set_keep_alive_timeout(1);
   server_->Get("/metrics", [metrics](const httplib::Request &, httplib::Response &res) {
     res.set_content(metrics->Render(), "text/plain; version=0.0.4; charset=utf-8");
   });

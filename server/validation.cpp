@@ -136,10 +136,11 @@ Status CheckMaterial(const glint::v1::Material &m) {
       return CheckRange(m.schlick().f0(), 3, "material.schlick.f0", 0.0f, 1.0f,
                         "3 values in [0, 1]");
     case Material::kConductor: {
-      Status s =
-          CheckRange(m.conductor().eta(), 3, "material.conductor.eta", 1e-6f, 1e6f, "3 values > 0");
+      Status s = CheckRange(m.conductor().eta(), 3, "material.conductor.eta", 1e-6f, 1e6f,
+                            "3 values in [1e-6, 1e6]");
       if (!s.ok()) return s;
-      return CheckRange(m.conductor().k(), 3, "material.conductor.k", 0.0f, 1e6f, "3 values >= 0");
+      return CheckRange(m.conductor().k(), 3, "material.conductor.k", 0.0f, 1e6f,
+                        "3 values in [0, 1e6]");
     }
     case Material::kDielectric: {
       // F_dielectric (kernels/fresnel.h) is exact for any ior > 0 in both precisions

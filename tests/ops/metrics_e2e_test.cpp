@@ -5,6 +5,9 @@
 // program-cache counters against the numbers glintd logs at warm-up.
 #include <gtest/gtest.h>
 #include <httplib.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -171,6 +174,43 @@ TEST(MetricsEndToEnd, CountersMatchWhatWasSent) {
   EXPECT_GE(Get(after, "glint_program_cache_lookups_total{result=\"compiled\"}") +
                 Get(after, "glint_program_cache_lookups_total{result=\"disk_hit\"}"),
             1);
+}
+
+// Slow or idle HTTP peers must not starve a scrape: twelve connections each send half a request
+// and stall (cpp-httplib's default pool has 8 threads and a 5 s read timeout: the scrape waited
+// ~9 s). A Prometheus scrape times out after 10 s by default; this one gets 4 s.
+TEST(MetricsEndToEnd, StalledConnectionsDoNotStarveAScrape) {
+  TempDir dir("glint_metrics_stall");
+  const int metrics_port = glint::test::FreeLoopbackPort();
+  ASSERT_GT(metrics_port, 0);
+  std::string error;
+  auto server = Glintd::Start(
+      GLINTD_PATH, dir, "glintd",
+      {"--device", "host", "--metrics-listen", "127.0.0.1:" + std::to_string(metrics_port)},
+      &error);
+  ASSERT_NE(server, nullptr) << error;
+  std::vector<int> stalled;
+  for (int k = 0; k < 12; ++k) {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    ASSERT_GE(fd, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<uint16_t>(metrics_port));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr *>(&addr), sizeof addr), 0);
+    const char partial[] = "GET /metrics HTTP/1.1\r\nHost: x";
+    ASSERT_GT(send(fd, partial, sizeof partial - 1, 0), 0);
+    stalled.push_back(fd);
+  }
+  httplib::Client http("127.0.0.1", metrics_port);
+  http.set_read_timeout(std::chrono::seconds(4));
+  http.set_connection_timeout(std::chrono::seconds(4));
+  auto res = http.Get("/metrics");
+  EXPECT_TRUE(res) << "no scrape within 4 s with 12 stalled connections open";
+  if (res) {
+    EXPECT_NE(res->body.find("glint_"), std::string::npos);
+  }
+  for (const int fd : stalled) close(fd);
 }
 
 TEST(MetricsEndToEnd, BadListenAddressIsRefusedAtStart) {

@@ -31,6 +31,7 @@ struct Flags {
   uint32_t max_batch = 1u << 20;
   int workers = 2;
   int max_pending = 16;
+  int max_undelivered_mb = 0;  // 0: max-pending x max-message-mb
   int max_message_mb = 64;
   bool quiet = false;
   bool list_devices = false;
@@ -61,6 +62,9 @@ const char kUsage[] =
     "  --max-batch N        queries per unary call or stream chunk (default 1048576)\n"
     "  --workers N          evaluation threads / device queues (default 2)\n"
     "  --max-pending N      queued+running requests before RESOURCE_EXHAUSTED (default 16)\n"
+    "  --max-undelivered-mb U  answered unary replies not yet read by their clients before\n"
+    "                       new Evaluate calls get RESOURCE_EXHAUSTED (default max-pending x\n"
+    "                       max-message-mb)\n"
     "  --max-message-mb N   gRPC message size limit, both directions (default 64)\n"
     "  --port-file PATH     write the bound port here once SERVING\n"
     "  --model NAME=MATERIAL.json[,LIGHTS.json]\n"
@@ -99,7 +103,8 @@ const char kUsage[] =
     "  --list-devices       print the OpenCL devices and exit\n"
     "  --quiet              no per-request log lines\n"
     "memory: peak RSS <= idle RSS + M x (3 x (max-pending + calls being received) + 2 x\n"
-    "  workers), M the largest request (<= max-message-mb): an admitted request holds its\n"
+    "  workers) + U, M the largest request (<= max-message-mb), U max-undelivered-mb (replies\n"
+    "  waiting on clients that do not read them): an admitted request holds its\n"
     "  parsed body, its radiance and the serialised reply; a worker the device copies of its\n"
     "  queries and radiance; a call being received holds its body (gRPC reads a\n"
     "  whole unary body before any handler runs, so those are bounded by the clients, not by\n"
@@ -159,6 +164,8 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->workers = int(number("--workers", 1, 64));
     else if (a == "--max-pending")
       f->max_pending = int(number("--max-pending", 1, 1 << 16));
+    else if (a == "--max-undelivered-mb")
+      f->max_undelivered_mb = int(number("--max-undelivered-mb", 1, 1 << 20));
     else if (a == "--max-message-mb")
       f->max_message_mb = int(number("--max-message-mb", 1, 1024));
     else if (a == "--model")
@@ -256,6 +263,10 @@ int main(int argc, char **argv) {
   options.cost.max_request_cost = flags.max_request_cost;
   options.cost.max_query_cost = flags.max_query_cost;
   options.slice_ms = flags.slice_ms;
+  options.max_undelivered_bytes =
+      uint64_t(flags.max_undelivered_mb > 0 ? flags.max_undelivered_mb
+                                            : flags.max_pending * flags.max_message_mb)
+      << 20;
   if (flags.device != "host") {
     glint::DeviceEngineOptions eo;
     eo.device = flags.device;

@@ -117,22 +117,33 @@ grpc::Status SerializeReply(const google::protobuf::Message &message, grpc::Byte
 
 // A unary call's reactor that owns its typed request and response (the methods are raw, see
 // service.h); Finish serialises the response into the reply buffer.
+// With a DeliveryBudget, the reply's bytes are held in it from Finish until OnDone.
 template <class Request, class Response>
 class OwningUnaryReactor : public grpc::ServerUnaryReactor {
  public:
-  explicit OwningUnaryReactor(grpc::ByteBuffer *reply) : reply_(reply) {}
+  explicit OwningUnaryReactor(grpc::ByteBuffer *reply, DeliveryBudget *budget = nullptr)
+      : reply_(reply), budget_(budget) {}
   Request request;
   Response response;
   void Finish(grpc::Status s) {
     if (s.ok()) s = SerializeReply(response, reply_);
     response.Clear();  // the serialised copy is what stays until the reply has left
     request.Clear();
+    if (s.ok() && budget_) {
+      held_ = reply_->Length();
+      budget_->Hold(held_);
+    }
     grpc::ServerUnaryReactor::Finish(s);
   }
-  void OnDone() override { delete this; }
+  void OnDone() override {
+    if (budget_) budget_->Release(held_);
+    delete this;
+  }
 
  private:
   grpc::ByteBuffer *reply_;
+  DeliveryBudget *budget_;
+  uint64_t held_ = 0;
 };
 
 }  // namespace
@@ -254,7 +265,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
                                                      const grpc::ByteBuffer *body,
                                                      grpc::ByteBuffer *reply) {
   using Reactor = OwningUnaryReactor<glint::v1::EvaluateRequest, glint::v1::EvaluateResponse>;
-  auto *reactor = new Reactor(reply);
+  auto *reactor = new Reactor(reply, &undelivered_);
   const glint::v1::EvaluateRequest *request = &reactor->request;
   glint::v1::EvaluateResponse *response = &reactor->response;
   const auto received = Clock::now();
@@ -266,6 +277,12 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   Status s = Status::Ok();
   if (scheduler_->pending() >= scheduler_->max_pending()) {
     s = OverloadStatus(*scheduler_);
+    AddRetryPushback(ctx, options_.slice_ms);
+  } else if (undelivered_.Full()) {
+    s = Status::ResourceExhausted(
+        "server busy: " + std::to_string(undelivered_.held() >> 20) +
+        " MiB of answered replies not yet read by their clients (--max-undelivered-mb " +
+        std::to_string(undelivered_.limit() >> 20) + "); retry later or send to another replica");
     AddRetryPushback(ctx, options_.slice_ms);
   }
   // The client's claim (query count, model) before the body is parsed.

@@ -13,6 +13,7 @@
 
 #include "glint/v1/glint.grpc.pb.h"
 #include "server/auth.h"
+#include "server/delivery_budget.h"
 #include "server/device_engine.h"
 #include "server/metrics.h"
 #include "server/request_cost.h"
@@ -31,6 +32,9 @@ struct ServiceOptions {
   CostLimits cost;                  // --max-request-cost, --max-query-cost
   double slice_ms = 50;             // target duration of one query slice (server/sliced_eval.h)
   ShmRegistry *shm = nullptr;       // shared-memory regions (server/shm_regions.h); null: none
+  // Answered unary replies not yet taken by their clients before new Evaluate calls are
+  // refused (server/delivery_budget.h); --max-undelivered-mb.
+  uint64_t max_undelivered_bytes = 1ull << 30;
 };
 
 // The methods are registered raw (grpc::ByteBuffer in and out) and the handlers parse the
@@ -154,6 +158,7 @@ class GlintServiceImpl final : public GlintRawService {
   DeviceEngine *engine_;
   Scheduler *scheduler_;
   ServiceOptions options_;
+  DeliveryBudget undelivered_{options_.max_undelivered_bytes};
   std::mutex log_mutex_;
   std::atomic<bool> shutting_down_{false};
   std::atomic<bool> cancel_in_flight_{false};

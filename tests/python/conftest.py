@@ -7,6 +7,7 @@ where client/python is installed.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import pathlib
 import subprocess
@@ -31,15 +32,16 @@ def _require_env(name: str) -> str:
     return value
 
 
-@pytest.fixture(scope="session")
-def server_address():
+@contextlib.contextmanager
+def running_glintd(*flags: str):
+    """A glintd on a free loopback port with `flags`; yields (address, process) once SERVING."""
     glintd = _require_env("GLINTD")
     with tempfile.TemporaryDirectory(prefix="glint_py_") as tmp:
         port_file = pathlib.Path(tmp) / "port"
         log_path = pathlib.Path(tmp) / "glintd.log"
         with open(log_path, "wb") as log:
             proc = subprocess.Popen(
-                [glintd, "--listen", "127.0.0.1:0", "--port-file", str(port_file), "--quiet"],
+                [glintd, "--listen", "127.0.0.1:0", "--port-file", str(port_file), "--quiet", *flags],
                 stdout=log,
                 stderr=subprocess.STDOUT,
             )
@@ -51,7 +53,7 @@ def server_address():
                 if time.monotonic() > deadline:
                     pytest.fail(f"glintd not SERVING after {SERVER_START_TIMEOUT_S} s:\n{log_path.read_text()}")
                 time.sleep(0.1)
-            yield f"127.0.0.1:{port_file.read_text().strip()}"
+            yield f"127.0.0.1:{port_file.read_text().strip()}", proc
         finally:
             proc.terminate()
             try:
@@ -59,6 +61,12 @@ def server_address():
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait()
+
+
+@pytest.fixture(scope="session")
+def server_address():
+    with running_glintd() as (address, _):
+        yield address
 
 
 @pytest.fixture(scope="session")

@@ -146,6 +146,8 @@ int main(int argc, char **argv) {
       "%u queries, %d interleaved rounds, device fp32; ratios: median over rounds of the "
       "rate / SMOOTH directional_point's in the same round\n\n",
       n, rounds);
+  std::printf("mean footprint area %.4g uv units (N_P = density x area)\n\n",
+              stats.mean_footprint_area);
   std::printf(
       "| request | M evals/s (wall) | ratio (wall) | M evals/CPU-s | ratio (CPU) | output hash |\n"
       "|---|---|---|---|---|---|\n");

@@ -497,6 +497,20 @@ GLINT_FN real binomial_whole(real n, real p, real threshold, real u, glint_mask 
   return binomial_whole_prob(n, binomial_prob(p), threshold, u, active);
 }
 
+/* Whether the quantile of u of Binomial(n, p) (integer n >= 1, p in (0, 1]) is 0 for certain,
+ * decided without the search: it is 0 iff u < F(0) = (1 - p)^n, and (1 - p)^n >= 1 - n p
+ * (Bernoulli's inequality), so u < 1 - n p suffices. The margin 2^-16 (550 fp32 ulps of 1)
+ * covers the rounding of 1 - n p (<= 2 eps) and the relative error that binomial_exact_log
+ * allows its running CDF before it asks the tail (<= 2 eps (8 - 5 n log(1 - p)) <= 36 eps at
+ * n p < 1, p <= 1/2): where this holds, the search returns 0 at its first comparison, without
+ * the tail, so skipping it changes no count (binomial_test: SurelyZero*). Such a lane is in
+ * the exact regime (n p < 1 puts p below the switch p1, whose variance is >= threshold >= 1).
+ * Most draws of a small light are such zeros; a work-item whose lanes all are skips the
+ * search and its set-up (pmf(0) = exp(n log(1 - q)), the cap, the switches). */
+GLINT_FN glint_mask binomial_surely_zero(real n, real p, real u) {
+  return (p <= GLINT_R(0.5)) & (u < GLINT_R(1.0) - n * p - GLINT_R(1.52587890625e-5));
+}
+
 /* A draw of "Binomial(n, p)" for real n >= 0: floor(n) whole trials plus one partial trial
  * that succeeds with probability frac(n) p, so that the mean is n p exactly for every real n (a
  * footprint holding 0.3 facets reflects with probability 0.3 p; with N_P < 1 this is what
@@ -511,12 +525,10 @@ GLINT_FN real binomial_draw_prob(real n, real p, BinomialProb prob, real thresho
   real whole = floor(n);
   real part = n - whole;
   real k = GLINT_R(0.0);
-  glint_mask has_whole = drawn & (whole > GLINT_R(0.0));
+  real u = rng_u01_key(rng_absorb_key(key, 1u));
+  glint_mask has_whole = drawn & (whole > GLINT_R(0.0)) & !binomial_surely_zero(whole, p, u);
   if (glint_any(has_whole))
-    k = glint_select(k,
-                     binomial_whole_prob(whole, prob, threshold,
-                                         rng_u01_key(rng_absorb_key(key, 1u)), has_whole),
-                     has_whole);
+    k = glint_select(k, binomial_whole_prob(whole, prob, threshold, u, has_whole), has_whole);
   glint_mask partial =
       drawn & (part > GLINT_R(0.0)) & (rng_u01_key(rng_absorb_key(key, 4u)) < part * p);
   return glint_select(k, k + GLINT_R(1.0), partial);

@@ -123,11 +123,16 @@ std::vector<KernelSpec> BinomialWarmSpecs() {
 }  // namespace
 
 extern const Model kBinomialModel;
-// Admission cost per evaluation relative to the smooth model (server/request_cost.h): the facet
-// count per light costs ~48 smooth evaluations (bench_request_cost: 4 point lights 12 us/query
-// vs ~50 ns per unit, PoCL CPU; a polygon by LTC ~8x less, so this over-estimates it).
+// Admission cost per evaluation relative to the smooth model (server/request_cost.h), from the
+// dearest case measured (bench/binomial_breakdown, device fp32, CPU time, interleaved with
+// SMOOTH): directional + point light at N_P = 1e6 facets per footprint costs 62x the smooth
+// model's query on the same lights (1e4: 25x, 1e2: 15x). Smooth there is kPerQuery + 2 lights =
+// 3 units, so 1 + 2 f = 3 x 62 gives f ~ 90 per light. The cost grows with N_P (the count
+// regimes, binomial_count.h), which admission cannot see (footprints are per query), so it
+// bounds the dear end. Polygons are capped at request_cost.cpp's kPolygonFactor (8): one quad
+// by LTC measured 30-50x the smooth directional + point query = 90-150 units, vs 161 charged.
 double BinomialCostFactor(const glint::v1::Material &) {
-  return 48.0;
+  return 90.0;
 }
 
 const Model kBinomialModel = {

@@ -882,3 +882,60 @@ TEST(BinomialModel, KeysDifferingInOneBitGiveUncorrelatedCounts) {
 }
 
 }  // namespace
+
+// binomial_surely_zero lets a draw skip its CDF search where the count is 0 for certain
+// (u < 1 - n p - 2^-16, Bernoulli's inequality). Where it says so, (a) the exact law agrees:
+// u < F(0) = (1 - p)^n, evaluated independently in long double from the p and n the kernel sees;
+// (b) the search it skips returns 0 too (binomial_whole without the shortcut), so the shortcut
+// changes no count. u runs over random values and over the ulps next to the decision boundary
+// 1 - n p - 2^-16, where both conditions are tightest; n from 1 trial to the approximated regime.
+template <typename Real>
+void ExpectSurelyZeroOnlyWhereTheCountIsZero(const char *precision,
+                                             int (*surely_zero)(Real, Real, Real),
+                                             double (*whole)(double, double, double, double)) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  long said_zero = 0, near_boundary = 0;
+  for (double n : {1.0, 2.0, 7.0, 64.0, 65.0, 1e3, 1e5, 1e7}) {
+    for (int i = 0; i < 4000; ++i) {
+      // n p log-uniform in [1e-5, 1.2]: across the boundary n p = 1 - 2^-16 - u
+      const Real p = Real(std::exp(std::log(1e-5) + unit(rng) * std::log(1.2e5)) / n);
+      if (!(p > 0) || p > Real(1)) continue;
+      const Real boundary = Real(1) - Real(n) * p - Real(1.52587890625e-5);
+      std::vector<Real> us = {Real(std::floor(unit(rng) * 16777216.0) / 16777216.0)};
+      Real b = boundary;
+      for (int k = 0; k < 3; ++k) {  // the uniforms' 2^-24 grid next to the boundary
+        const Real g = Real(std::floor(double(b) * 16777216.0) / 16777216.0);
+        us.push_back(g);
+        us.push_back(g + Real(5.9604644775390625e-8));
+        b = g - Real(5.9604644775390625e-8);
+      }
+      for (Real u : us) {
+        if (!(u >= 0 && u < 1) || !surely_zero(Real(n), p, u)) continue;
+        ++said_zero;
+        const long double f0 = std::exp((long double)n * std::log1p(-(long double)p));
+        if (f0 - u < 1e-4L) ++near_boundary;
+        ASSERT_LT((long double)u, f0) << precision << " n " << n << " p " << p << " u " << u;
+        ASSERT_EQ(whole(n, double(p), 9.0, double(u)), 0.0)
+            << precision << " n " << n << " p " << p << " u " << u;
+      }
+    }
+  }
+  std::printf("%s: %ld draws said surely zero, %ld of them within 1e-4 of F(0)\n", precision,
+              said_zero, near_boundary);
+  // Not vacuous: many decisions, and many at the boundary.
+  EXPECT_GT(said_zero, 20000);
+  EXPECT_GT(near_boundary, 10000);
+}
+
+double Whole64(double n, double p, double threshold, double u) {
+  return k64::binomial_whole(n, p, threshold, u, 1);
+}
+double Whole32(double n, double p, double threshold, double u) {
+  return k32::binomial_whole(float(n), float(p), float(threshold), float(u), 1);
+}
+
+TEST(BinomialDraw, SurelyZeroOnlyWhereTheCountIsZero) {
+  ExpectSurelyZeroOnlyWhereTheCountIsZero<double>("fp64", k64::binomial_surely_zero, Whole64);
+  ExpectSurelyZeroOnlyWhereTheCountIsZero<float>("fp32", k32::binomial_surely_zero, Whole32);
+}

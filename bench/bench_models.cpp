@@ -21,6 +21,8 @@
 //   ratio_to_smooth  evals_per_s / that of SMOOTH `schlick` `directional_point` on the same path
 //                    and precision (the issue's "smooth kernel with the same queries and a
 //                    directional light");
+//   ratio_to_device  end_to_end and shared_memory: this path's rate / the device's, the device
+//                    timed on the same batch before each of this path's runs (interleaved);
 //   error_*          against the case's reference (bench_case.h ErrorReference): mean, p95 and
 //                    max of the per-query relative error for the smooth model (fp64 host for
 //                    probes and point-like lights, fp64 REFERENCE quadrature for polygons), the
@@ -101,6 +103,10 @@ struct Row {
   uint32_t error_queries = 0;
   uint32_t nonfinite = 0;
   std::string transport;  // end_to_end: unary or stream; shared_memory: shm or shm-direct
+  // end_to_end and shared_memory: device seconds / this path's seconds (medians), the device
+  // timed on the same batch right before each of this path's runs (the device rate of this VM
+  // changes 2x between moments: the PoCL threads stacked on one core or spread over two).
+  std::optional<double> ratio_to_device;
 };
 
 struct Skipped {
@@ -289,13 +295,33 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
     n = uint32_t(std::min(double(o_.max_batch), std::ceil(n * grow)));
     if (!once(n, &t)) return false;
   }
-  std::vector<double> times;
+  // The device on the same batch, for the interleaved ratio of a transport row.
+  auto device_once = [&](uint32_t count, double *seconds) {
+    glint::v1::EvaluateRequest r = request;
+    *r.mutable_queries() = Tile(request.queries(), count);
+    std::vector<float> o(3 * size_t(count));
+    const EvalPlan plan = ResolvedPlan(r, r.queries());
+    const auto t0 = Clock::now();
+    Status s = engine_->Evaluate(0, plan, r.queries(), o.data());
+    *seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    if (!s.ok()) *why = "device: " + s.message();
+    return s.ok();
+  };
+  std::vector<double> times, device_times;
   for (int k = 0; k < o_.repeat; ++k) {
+    if (same_as_device) {
+      double d = 0;
+      if (!device_once(n, &d)) return false;
+      device_times.push_back(d);
+    }
     if (!once(n, &t)) return false;
     times.push_back(t);
   }
   std::sort(times.begin(), times.end());
+  std::sort(device_times.begin(), device_times.end());
   row->evals_per_s = n / times[times.size() / 2];
+  if (!device_times.empty())
+    row->ratio_to_device = device_times[device_times.size() / 2] / times[times.size() / 2];
   row->batch = n;
   return true;
 }
@@ -461,9 +487,13 @@ void Driver::Run() {
               continue;
             }
             Errors(*model, c, lights, r, path, &row);
-            std::fprintf(stderr, "%s %s %s %s %s: %.4g evals/s (batch %u)\n", row.model.c_str(),
+            char vs_device[64] = "";
+            if (row.ratio_to_device)
+              std::snprintf(vs_device, sizeof vs_device, ", %.2f of the device (interleaved)",
+                            *row.ratio_to_device);
+            std::fprintf(stderr, "%s %s %s %s %s: %.4g evals/s (batch %u)%s\n", row.model.c_str(),
                          row.variant.c_str(), row.lights.c_str(), row.precision.c_str(), path,
-                         row.evals_per_s, row.batch);
+                         row.evals_per_s, row.batch, vs_device);
             rows_.push_back(row);
             measured = true;
           }
@@ -665,7 +695,8 @@ int Main(int argc, char **argv) {
                       {"nonfinite", r.nonfinite},
                       {"batch", r.batch},
                       {"transport", r.transport.empty() ? nlohmann::ordered_json(nullptr)
-                                                        : nlohmann::ordered_json(r.transport)}});
+                                                        : nlohmann::ordered_json(r.transport)},
+                      {"ratio_to_device", Num(r.ratio_to_device)}});
     }
     j["rows"] = rows;
     nlohmann::ordered_json skipped = nlohmann::ordered_json::array();

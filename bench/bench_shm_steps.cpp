@@ -4,9 +4,11 @@
 // (client/lib/shm_transport.h ShmSession), next to the in-process device rate on the same batch
 // (the SMOOTH schlick fp32 BRDF probes of bench_models), interleaved run by run with the device.
 //
-//   build/bench/bench_shm_steps [--queries N] [--repeat R] [--cache-dir DIR]
+//   build/bench/bench_shm_steps [--queries N] [--repeat R] [--cache-dir DIR] [--pieces P,P,...]
 //
-// Prints one line per step: median milliseconds of R runs and the rate in queries/s.
+// Prints one line per step: median milliseconds of R runs and the rate in queries/s. --pieces
+// adds a ShmSession::Evaluate row per piece size (ShmSession::set_piece_queries; a size >= N is
+// one unpipelined call), default: the library's default piece and N.
 #include <grpcpp/grpcpp.h>
 #include <sys/resource.h>
 
@@ -14,8 +16,11 @@
 #include <cstdlib>
 #include <cstring>
 #include <functional>
+#include <memory>
 #include <string>
+#include <thread>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "bench/lib/bench_lib.h"
@@ -47,6 +52,7 @@ int Main(int argc, char **argv) {
   uint32_t n = 1u << 20;
   int repeat = 9;
   std::string cache_dir = DefaultCacheDir();
+  std::vector<uint32_t> pieces;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--queries") {
@@ -55,8 +61,22 @@ int Main(int argc, char **argv) {
       repeat = std::max(1, std::atoi(argv[i + 1]));
     } else if (a == "--cache-dir") {
       cache_dir = argv[i + 1];
+    } else if (a == "--pieces") {
+      std::vector<uint32_t> &list = pieces;
+      for (const char *at = argv[i + 1]; *at;) {
+        char *end = nullptr;
+        list.push_back(uint32_t(std::strtoul(at, &end, 10)));
+        if (list.back() == 0 || (*end && *end != ',')) {
+          std::fprintf(stderr, "%s %s: expected positive counts separated by commas\n", a.c_str(),
+                       argv[i + 1]);
+          return 2;
+        }
+        at = *end == ',' ? end + 1 : end;
+      }
     } else {
-      std::fprintf(stderr, "usage: bench_shm_steps [--queries N] [--repeat R] [--cache-dir DIR]\n");
+      std::fprintf(stderr,
+                   "usage: bench_shm_steps [--queries N] [--repeat R] [--cache-dir DIR] "
+                   "[--pieces P,P,...]\n");
       return 2;
     }
   }
@@ -92,6 +112,7 @@ int Main(int argc, char **argv) {
 
   // The reference: the in-process device path as bench_models times it.
   std::vector<float> reference(size_t(n) * 3);
+  if (pieces.empty()) pieces = {glint::client::ShmSession::kDefaultPieceQueries, n};
   std::vector<Step> device;
   const EvalPlan device_plan = MakeEvalPlan(request, q);
   time(&device, "device (in process, bench_models' device path)", [&] {
@@ -190,15 +211,31 @@ int Main(int argc, char **argv) {
   };
   session_call();
   in_place_call();
+  // ShmSession::Evaluate with each piece size (its own session: its own region).
+  glint::client::GlintClient piece_client(service.address());
+  std::vector<std::unique_ptr<glint::client::ShmSession>> piece_sessions;
+  std::vector<std::vector<float>> piece_out(pieces.size());
+  std::vector<std::vector<double>> t_pieces(pieces.size());
+  std::vector<double> cpu_pieces(pieces.size(), 0.0);
+  std::vector<std::tuple<std::function<void()>, std::vector<double> *, double *>> runs;
+  for (size_t k = 0; k < pieces.size(); ++k) {
+    piece_sessions.push_back(std::make_unique<glint::client::ShmSession>(&piece_client));
+    piece_sessions.back()->set_piece_queries(pieces[k]);
+    auto piece_call = [&, k] {
+      grpc::Status st = piece_sessions[k]->Evaluate(request, &piece_out[k]);
+      if (!st.ok()) std::fprintf(stderr, "pieces %u: %s\n", pieces[k], st.error_message().c_str());
+    };
+    piece_call();  // warm: the region created, registered and first touched
+    runs.emplace_back(piece_call, &t_pieces[k], &cpu_pieces[k]);
+  }
   std::vector<double> t_device, t_session, t_in_place;
   double cpu_device = 0, cpu_session = 0, cpu_in_place = 0;
+  runs.emplace_back([&] { (void)engine->Evaluate(0, device_plan, q, reference.data()); }, &t_device,
+                    &cpu_device);
+  runs.emplace_back(session_call, &t_session, &cpu_session);
+  runs.emplace_back(in_place_call, &t_in_place, &cpu_in_place);
   for (int r = 0; r < repeat; ++r) {
-    for (auto [run, t, cpu] :
-         {std::tuple{std::function<void()>(
-                         [&] { (void)engine->Evaluate(0, device_plan, q, reference.data()); }),
-                     &t_device, &cpu_device},
-          std::tuple{std::function<void()>(session_call), &t_session, &cpu_session},
-          std::tuple{std::function<void()>(in_place_call), &t_in_place, &cpu_in_place}}) {
+    for (auto &[run, t, cpu] : runs) {
       const double c0 = CpuSeconds();
       t->push_back(MedianSeconds(1, run) * 1e3);
       *cpu += (CpuSeconds() - c0) * 1e3 / repeat;
@@ -211,8 +248,19 @@ int Main(int argc, char **argv) {
   const double whole = median(t_session), in_place = median(t_in_place), dev = median(t_device);
   steps.push_back({"whole call: ShmSession::Evaluate (pack + copy out)", whole, cpu_session});
   steps.push_back({"whole call: in place (queries already in the region)", in_place, cpu_in_place});
+  std::vector<double> piece_ratio;
+  auto variant_name = [&](size_t k) { return "pieces of " + std::to_string(pieces[k]); };
+  for (size_t k = 0; k < pieces.size(); ++k) {
+    const double ms = median(t_pieces[k]);
+    piece_ratio.push_back(dev / ms);
+    steps.push_back({"whole call: ShmSession::Evaluate, " + variant_name(k), ms, cpu_pieces[k]});
+  }
   device[0] = {"device (interleaved with the whole calls)", dev, cpu_device};
-  const bool same = e2e.size() == reference.size() &&
+  bool pieces_same = true;
+  for (const std::vector<float> &out : piece_out)
+    pieces_same = pieces_same && out.size() == reference.size() &&
+                  std::memcmp(out.data(), reference.data(), out.size() * sizeof(float)) == 0;
+  const bool same = pieces_same && e2e.size() == reference.size() &&
                     std::memcmp(e2e.data(), reference.data(), e2e.size() * sizeof(float)) == 0 &&
                     std::memcmp(region_out, reference.data(), e2e.size() * sizeof(float)) == 0;
 
@@ -228,6 +276,9 @@ int Main(int argc, char **argv) {
       "\nrate / device rate (medians of %d interleaved runs): ShmSession::Evaluate %.2f, in place "
       "%.2f\n",
       repeat, dev / whole, dev / in_place);
+  for (size_t k = 0; k < pieces.size(); ++k)
+    std::printf("rate / device rate: ShmSession::Evaluate, %s: %.2f\n", variant_name(k).c_str(),
+                piece_ratio[k]);
   std::printf("shared-memory radiance %s the in-process device result\n",
               same ? "bit-identical to" : "DIFFERS from");
   return same ? 0 : 1;

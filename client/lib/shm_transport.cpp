@@ -8,7 +8,10 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <condition_variable>
 #include <cstring>
+#include <deque>
+#include <mutex>
 #include <random>
 #include <stdexcept>
 
@@ -149,27 +152,24 @@ void ShmSession::Close() {
     name_.clear();
   }
   buffer_.reset();  // unmaps and unlinks
-  chunk_ = 0;
+  piece_ = slots_ = 0;
+  slot_bytes_ = 0;
+  in_place_.Clear();  // its region is gone
 }
 
-grpc::Status ShmSession::Prepare(const glint::v1::QueryBatch &q, uint32_t count) {
-  if (max_batch_ == 0) {  // once per session: the server's limits do not change under it
-    glint::v1::Capabilities caps;
-    if (grpc::Status s = client_->GetCapabilities(&caps); !s.ok()) return s;
-    if (caps.max_shared_memory_regions() == 0)
-      return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
-                          "the server offers no shared memory (Capabilities)");
-    max_batch_ = std::max<uint32_t>(caps.max_batch(), 1);
-  }
-  const uint32_t chunk = std::min(count, max_batch_);
-  const size_t in_bytes = SharedMemoryInputBytes(q, chunk);
-  const size_t bytes = OutputOffset(in_bytes) + size_t(chunk) * 3 * sizeof(float);
-  if (buffer_ && buffer_->size() >= bytes) {
-    // This request's chunk, not the largest so far: Evaluate places the output after this
-    // request's input blocks, and only `bytes` (this chunk, these arrays) is known to fit.
-    chunk_ = chunk;
-    return grpc::Status::OK;
-  }
+grpc::Status ShmSession::FetchLimits() {
+  if (max_batch_ != 0) return grpc::Status::OK;  // the server's limits do not change under it
+  glint::v1::Capabilities caps;
+  if (grpc::Status s = client_->GetCapabilities(&caps); !s.ok()) return s;
+  if (caps.max_shared_memory_regions() == 0)
+    return grpc::Status(grpc::StatusCode::FAILED_PRECONDITION,
+                        "the server offers no shared memory (Capabilities)");
+  max_batch_ = std::max<uint32_t>(caps.max_batch(), 1);
+  return grpc::Status::OK;
+}
+
+grpc::Status ShmSession::Reserve(size_t bytes) {
+  if (buffer_ && buffer_->size() >= bytes) return grpc::Status::OK;
   Close();
   std::string error;
   buffer_ = ShmBuffer::Create(bytes, &error);
@@ -190,9 +190,37 @@ grpc::Status ShmSession::Prepare(const glint::v1::QueryBatch &q, uint32_t count)
     return s;
   }
   name_ = r.name();
-  chunk_ = chunk;
   return grpc::Status::OK;
 }
+
+grpc::Status ShmSession::Prepare(const glint::v1::QueryBatch &q, uint32_t count) {
+  if (grpc::Status s = FetchLimits(); !s.ok()) return s;
+  // This request's layout, not the largest so far: the offsets below follow from this
+  // request's pieces and arrays, and only these bytes are known to fit.
+  const uint32_t piece = std::min({std::max(count, 1u), max_batch_, piece_queries_});
+  const uint32_t slots = count > piece ? 2 : 1;
+  const size_t slot_bytes = OutputOffset(OutputOffset(SharedMemoryInputBytes(q, piece)) +
+                                         size_t(piece) * 3 * sizeof(float));
+  if (grpc::Status s = Reserve(slots * slot_bytes); !s.ok()) return s;
+  piece_ = piece;
+  slots_ = slots;
+  slot_bytes_ = slot_bytes;
+  return grpc::Status::OK;
+}
+
+namespace {
+
+// One call of a pipelined Evaluate: queries [begin, end) in slot `slot`, answered asynchronously.
+struct Piece {
+  uint32_t begin = 0, end = 0, slot = 0;
+  grpc::ClientContext ctx;
+  glint::v1::EvaluateRequest call;
+  glint::v1::EvaluateResponse response;
+  grpc::Status status;
+  bool done = false;
+};
+
+}  // namespace
 
 grpc::Status ShmSession::Evaluate(const glint::v1::EvaluateRequest &request,
                                   std::vector<float> *radiance, ProgressFn progress,
@@ -203,39 +231,85 @@ grpc::Status ShmSession::Evaluate(const glint::v1::EvaluateRequest &request,
   if (n == 0) return grpc::Status::OK;
   if (grpc::Status s = Prepare(q, n); !s.ok()) return s;
   auto stub = glint::v1::GlintService::NewStub(client_->channel());
-  // The settings once; each call carries them and a SharedMemoryIo naming this region.
-  glint::v1::EvaluateRequest call = SettingsOf(request);
-  const size_t out_offset = OutputOffset(SharedMemoryInputBytes(q, chunk_));
+  // The settings once; each call carries them and a SharedMemoryIo naming its slot.
+  const glint::v1::EvaluateRequest settings = SettingsOf(request);
+  const size_t out_in_slot = OutputOffset(SharedMemoryInputBytes(q, piece_));
+  std::mutex mu;
+  std::condition_variable answered;
+  std::deque<std::unique_ptr<Piece>> flight;  // oldest first
+  uint32_t next = 0;
   uint64_t calls = 0;
-  for (uint32_t begin = 0; begin < n; begin += chunk_) {
-    const uint32_t end = std::min(n, begin + chunk_);
-    glint::v1::SharedMemoryIo *io = call.mutable_shared_memory();
-    PackSharedQueries(q, begin, end, buffer_->data(), io);
+  // Packs the next piece into `slot` and sends it; the answer arrives on gRPC's thread.
+  auto launch = [&](uint32_t slot) {
+    auto p = std::make_unique<Piece>();
+    p->begin = next;
+    p->end = std::min(n, next + piece_);
+    p->slot = slot;
+    next = p->end;
+    p->call = settings;
+    uint8_t *base = buffer_->data() + size_t(slot) * slot_bytes_;
+    glint::v1::SharedMemoryIo *io = p->call.mutable_shared_memory();
+    PackSharedQueries(q, p->begin, p->end, base, io);
     io->set_input_region(name_);
-    io->set_input_offset(0);
+    io->set_input_offset(uint64_t(slot) * slot_bytes_);
     io->set_output_region(name_);
-    io->set_output_offset(out_offset);
-    grpc::ClientContext ctx;
-    client_->PrepareContext(&ctx);
+    io->set_output_offset(uint64_t(slot) * slot_bytes_ + out_in_slot);
+    client_->PrepareContext(&p->ctx);
     if (client_->options().evaluate_timeout.count() > 0)
-      ctx.set_deadline(std::chrono::system_clock::now() + client_->options().evaluate_timeout);
-    glint::v1::EvaluateResponse response;
-    grpc::Status s = stub->Evaluate(&ctx, call, &response);
-    if (!s.ok()) return s;
-    if (response.count() != end - begin)
-      return grpc::Status(grpc::StatusCode::INTERNAL,
-                          "shared-memory Evaluate answered " + std::to_string(response.count()) +
-                              " queries; expected " + std::to_string(end - begin));
-    std::memcpy(radiance->data() + size_t(begin) * 3, buffer_->data() + out_offset,
-                size_t(end - begin) * 3 * sizeof(float));
+      p->ctx.set_deadline(std::chrono::system_clock::now() + client_->options().evaluate_timeout);
+    Piece *raw = p.get();
+    flight.push_back(std::move(p));
+    stub->async()->Evaluate(&raw->ctx, &raw->call, &raw->response,
+                            [raw, &mu, &answered](grpc::Status s) {
+                              std::lock_guard<std::mutex> lock(mu);
+                              raw->status = std::move(s);
+                              raw->done = true;
+                              answered.notify_all();
+                            });
+  };
+  auto wait = [&](Piece *p) {
+    std::unique_lock<std::mutex> lock(mu);
+    answered.wait(lock, [p] { return p->done; });
+  };
+  for (uint32_t slot = 0; slot < slots_ && next < n; ++slot) launch(slot);
+  grpc::Status failure;
+  while (!flight.empty()) {
+    Piece *p = flight.front().get();
+    wait(p);
+    if (p->status.ok() && p->response.count() != p->end - p->begin)
+      p->status =
+          grpc::Status(grpc::StatusCode::INTERNAL,
+                       "shared-memory Evaluate answered " + std::to_string(p->response.count()) +
+                           " queries; expected " + std::to_string(p->end - p->begin));
+    if (!p->status.ok()) {
+      // The server counts query indices from the piece's first query: say where it lies.
+      failure = n > piece_
+                    ? grpc::Status(p->status.error_code(),
+                                   "shared-memory call for queries [" + std::to_string(p->begin) +
+                                       ", " + std::to_string(p->end) +
+                                       ") of the batch: " + p->status.error_message())
+                    : p->status;
+      // The other piece's call is awaited, not cancelled: its answer comes once glintd has
+      // written its radiance, so no write of it can land in the region after we return (a
+      // cancelled call answers at once while its slice may still be running).
+      for (auto &other : flight) wait(other.get());
+      break;
+    }
+    std::memcpy(radiance->data() + size_t(p->begin) * 3,
+                buffer_->data() + size_t(p->slot) * slot_bytes_ + out_in_slot,
+                size_t(p->end - p->begin) * 3 * sizeof(float));
     ++calls;
-    if (info) info->device = response.stats().device();
-    if (progress) progress(end, n);
+    if (info) info->device = p->response.stats().device();
+    if (progress) progress(p->end, n);
+    const uint32_t slot = p->slot;
+    flight.pop_front();
+    if (next < n) launch(slot);  // the slot just read out takes the next piece
   }
+  if (!failure.ok()) return failure;
   if (info) {
     info->streamed = false;
     info->chunks = calls;
-    info->chunk_queries = chunk_;
+    info->chunk_queries = piece_;
     info->attempts = 1;
   }
   return grpc::Status::OK;
@@ -249,11 +323,16 @@ grpc::Status ShmSession::PrepareInPlace(const glint::v1::QueryBatch &shape, uint
   if (shape.wo().empty())
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
                         "shape.wo: empty; every query has wo (give shape one value in it)");
-  if (grpc::Status s = Prepare(shape, count); !s.ok()) return s;
-  if (count > chunk_)
+  if (grpc::Status s = FetchLimits(); !s.ok()) return s;
+  if (count > max_batch_)
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
                         "count: " + std::to_string(count) + " exceeds the server's max_batch " +
                             std::to_string(max_batch_) + " (one in-place call)");
+  // One slot of `count` queries at offset 0 (not Evaluate's pipelined layout).
+  const size_t in_bytes = SharedMemoryInputBytes(shape, count);
+  if (grpc::Status s = Reserve(OutputOffset(in_bytes) + size_t(count) * 3 * sizeof(float)); !s.ok())
+    return s;
+  piece_ = slots_ = 0;  // Evaluate lays the region out again (Prepare)
   *blocks = InPlaceBlocks();
   blocks->count = count;
   float *at = reinterpret_cast<float *>(buffer_->data());
@@ -267,7 +346,6 @@ grpc::Status ShmSession::PrepareInPlace(const glint::v1::QueryBatch &shape, uint
     }
     ++k;
   }
-  const size_t in_bytes = SharedMemoryInputBytes(shape, count);
   blocks->radiance = reinterpret_cast<const float *>(buffer_->data() + OutputOffset(in_bytes));
   in_place_.set_count(count);
   in_place_.set_uv(!shape.uv().empty());

@@ -5,6 +5,7 @@
 // `glint eval` picks it (EvaluateWithTransport).
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -54,10 +55,21 @@ size_t SharedMemoryInputBytes(const glint::v1::QueryBatch &q, uint32_t count);
 
 // One registered region reused across calls (the server maps it once): each Evaluate packs its
 // queries into the region, sends a request naming it as input and output, and copies the
-// radiance out. Batches over the server's max_batch go as several calls. A larger batch than
-// the region holds replaces it by a larger one. The destructor unregisters and unlinks.
+// radiance out. A batch larger than one piece (piece_queries(), capped by the server's
+// max_batch) goes as several calls, pipelined over two slots of the region: while glintd
+// evaluates piece k in one slot, the client copies piece k-1's radiance out of the other and
+// packs piece k+1 into it, so the client's copies overlap the server's work instead of adding
+// to it (bench/bench_shm_steps.cpp measures both). Every query is evaluated on its own
+// (DESIGN.md "Determinism"), so the result is bit-identical however the batch is cut. A larger
+// batch than the region holds replaces it by a larger one. The destructor unregisters and
+// unlinks.
 class ShmSession {
  public:
+  // Queries per call of a pipelined Evaluate. bench_shm_steps on 1M probes with both cores free
+  // (nice -15, POCL_AFFINITY=1): pieces of 512K (two calls) 6.5-6.6 ms, one call 7.6-7.7 ms,
+  // pieces of 256K 10-20 ms (every further call in flight slowed the kernels beside it).
+  static constexpr uint32_t kDefaultPieceQueries = 1u << 19;
+
   explicit ShmSession(GlintClient *client) : client_(client) {}
   ~ShmSession();
   ShmSession(const ShmSession &) = delete;
@@ -70,6 +82,9 @@ class ShmSession {
                         ProgressFn progress = {}, EvaluateInfo *info = nullptr);
   // Unregisters and unlinks now (the destructor does it otherwise).
   void Close();
+  // The pipeline's piece size (at least 1; tests use small pieces to cut small batches).
+  void set_piece_queries(uint32_t queries) { piece_queries_ = std::max<uint32_t>(queries, 1); }
+  uint32_t piece_queries() const { return piece_queries_; }
 
   // Zero-copy use, as with Triton's system shared memory: the application writes its queries
   // straight into the region and reads the radiance where glintd's kernels wrote it, so no
@@ -94,10 +109,18 @@ class ShmSession {
   const std::string &region_name() const { return name_; }
 
  private:
+  // The server's max_batch (Capabilities), once per session.
+  grpc::Status FetchLimits();
+  // A registered region of at least `bytes` (the current one when it is large enough).
+  grpc::Status Reserve(size_t bytes);
+
   GlintClient *client_;
   std::unique_ptr<ShmBuffer> buffer_;
   std::string name_;  // registered region name, "" when none
-  uint32_t chunk_ = 0;
+  uint32_t piece_queries_ = kDefaultPieceQueries;
+  // The layout Prepare made for Evaluate: `slots` slots of `slot_bytes`, each `piece` queries.
+  uint32_t piece_ = 0, slots_ = 0;
+  size_t slot_bytes_ = 0;
   uint32_t max_batch_ = 0;              // the server's (Capabilities), fetched by the first Prepare
   glint::v1::SharedMemoryIo in_place_;  // the layout PrepareInPlace made; count 0: none
 };

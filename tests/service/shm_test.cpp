@@ -4,7 +4,8 @@
 //    region, a region used after unregistering, the per-owner limits) is a clean status naming
 //    the field, and the server goes on serving;
 //  - results read back from the output region are bit-identical to the same queries sent as
-//    arrays (every input block present, lights and probes, several calls per batch);
+//    arrays (every input block present, lights and probes, several calls per batch, the client
+//    library's pipelined pieces of any size);
 //  - a client that unlinks its object mid-session, truncates it before a call, or truncates it
 //    while the call runs gets a clean answer and the server survives;
 //  - the SIGBUS guard itself (server/shm_guard.h) on a truncated mapping;
@@ -15,6 +16,7 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstring>
 #include <thread>
 
@@ -319,6 +321,55 @@ TEST_F(ShmTest, ReusedSessionFitsRequestsWithMoreArrays) {
     ASSERT_EQ(tcp.size(), shm.size());
     EXPECT_EQ(std::memcmp(tcp.data(), shm.data(), tcp.size() * sizeof(float)), 0);
   }
+}
+
+// ShmSession::Evaluate cut into pipelined pieces (two slots of the region in flight, packed
+// and read out while the other evaluates): every piece size gives the bits of the array path
+// (queries sent over the connection, no region), the progress callback sees each piece's end
+// in order, a piece glintd refuses names its range of the batch (glintd counts indices from the
+// piece's first query), and the session evaluates again afterwards.
+TEST_F(ShmTest, PipelinedPiecesMatchArraysAndNameARefusedRange) {
+  glint::client::ClientOptions options;
+  options.security.token = "alpha-token";
+  glint::client::GlintClient client(server_->address(), options);
+  for (const EvaluateRequest &request : {Probe(20011, 12), Lit(9001, 13)}) {
+    const uint32_t n = request.queries().count();
+    std::vector<float> tcp;
+    ASSERT_TRUE(client.Evaluate(request, &tcp).ok());
+    for (uint32_t piece : {4096u, 7000u, glint::client::ShmSession::kDefaultPieceQueries}) {
+      glint::client::ShmSession session(&client);
+      session.set_piece_queries(piece);
+      std::vector<float> shm;
+      std::vector<uint64_t> ends;
+      glint::client::EvaluateInfo info;
+      const grpc::Status s = session.Evaluate(
+          request, &shm, [&](uint64_t done, uint64_t) { ends.push_back(done); }, &info);
+      ASSERT_TRUE(s.ok()) << s.error_message();
+      std::vector<uint64_t> want;
+      for (uint64_t end = piece; want.empty() || want.back() < n; end += piece)
+        want.push_back(std::min<uint64_t>(end, n));
+      EXPECT_EQ(ends, want) << "pieces of " << piece;
+      EXPECT_EQ(info.chunks, want.size());
+      ASSERT_EQ(tcp.size(), shm.size());
+      EXPECT_EQ(std::memcmp(tcp.data(), shm.data(), tcp.size() * sizeof(float)), 0)
+          << "pieces of " << piece;
+    }
+  }
+  // Query 15000 lies in the fourth piece of 4096, [12288, 16384), at index 2712 of it.
+  EvaluateRequest bad = Probe(20011, 14);
+  bad.mutable_queries()->mutable_wo()->Set(3 * 15000 + 1, std::nanf(""));
+  glint::client::ShmSession session(&client);
+  session.set_piece_queries(4096);
+  std::vector<float> shm;
+  const grpc::Status refused = session.Evaluate(bad, &shm);
+  EXPECT_REFUSED(refused, StatusCode::INVALID_ARGUMENT,
+                 "shared-memory call for queries [12288, 16384) of the batch: queries.wo[2712]");
+  const EvaluateRequest good = Probe(20011, 12);
+  std::vector<float> tcp;
+  ASSERT_TRUE(client.Evaluate(good, &tcp).ok());
+  ASSERT_TRUE(session.Evaluate(good, &shm).ok());
+  ASSERT_EQ(tcp.size(), shm.size());
+  EXPECT_EQ(std::memcmp(tcp.data(), shm.data(), tcp.size() * sizeof(float)), 0);
 }
 
 TEST_F(ShmTest, ClientThatUnlinksOrTruncatesDoesNotHurtTheServer) {

@@ -5,6 +5,7 @@
 
 #include "server/auth.h"
 #include "server/normal_map_store.h"
+#include "server/raw_messages.h"
 #include "server/service.h"
 
 namespace glint {
@@ -68,33 +69,32 @@ grpc::ServerReadReactor<glint::v1::NormalMapChunk> *GlintServiceImpl::UploadNorm
   return new UploadReactor(this, response);
 }
 
-grpc::ServerUnaryReactor *GlintServiceImpl::ListNormalMaps(
-    grpc::CallbackServerContext *ctx, const glint::v1::ListNormalMapsRequest *,
-    glint::v1::ListNormalMapsResponse *response) {
-  if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
-    auto *refused = ctx->DefaultReactor();
-    refused->Finish(denied);
-    return refused;
-  }
-  NormalMaps().List(response);
-  auto *reactor = ctx->DefaultReactor();
-  reactor->Finish(grpc::Status::OK);
-  return reactor;
+grpc::ServerUnaryReactor *GlintServiceImpl::ListNormalMaps(grpc::CallbackServerContext *ctx,
+                                                           const grpc::ByteBuffer *body,
+                                                           grpc::ByteBuffer *reply) {
+  using glint::v1::ListNormalMapsRequest;
+  using glint::v1::ListNormalMapsResponse;
+  return AnswerNow<ListNormalMapsRequest, ListNormalMapsResponse>(
+      ctx, options_.auth, body, reply,
+      [](const ListNormalMapsRequest &, ListNormalMapsResponse *response) {
+        NormalMaps().List(response);
+        return grpc::Status::OK;
+      });
 }
 
-grpc::ServerUnaryReactor *GlintServiceImpl::DeleteNormalMap(
-    grpc::CallbackServerContext *ctx, const glint::v1::DeleteNormalMapRequest *request,
-    glint::v1::DeleteNormalMapResponse *) {
-  if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
-    auto *refused = ctx->DefaultReactor();
-    refused->Finish(denied);
-    return refused;
-  }
-  Status s = NormalMaps().Delete(request->digest());
-  LogLine("DeleteNormalMap " + request->digest() + (s.ok() ? " ok" : " refused: " + s.message()));
-  auto *reactor = ctx->DefaultReactor();
-  reactor->Finish(ToGrpcStatus(s));
-  return reactor;
+grpc::ServerUnaryReactor *GlintServiceImpl::DeleteNormalMap(grpc::CallbackServerContext *ctx,
+                                                            const grpc::ByteBuffer *body,
+                                                            grpc::ByteBuffer *reply) {
+  using glint::v1::DeleteNormalMapRequest;
+  using glint::v1::DeleteNormalMapResponse;
+  return AnswerNow<DeleteNormalMapRequest, DeleteNormalMapResponse>(
+      ctx, options_.auth, body, reply,
+      [&](const DeleteNormalMapRequest &request, DeleteNormalMapResponse *) {
+        Status s = NormalMaps().Delete(request.digest());
+        LogLine("DeleteNormalMap " + request.digest() +
+                (s.ok() ? " ok" : " refused: " + s.message()));
+        return ToGrpcStatus(s);
+      });
 }
 
 }  // namespace glint

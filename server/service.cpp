@@ -21,6 +21,7 @@
 #include "server/metadata_admission.h"
 #include "server/model_table.h"
 #include "server/normal_map_store.h"
+#include "server/raw_messages.h"
 #include "server/shm_io.h"
 #include "server/sliced_eval.h"
 
@@ -37,26 +38,6 @@ const char *ModelName(const glint::v1::EvaluateRequest &r) {
   return glint::v1::Model_IsValid(r.material().model())
              ? glint::v1::Model_Name(r.material().model()).c_str()
              : "?";
-}
-
-// Parses a raw request body. gRPC has already checked the frame (length prefix, size limit);
-// what fails here is the protobuf inside it: truncated, a wrong wire type, a length past the end.
-// The body buffer is released once parsed: only the parsed message stays in memory.
-Status ParseBody(const grpc::ByteBuffer *body, google::protobuf::Message *out,
-                 const std::string &what) {
-  auto *raw = const_cast<grpc::ByteBuffer *>(body);
-  const size_t bytes = raw->Length();
-  bool ok = false;
-  {
-    grpc::ProtoBufferReader reader(raw);
-    ok = out->ParseFromZeroCopyStream(&reader);
-  }
-  raw->Clear();
-  if (ok) return Status::Ok();
-  return Status::InvalidArgument(what + ": the " + std::to_string(bytes) +
-                                 "-byte body does not parse as a " + out->GetTypeName() +
-                                 " (truncated, or not this message); check that client and "
-                                 "server use the same proto/glint/v1/glint.proto");
 }
 
 // Clears every field of `m` but the one named `keep`, and its unknown fields (through reflection,
@@ -104,15 +85,6 @@ glint::wire::SlicePool &ReplyPool() {
   static const std::shared_ptr<glint::wire::SlicePool> pool =
       glint::wire::SlicePool::Create(kReplyBuffersKept);
   return *pool;
-}
-
-// Serialises a response into the raw reply buffer.
-grpc::Status SerializeReply(const google::protobuf::Message &message, grpc::ByteBuffer *out) {
-  out->Clear();  // a stream reuses its reply buffer; the writer wants an empty one
-  bool own = false;
-  grpc::Status s = grpc::GenericSerialize<grpc::ProtoBufferWriter, google::protobuf::Message>(
-      message, out, &own);
-  return s;
 }
 
 // A unary call's reactor that owns its typed request and response (the methods are raw, see

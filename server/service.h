@@ -43,19 +43,20 @@ struct ServiceOptions {
 // half-closed (streams, which then finished OK with the bad chunk unanswered). Parsing here
 // gives INVALID_ARGUMENT naming what did not parse. (A new typed callback method is added to
 // this chain as glint::v1::GlintService::WithCallbackMethod_<Name><...>.)
-// Sample and the normal-map calls are typed: a body of theirs that does not parse gets gRPC's
-// own answer.
+// The small unary calls answered at once (normal-map list/delete, shared-memory regions) are raw
+// too (server/raw_messages.h AnswerNow). Sample and UploadNormalMap are still typed: a body of
+// theirs that does not parse gets gRPC's own answer.
 using GlintRawService = glint::v1::GlintService::WithRawCallbackMethod_Evaluate<
     glint::v1::GlintService::WithRawCallbackMethod_EvaluateStream<
         glint::v1::GlintService::WithRawCallbackMethod_GetCapabilities<
             glint::v1::GlintService::WithCallbackMethod_Sample<
                 glint::v1::GlintService::WithCallbackMethod_UploadNormalMap<
-                    glint::v1::GlintService::WithCallbackMethod_ListNormalMaps<
-                        glint::v1::GlintService::WithCallbackMethod_DeleteNormalMap<
-                            glint::v1::GlintService::WithCallbackMethod_RegisterSharedMemory<
-                                glint::v1::GlintService::WithCallbackMethod_ListSharedMemory<
+                    glint::v1::GlintService::WithRawCallbackMethod_ListNormalMaps<
+                        glint::v1::GlintService::WithRawCallbackMethod_DeleteNormalMap<
+                            glint::v1::GlintService::WithRawCallbackMethod_RegisterSharedMemory<
+                                glint::v1::GlintService::WithRawCallbackMethod_ListSharedMemory<
                                     glint::v1::GlintService::
-                                        WithCallbackMethod_UnregisterSharedMemory<
+                                        WithRawCallbackMethod_UnregisterSharedMemory<
                                             glint::v1::GlintService::Service>>>>>>>>>>;
 
 // Evaluates on the OpenCL engine, or on the host path when engine is null.
@@ -85,22 +86,22 @@ class GlintServiceImpl final : public GlintRawService {
   grpc::ServerReadReactor<glint::v1::NormalMapChunk> *UploadNormalMap(
       grpc::CallbackServerContext *ctx, glint::v1::NormalMapInfo *response) override;
   grpc::ServerUnaryReactor *ListNormalMaps(grpc::CallbackServerContext *ctx,
-                                           const glint::v1::ListNormalMapsRequest *request,
-                                           glint::v1::ListNormalMapsResponse *response) override;
+                                           const grpc::ByteBuffer *request,
+                                           grpc::ByteBuffer *response) override;
   grpc::ServerUnaryReactor *DeleteNormalMap(grpc::CallbackServerContext *ctx,
-                                            const glint::v1::DeleteNormalMapRequest *request,
-                                            glint::v1::DeleteNormalMapResponse *response) override;
+                                            const grpc::ByteBuffer *request,
+                                            grpc::ByteBuffer *response) override;
 
   // Same-host shared-memory regions (server/shm_rpc.cpp, server/shm_regions.h).
-  grpc::ServerUnaryReactor *RegisterSharedMemory(
-      grpc::CallbackServerContext *ctx, const glint::v1::RegisterSharedMemoryRequest *request,
-      glint::v1::RegisterSharedMemoryResponse *response) override;
-  grpc::ServerUnaryReactor *ListSharedMemory(
-      grpc::CallbackServerContext *ctx, const glint::v1::ListSharedMemoryRequest *request,
-      glint::v1::ListSharedMemoryResponse *response) override;
-  grpc::ServerUnaryReactor *UnregisterSharedMemory(
-      grpc::CallbackServerContext *ctx, const glint::v1::UnregisterSharedMemoryRequest *request,
-      glint::v1::UnregisterSharedMemoryResponse *response) override;
+  grpc::ServerUnaryReactor *RegisterSharedMemory(grpc::CallbackServerContext *ctx,
+                                                 const grpc::ByteBuffer *request,
+                                                 grpc::ByteBuffer *response) override;
+  grpc::ServerUnaryReactor *ListSharedMemory(grpc::CallbackServerContext *ctx,
+                                             const grpc::ByteBuffer *request,
+                                             grpc::ByteBuffer *response) override;
+  grpc::ServerUnaryReactor *UnregisterSharedMemory(grpc::CallbackServerContext *ctx,
+                                                   const grpc::ByteBuffer *request,
+                                                   grpc::ByteBuffer *response) override;
   // RunBatch for a request with shared_memory (server/shm_io.cpp): the queries are copied out
   // of the caller's (`owner`'s) input region, the radiance goes into its output region, and
   // `response` gets count and stats only.

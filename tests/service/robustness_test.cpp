@@ -239,7 +239,10 @@ TEST_F(Robustness, MalformedStreamChunkEndsTheStreamWithInvalidArgument) {
 // UNIMPLEMENTED with an empty message, gRPC's callback default).
 TEST_F(Robustness, UnparseableUnaryBodyGetsInvalidArgumentWithAMessage) {
   for (const char *method :
-       {"/glint.v1.GlintService/Evaluate", "/glint.v1.GlintService/GetCapabilities"}) {
+       {"/glint.v1.GlintService/Evaluate", "/glint.v1.GlintService/GetCapabilities",
+        "/glint.v1.GlintService/ListNormalMaps", "/glint.v1.GlintService/DeleteNormalMap",
+        "/glint.v1.GlintService/RegisterSharedMemory", "/glint.v1.GlintService/ListSharedMemory",
+        "/glint.v1.GlintService/UnregisterSharedMemory"}) {
     grpc::ByteBuffer reply;
     grpc::Status s = RawUnary(channel(), method, Bytes(BadBytes()), &reply);
     EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << method;
@@ -252,6 +255,9 @@ TEST_F(Robustness, UnparseableUnaryBodyGetsInvalidArgumentWithAMessage) {
       RawUnary(channel(), "/glint.v1.GlintService/Evaluate", Serialized(ProbeRequest(16)), &reply);
   EXPECT_TRUE(s.ok()) << s.error_message();
   EXPECT_GT(reply.Length(), 16u * 12u);
+  // An empty body is a valid (empty) ListNormalMapsRequest: answered OK on the raw path.
+  s = RawUnary(channel(), "/glint.v1.GlintService/ListNormalMaps", Bytes(""), &reply);
+  EXPECT_TRUE(s.ok()) << s.error_message();
 }
 
 // Item 4. A later chunk that carries lights (or any other setting) but no material is refused,

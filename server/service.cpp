@@ -418,9 +418,11 @@ class GlintServiceImpl::StreamReactor
         !s.ok())
       return ToGrpcStatus(s);
     if (c.message.chunk_index() != read_index_) {
-      return ToGrpcStatus(Status::InvalidArgument("chunk_index: got " +
-                                                  std::to_string(c.message.chunk_index()) +
-                                                  "; expected " + std::to_string(read_index_)));
+      // Named by its place in the stream, like every other chunk refusal ("chunk N: ...").
+      return ChunkStatus(
+          read_index_,
+          Status::InvalidArgument("chunk_index: got " + std::to_string(c.message.chunk_index()) +
+                                  "; expected " + std::to_string(read_index_)));
     }
     if (c.message.request().has_material() || read_index_ == 0) {
       // The first chunk sets material, lights, precision and seed; a later

@@ -96,6 +96,9 @@ struct Model {
   // Admission cost (server/request_cost.h): how many smooth BRDF evaluations one evaluation of
   // this model with material `m` costs (>= 1; nullptr: 1, the smooth model).
   double (*cost_factor)(const glint::v1::Material &m) = nullptr;
+  // Admission cost of one polygon light beyond the smooth area integral, in units (nullptr: the
+  // smooth integral times min(cost_factor, 8), server/request_cost.cpp).
+  double (*polygon_cost)(const glint::v1::Material &m) = nullptr;
 };
 
 }  // namespace glint

@@ -90,9 +90,14 @@ RequestCost EstimateRequestCost(const glint::v1::EvaluateRequest &settings, uint
       model && model->cost_factor ? std::max(1.0, model->cost_factor(settings.material())) : 1.0;
   // The model's factor multiplies its own per-light work (a probe, point and directional
   // lights); a polygon light is the smooth area integral plus that work once, measured at 6-7x
-  // the smooth LTC cost for BINOMIAL and KEMPPINEN, so polygons take at most kPolygonFactor.
-  c.per_query =
-      kPerQuery + factor * punctual_cost + std::min(factor, kPolygonFactor) * polygon_cost;
+  // the smooth LTC cost for BINOMIAL, so polygons take at most kPolygonFactor.
+  // A model whose polygon work was measured on its own (Model::polygon_cost) adds it per polygon
+  // light to the smooth area integral instead.
+  const double polygon_part =
+      model && model->polygon_cost
+          ? polygon_cost + double(polygons) * model->polygon_cost(settings.material())
+          : std::min(factor, kPolygonFactor) * polygon_cost;
+  c.per_query = kPerQuery + factor * punctual_cost + polygon_part;
   c.total = c.per_query * double(query_count);
 
   std::string parts;

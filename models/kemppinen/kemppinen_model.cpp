@@ -136,11 +136,24 @@ std::vector<KernelSpec> KemppinenWarmSpecs() {
 
 extern const Model kKemppinenModel;
 // Admission cost per evaluation relative to the smooth model (server/request_cost.h): k angular
-// neighbours per cell and level are evaluated explicitly; bench_request_cost measured ~22 units
-// per light at k = 4 and ~63 at k = 16 (PoCL CPU), so about 6 k.
+// neighbours per cell and level are evaluated explicitly. bench_request_cost (2-core PoCL CPU,
+// loaded, 2026-11-30; the unit measured in the same run: REFERENCE 128 at 30.6 ns per node):
+// 4 point lights 875 ns per query at k = 4 and 2969 ns at k = 16, i.e. 7.2 and 24 units per
+// light: 1.5 + 1.4 k (k = 1: 2.9; bench_models' k = 1 directional + point runs 2.5x the k = 4
+// rate, 2.9 units). The former 6 k (22 / 63 units at k = 4 / 16) predates the 16-lane pass.
 double KemppinenCostFactor(const glint::v1::Material &m) {
   const uint32_t k = m.kemppinen().neighbors() ? m.kemppinen().neighbors() : 4;
-  return 6.0 * double(k);
+  return 1.5 + 1.4 * double(k);
+}
+
+// A polygon light's glints beyond its smooth area integral (kemppinen_polygons.h: per level up
+// to 4 x 4 angular cells x 2 x 2 spatial cells of facets, each lobe's mass over the light's
+// image, and the block's expected mass): bench_request_cost's quad (LTC) 30.2 us per query in
+// the run above, 985 units at 30.6 ns; the explicit block is widened to 4 x 4 cells for a light
+// that large whatever k, so one figure for every k. (With the former min(factor, 8) x the LTC
+// integral it was estimated at 161 units, 6x under.)
+double KemppinenPolygonCost(const glint::v1::Material &) {
+  return 1000.0;
 }
 
 const Model kKemppinenModel = {
@@ -162,6 +175,7 @@ const Model kKemppinenModel = {
     .sample = {"models/kemppinen/kemppinen_sample.cl", "glint_kemppinen_sample", KemppinenSampleF32,
                KemppinenSampleF64},
     .cost_factor = KemppinenCostFactor,
+    .polygon_cost = KemppinenPolygonCost,
 };
 
 }  // namespace glint

@@ -228,15 +228,21 @@ GLINT_FN real3 kemppinen_from_disk(int ndf, real x, real y, real ax, real ay) {
  * measured against libm in the tests). An absolute bound suffices: the masses
  * enter S, whose mean is 1, as absolute terms. Cheaper than the libm erfc on
  * the device (one exp, one division; 12 per level and light). */
-GLINT_FN real kemppinen_erfc_abs(real x) {
+/* The rational factor t (a1 + t (a2 + ...)) for y = |x| / sqrt 2, so that
+ * erfc(y) = it times exp(-y^2); callers that also need the normal density
+ * phi(x) = exp(-y^2) / sqrt(2 pi) share the exp (kemppinen_image.h). */
+GLINT_FN real kemppinen_erfc_abs_poly(real x) {
   real y = fabs(x) * GLINT_R(0.70710678118654752440);
   real t = GLINT_R(1.0) / (GLINT_R(1.0) + GLINT_R(0.3275911) * y);
-  real poly =
-      t *
-      (GLINT_R(0.254829592) +
-       t * (GLINT_R(-0.284496736) +
-            t * (GLINT_R(1.421413741) + t * (GLINT_R(-1.453152027) + t * GLINT_R(1.061405429)))));
-  return poly * exp(-y * y);
+  return t * (GLINT_R(0.254829592) +
+              t * (GLINT_R(-0.284496736) +
+                   t * (GLINT_R(1.421413741) +
+                        t * (GLINT_R(-1.453152027) + t * GLINT_R(1.061405429)))));
+}
+
+GLINT_FN real kemppinen_erfc_abs(real x) {
+  real y = fabs(x) * GLINT_R(0.70710678118654752440);
+  return kemppinen_erfc_abs_poly(x) * exp(-y * y);
 }
 
 /* Phi(b) - Phi(a) for a <= b (standard normal) from ea = erfc(|a| / sqrt 2)

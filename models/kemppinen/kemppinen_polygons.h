@@ -33,6 +33,7 @@
 #include "kernels/area/polygon_lights.h"
 #include "models/kemppinen/kemppinen_eval.h"
 #include "models/kemppinen/kemppinen_image.h"
+#include "models/kemppinen/kemppinen_image_lines.h"
 
 /* Widest explicit angular block for a polygon light (cells per axis). */
 #define GLINT_KEMPPINEN_POLYGON_MAX_SIDE 4
@@ -78,6 +79,10 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
     bw = x1 - x0;
     bh = y1 - y0;
   }
+  /* R's edges in the lobe's whitened coordinates, once for both levels:
+   * bounds that skip the cells beyond R and the integrals of lobes and
+   * blocks far from its edges (kemppinen_image_lines.h). */
+  KemppinenULines lines = kemppinen_image_lines(R, a.sx, a.sy);
   real lf = floor(fp.lambda);
   real w1 = fp.lambda - lf;
   for (int lv = 0; lv < 2; ++lv) {
@@ -91,7 +96,7 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
     pb.n_side = (int)fmin(fmax((real)p.n_side, cover), (real)GLINT_KEMPPINEN_POLYGON_MAX_SIDE);
     KemppinenBlocks b = kemppinen_blocks(pb, fp, a, level);
     real bx0 = b.ba_x / res_a, bx1 = b.ea_x / res_a, by0 = b.ba_y / res_a, by1 = b.ea_y / res_a;
-    real expect = kemppinen_image_block_mass(R, bx0, bx1, by0, by1, a.sx, a.sy);
+    real expect = kemppinen_lines_block_mass(R, &lines, bx0, bx1, by0, by1, a.sx, a.sy);
     if (!(expect > GLINT_R(0.0))) continue; /* no explicit lobe reaches R */
     KemppinenUPolygon RB = kemppinen_image_clip_rect(*R, bx0, bx1, by0, by1);
     /* rho where the block meets R (R's centroid when only lobes reach it). */
@@ -110,6 +115,10 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
         real ix = b.ba_x + (real)(mm % n);
         real iy = b.ba_y + (real)(mm / n);
         if (!(ix < b.ea_x && iy < b.ea_y)) continue;
+        /* No lobe centred in this cell reaches R: mass 0, skip the hash. */
+        if (kemppinen_lines_rect_apart(&lines, ix / res_a, (ix + GLINT_R(1.0)) / res_a, iy / res_a,
+                                       (iy + GLINT_R(1.0)) / res_a))
+          continue;
         KemppinenFacet g = kemppinen_facet(key, ix, iy);
         real keep = kemppinen_roulette(g.r, w);
         if (!(keep > GLINT_R(0.0))) continue;
@@ -118,7 +127,7 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
         if (ox * ox + oy * oy >= GLINT_R(0.25)) continue; /* rejected (3.3.1) */
         real dx = b.ts_x - cx - g.sx, dy = b.ts_y - cy - g.sy;
         real ns = sn * exp(-(b.qxx * dx * dx + b.qxy * dx * dy + b.qyy * dy * dy));
-        real mass = kemppinen_image_mass(R, gx, gy, a.sx, a.sy);
+        real mass = kemppinen_lines_mass(R, &lines, gx, gy, a.sx, a.sy);
         sum = r3_add(sum, r3_scale(kemppinen_facet_color(p, g), keep * ns * mass));
       }
     }

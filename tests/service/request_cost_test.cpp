@@ -67,15 +67,16 @@ TEST(RequestCost, ModelFactorMultipliesAndLtcGrowsWithVertices) {
   const double k16 = glint::EstimateRequestCost(r, 1).per_query;
   r.mutable_material()->mutable_kemppinen()->set_neighbors(4);
   const double k4 = glint::EstimateRequestCost(r, 1).per_query;
-  // The Kemppinen factor (6 k) multiplies the query's punctual work; a polygon at most 8x.
-  EXPECT_DOUBLE_EQ(k16, 1 + 8 * (quad - 1));
-  EXPECT_DOUBLE_EQ(k4, 1 + 8 * (quad - 1));
+  // The Kemppinen factor (1.5 + 1.4 k) multiplies the query's punctual work; a polygon is the
+  // smooth integral plus the model's measured polygon cost (1000 units), whatever k.
+  EXPECT_DOUBLE_EQ(k16, quad + 1000);
+  EXPECT_DOUBLE_EQ(k4, quad + 1000);
   r.clear_lights();
   r.add_lights()->mutable_point();
   const double k4_point = glint::EstimateRequestCost(r, 1).per_query;
   r.mutable_material()->mutable_kemppinen()->set_neighbors(16);
-  EXPECT_DOUBLE_EQ(glint::EstimateRequestCost(r, 1).per_query, 1 + 6 * 16);
-  EXPECT_DOUBLE_EQ(k4_point, 1 + 6 * 4);
+  EXPECT_DOUBLE_EQ(glint::EstimateRequestCost(r, 1).per_query, 1 + (1.5 + 1.4 * 16));
+  EXPECT_DOUBLE_EQ(k4_point, 1 + (1.5 + 1.4 * 4));
   EXPECT_GT(k4, quad);
 }
 

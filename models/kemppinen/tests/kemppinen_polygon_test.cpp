@@ -149,10 +149,11 @@ TEST(PolygonLobeMass, BlockMassAgainstMonteCarlo) {
   struct Block {
     double x0, x1, y0, y1, s;
   };
-  const std::vector<Block> blocks = {{0.25, 0.5, 0.25, 0.5, 0.03},  // crossing R's edge
-                                     {0.4, 0.55, 0.4, 0.55, 0.05},  // inside R, wide lobes
-                                     {0.0, 1.0, 0.0, 1.0, 0.02},    // R inside the block
-                                     {0.76, 0.9, 0.3, 0.6, 0.02}};  // beside R, lobes reach
+  const std::vector<Block> blocks = {{0.25, 0.5, 0.25, 0.5, 0.03},    // crossing R's edge
+                                     {0.4, 0.55, 0.4, 0.55, 0.05},    // inside R, wide lobes
+                                     {0.0, 1.0, 0.0, 1.0, 0.02},      // R inside the block
+                                     {0.76, 0.9, 0.3, 0.6, 0.02},     // beside R, lobes reach
+                                     {0.4, 0.55, 0.4, 0.55, 0.005}};  // deep inside R: area
   std::mt19937_64 rng(12);
   std::normal_distribution<double> nd;
   std::uniform_real_distribution<double> ux(0.2, 0.75), uy(0.28, 0.72);
@@ -170,6 +171,171 @@ TEST(PolygonLobeMass, BlockMassAgainstMonteCarlo) {
     double got = k64::BlockMass(hex, b.x0, b.x1, b.y0, b.y1, b.s, 0.7 * b.s);
     std::printf("block mass %.5f, Monte Carlo %.5f +- %.5f\n", got, p * area, se * area);
     EXPECT_NEAR(got, p * area, 4.5 * se * area) << b.x0 << " " << b.y0;
+  }
+}
+
+// Standard normal CDF and its antiderivatives from libm, for the closed-form references below.
+double PhiRef(double z) {
+  return 0.5 * std::erfc(-z / std::sqrt(2.0));
+}
+double PsiRef(double z) {  // int Phi = z Phi + phi
+  return z * PhiRef(z) + std::exp(-0.5 * z * z) / std::sqrt(2.0 * M_PI);
+}
+// Mass of N(g, diag(sx^2, sy^2)) over the axis-aligned rectangle: a product of interval masses.
+double RectMassRef(double x0, double x1, double y0, double y1, double gx, double gy, double sx,
+                   double sy) {
+  return (PhiRef((x1 - gx) / sx) - PhiRef((x0 - gx) / sx)) *
+         (PhiRef((y1 - gy) / sy) - PhiRef((y0 - gy) / sy));
+}
+
+// A lobe's mass over polygons with closed forms, at every kind of position (deep inside, beyond
+// an edge, near one edge, near a corner, on an edge, at a vertex; kemppinen_image_lines.h takes
+// a different path for each):
+//   - axis-aligned rectangles with anisotropic lobes: the product of two interval masses;
+//   - rotated rectangles with isotropic lobes (rotation invariant): the same in the rotated frame;
+//   - a non-convex L (two rectangles): the sum of their masses. Its points beyond the line of a
+//     notch edge are inside R, which a "beyond one edge's line, so 0" shortcut gets wrong.
+// Tolerance: each of the n edges adds at most two Owen's T values (within the 1e-6 asserted by
+// OwenTAgainstSimpsonQuadrature) or two normal tails (A&S 7.1.26: 7.5e-8), plus n Q(5.7) = n 6e-9
+// of dropped tails: 2 n (1e-6 + 7.5e-8) + n 6e-9.
+TEST(PolygonLobeMass, AgainstClosedFormsConvexAndNot) {
+  struct Rect {
+    double x0, x1, y0, y1;
+  };
+  auto check = [](const Poly2 &P, const std::vector<Rect> &parts, double sx, double sy,
+                  double angle, double gx, double gy, const char *what) {
+    // parts are in the frame rotated by -angle about (0.5, 0.5) (isotropic lobes when angle != 0).
+    double c = std::cos(angle), sn = std::sin(angle);
+    double lx = 0.5 + c * (gx - 0.5) + sn * (gy - 0.5), ly = 0.5 - sn * (gx - 0.5) + c * (gy - 0.5);
+    double ref = 0;
+    for (const Rect &r : parts) ref += RectMassRef(r.x0, r.x1, r.y0, r.y1, lx, ly, sx, sy);
+    double tol = 2.0 * double(P.size()) * (1e-6 + 7.5e-8) + double(P.size()) * 6e-9;
+    double got = k64::ImageMass(P, gx, gy, sx, sy);
+    EXPECT_NEAR(got, ref, tol) << what << " g " << gx << "," << gy << " sigma " << sx << "," << sy;
+    return std::fabs(got - ref);
+  };
+  auto rotate = [](const std::vector<Rect> &parts, const Poly2 &local, double angle) {
+    (void)parts;
+    Poly2 out;
+    double c = std::cos(angle), sn = std::sin(angle);
+    for (const auto &v : local)
+      out.push_back(
+          {0.5 + c * (v[0] - 0.5) - sn * (v[1] - 0.5), 0.5 + sn * (v[0] - 0.5) + c * (v[1] - 0.5)});
+    return out;
+  };
+  double worst = 0;
+  int count = 0;
+  // Positions: a grid through the polygon and 3 sigma beyond it, plus the vertices and edge
+  // midpoints themselves (on the boundary: the interior angle / 2 pi).
+  auto positions = [](const Poly2 &P, double margin) {
+    std::vector<std::array<double, 2>> g;
+    double x0 = 1, x1 = 0, y0 = 1, y1 = 0;
+    for (const auto &v : P) {
+      x0 = std::min(x0, v[0]), x1 = std::max(x1, v[0]);
+      y0 = std::min(y0, v[1]), y1 = std::max(y1, v[1]);
+      g.push_back(v);
+    }
+    for (size_t k = 0; k < P.size(); ++k)
+      g.push_back(
+          {0.5 * (P[k][0] + P[(k + 1) % P.size()][0]), 0.5 * (P[k][1] + P[(k + 1) % P.size()][1])});
+    for (int i = 0; i <= 40; ++i)
+      for (int j = 0; j <= 40; ++j)
+        g.push_back({x0 - margin + (x1 - x0 + 2 * margin) * i / 40.0,
+                     y0 - margin + (y1 - y0 + 2 * margin) * j / 40.0});
+    return g;
+  };
+  const std::vector<Rect> square = {{0.4, 0.6, 0.35, 0.6}};
+  const Poly2 square_p = {{0.4, 0.35}, {0.6, 0.35}, {0.6, 0.6}, {0.4, 0.6}};
+  // L: [0.2, 0.6] x [0.2, 0.4] and [0.2, 0.4] x [0.4, 0.7]; reflex vertex (0.4, 0.4).
+  const std::vector<Rect> ell = {{0.2, 0.6, 0.2, 0.4}, {0.2, 0.4, 0.4, 0.7}};
+  const Poly2 ell_p = {{0.2, 0.2}, {0.6, 0.2}, {0.6, 0.4}, {0.4, 0.4}, {0.4, 0.7}, {0.2, 0.7}};
+  EXPECT_TRUE(k64::IsConvex(square_p));
+  EXPECT_FALSE(k64::IsConvex(ell_p));
+  for (double s : {0.003, 0.02, 0.08}) {
+    for (const auto &g : positions(square_p, 3 * s)) {
+      worst = std::max(worst, check(square_p, square, s, 0.6 * s, 0.0, g[0], g[1], "square"));
+      ++count;
+    }
+    for (const auto &g : positions(ell_p, 3 * s)) {
+      worst = std::max(worst, check(ell_p, ell, 0.7 * s, s, 0.0, g[0], g[1], "L"));
+      ++count;
+    }
+    for (double angle : {0.3, 1.1}) {
+      const Poly2 rp = rotate(square, square_p, angle), rl = rotate(ell, ell_p, angle);
+      for (const auto &g : positions(rp, 3 * s)) {
+        worst = std::max(worst, check(rp, square, s, s, angle, g[0], g[1], "rotated square"));
+        ++count;
+      }
+      for (const auto &g : positions(rl, 3 * s)) {
+        worst = std::max(worst, check(rl, ell, s, s, angle, g[0], g[1], "rotated L"));
+        ++count;
+      }
+    }
+  }
+  std::printf("lobe mass over rectangles and Ls: max |error| %.2e over %d positions\n", worst,
+              count);
+}
+
+// The closed-form pieces of the block mass (kemppinen_image.h) against composite Simpson (20000
+// intervals) of their integrands with libm's erfc:
+//   int_ya^yb (q0 + r (y - ym)) Phi((c - y) / s) dy  and  int_za^zb psi(z) dz,
+// over ranges crossing the transition and reaching 30 standard deviations into both tails.
+// Tolerance from A&S 7.1.26 (|error of Phi| <= 7.5e-8, phi exact): psi is off by at most
+// |z| 7.5e-8, chi and ups by (z^2 + 1) / 2 7.5e-8, at each end.
+TEST(PolygonLobeMass, ClosedFormPiecesAgainstSimpson) {
+  const double e = 7.5e-8;
+  auto simpson = [](auto f, double a, double b) {
+    const int n = 20000;
+    double h = (b - a) / n, sum = f(a) + f(b);
+    for (int k = 1; k < n; ++k) sum += (k % 2 ? 4 : 2) * f(a + k * h);
+    return sum * h / 3;
+  };
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  for (int c = 0; c < 40; ++c) {
+    double s = 0.002 + 0.03 * uni(rng), cc = 0.2 + 0.6 * uni(rng);
+    double ya = cc + s * (-30 + 60 * uni(rng)), yb = cc + s * (-30 + 60 * uni(rng));
+    double ym = 0.5 * (ya + yb), q0 = -0.3 + 0.6 * uni(rng), r = c % 3 == 0 ? 0 : -1 + 2 * uni(rng);
+    double ref =
+        simpson([&](double y) { return (q0 + r * (y - ym)) * PhiRef((cc - y) / s); }, ya, yb);
+    double got = k64::LinPhiInt(q0, r, ym, cc, s, yb) - k64::LinPhiInt(q0, r, ym, cc, s, ya);
+    double zmax = std::max(std::fabs(cc - ya), std::fabs(cc - yb)) / s;
+    double tol = 2 * (s * (std::fabs(q0) + std::fabs(r) * std::fabs(cc - ym)) * zmax * e +
+                      s * s * std::fabs(r) * 0.5 * (zmax * zmax + 1) * e);
+    EXPECT_NEAR(got, ref, tol + 1e-12) << "case " << c;
+    double za = -30 + 60 * uni(rng), zb = -30 + 60 * uni(rng);
+    double uref = simpson(PsiRef, za, zb);
+    double utol = 2 * 0.5 * (900 + 1) * e;
+    EXPECT_NEAR(k64::Ups(zb) - k64::Ups(za), uref, utol) << "ups case " << c;
+  }
+}
+
+// The block mass for an axis-aligned rectangle R, whose edges the block mass integrates in
+// closed form (vertical edges: Qx constant), against the separable closed form
+//   E = [int_Rx qx dx] [int_Ry qy dy],  int (Phi((b - x) / s) - Phi((a - x) / s)) dx by psi,
+// for blocks crossing R's sides and corners, inside it, containing it and beside it, lobes from
+// 0.1 to 3 times the block. Tolerance: as ClosedFormPiecesAgainstSimpson, psi within
+// (|z| + 1) 7.5e-8 at 4 ends of 2 edges, times s and the block width.
+TEST(PolygonLobeMass, BlockMassOfARectangleAgainstClosedForm) {
+  const double rx0 = 0.3, rx1 = 0.65, ry0 = 0.25, ry1 = 0.55;
+  const Poly2 R = {{rx0, ry0}, {rx1, ry0}, {rx1, ry1}, {rx0, ry1}};
+  auto interval = [](double r0, double r1, double b0, double b1, double s) {
+    // int_r0^r1 Phi((b1 - x) / s) - Phi((b0 - x) / s) dx = -s [psi((b1 - x) / s) - ...]
+    auto F = [&](double x) { return -s * (PsiRef((b1 - x) / s) - PsiRef((b0 - x) / s)); };
+    return F(r1) - F(r0);
+  };
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  for (int c = 0; c < 60; ++c) {
+    double w = 0.03 + 0.3 * uni(rng), h = 0.03 + 0.3 * uni(rng);
+    double bx0 = 0.1 + 0.6 * uni(rng), by0 = 0.1 + 0.6 * uni(rng);
+    double sx = std::min(w, h) * std::exp(std::log(0.1) + uni(rng) * std::log(30.0)), sy = 0.8 * sx;
+    double ref = interval(rx0, rx1, bx0, bx0 + w, sx) * interval(ry0, ry1, by0, by0 + h, sy);
+    double got = k64::BlockMass(R, bx0, bx0 + w, by0, by0 + h, sx, sy);
+    double zmax = 1.0 / sy;
+    double tol = 8 * sx * w * (zmax + 1) * 7.5e-8;
+    EXPECT_NEAR(got, ref, tol + 1e-12) << "case " << c << " block " << bx0 << "," << by0 << " " << w
+                                       << "x" << h << " sigma " << sx;
   }
 }
 

@@ -244,9 +244,9 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
   if (!s.ok()) return refuse(s);
 
   grpc::ServerUnaryReactor *reactor = ctx->DefaultReactor();
-  const bool queued =
-      glint_->scheduler().TrySubmit([this, reactor, request, response, settings, model, model_index,
-                                     received](int worker) -> Scheduler::Respond {
+  const bool queued = glint_->scheduler().TrySubmit(
+      [this, reactor, request, response, settings, model, model_index,
+       received](int worker) -> Scheduler::Respond {
         Timings t;
         const auto started = Clock::now();
         t.queue_ns = NsBetween(received, started);
@@ -289,7 +289,15 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
              << (st.ok() ? " ok" : " refused: " + st.message());
         glint_->LogLine(line.str());
         return [reactor, st] { reactor->Finish(ToGrpcStatus(st)); };
-      });
+      },
+      nullptr,
+      glint_->DeadCall(ctx, "ModelInfer model=" + model->name,
+                       [this, reactor, model_index, received](const Status &st) {
+                         Timings t;
+                         t.total_ns = NsBetween(received, Clock::now());
+                         Record(model_index, false, t);
+                         reactor->Finish(ToGrpcStatus(st));
+                       }));
   if (!queued) {
     Status busy = OverloadStatus(glint_->scheduler());
     Timings t;

@@ -115,6 +115,21 @@ RequestCost EstimateRequestCost(const glint::v1::EvaluateRequest &settings, uint
   return c;
 }
 
+RequestCost EstimateSampleCost(const glint::v1::EvaluateRequest &settings,
+                               uint32_t samples_per_query, uint64_t query_count) {
+  glint::v1::EvaluateRequest probe;  // the material alone: one evaluation of the model
+  *probe.mutable_material() = settings.material();
+  const RequestCost one = EstimateRequestCost(probe, 1);
+  RequestCost c;
+  c.per_query = one.per_query * double(samples_per_query);
+  c.total = c.per_query * double(query_count);
+  c.parts = std::to_string(samples_per_query) + " samples_per_query x " + Format(one.per_query) +
+            " per sample (one evaluation: " + one.parts + ")";
+  c.query_remedy = "use fewer samples_per_query (a query's samples run in one slice)";
+  c.request_remedy = "split the queries over several calls, or use fewer samples_per_query";
+  return c;
+}
+
 Status CheckRequestCost(const RequestCost &cost, uint64_t query_count, const CostLimits &limits) {
   std::string what = "(";  // built by appending: GCC 12 warns falsely on "(" + std::string
   what += std::to_string(query_count);
@@ -123,15 +138,18 @@ Status CheckRequestCost(const RequestCost &cost, uint64_t query_count, const Cos
     return Status::ResourceExhausted(
         "request cost: " + Format(cost.per_query) + " BRDF evaluations per query " + what +
         " exceeds --max-query-cost " + Format(limits.max_query_cost) +
-        " (a query is the smallest interruptible piece of work); use fewer or simpler polygon "
-        "lights, fewer area_samples or a cheaper area_method");
+        " (a query is the smallest interruptible piece of work); " +
+        (cost.query_remedy.empty() ? "use fewer or simpler polygon lights, fewer area_samples "
+                                     "or a cheaper area_method"
+                                   : cost.query_remedy));
   }
   if (cost.total > limits.max_request_cost) {
     return Status::ResourceExhausted(
         "request cost: " + Format(cost.total) + " BRDF evaluations " + what +
-        " exceeds --max-request-cost " + Format(limits.max_request_cost) +
-        "; split the batch into smaller requests or stream chunks, or use a cheaper "
-        "area_method");
+        " exceeds --max-request-cost " + Format(limits.max_request_cost) + "; " +
+        (cost.request_remedy.empty() ? "split the batch into smaller requests or stream chunks, "
+                                       "or use a cheaper area_method"
+                                     : cost.request_remedy));
   }
   return Status::Ok();
 }

@@ -25,6 +25,8 @@ struct RequestCost {
   double per_query = 0;  // units for one query
   double total = 0;      // per_query x queries
   std::string parts;     // e.g. "3 polygon lights (REFERENCE 1024 nodes) x BINOMIAL factor 3"
+  // What the refusal advises (empty: Evaluate's advice on lights, area_samples, area_method).
+  std::string query_remedy, request_remedy;
 };
 
 struct CostLimits {
@@ -44,6 +46,15 @@ struct CostLimits {
 // The cost of evaluating `query_count` queries with `settings` (a request that passed
 // ValidateSettings: known model, at most max_lights lights, area_samples <= 1024).
 RequestCost EstimateRequestCost(const glint::v1::EvaluateRequest &settings, uint64_t query_count);
+
+// The cost of a Sample request (server/sample.h) of `query_count` queries with
+// `samples_per_query` samples each; `settings` holds its material (a request that passed
+// ValidateSampleSettings). Every model's sampler evaluates the model once per sample (models/
+// */*_sample.h: SMOOTH, KEMPPINEN and CHERMAIN weight a sample by f cos_i / pdf with the model's
+// f; NORMAL_MAP's pdf is its P-NDF D(s), the dominant cost of f), so one sample costs what a BRDF
+// probe query does, and a query K times that: its K samples run in the same slice.
+RequestCost EstimateSampleCost(const glint::v1::EvaluateRequest &settings,
+                               uint32_t samples_per_query, uint64_t query_count);
 
 // OK, or RESOURCE_EXHAUSTED: "request cost 9.4e+17 (1048576 queries x 9.0e+11 per query: ...)
 // exceeds --max-request-cost 1e+11; ...".

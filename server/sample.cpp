@@ -10,8 +10,8 @@
 
 namespace glint {
 
-Status ValidateSampleRequest(const glint::v1::SampleRequest &r, const ValidationLimits &limits,
-                             glint::v1::EvaluateRequest *settings) {
+Status ValidateSampleSettings(const glint::v1::SampleRequest &r, const ValidationLimits &limits,
+                              glint::v1::EvaluateRequest *settings) {
   settings->Clear();
   *settings->mutable_material() = r.material();
   settings->set_precision(r.precision());
@@ -40,6 +40,14 @@ Status ValidateSampleRequest(const glint::v1::SampleRequest &r, const Validation
         " samples = " + std::to_string(total) + " samples; expected at most " +
         std::to_string(limits.max_batch) + " per call (send fewer queries per call)");
   }
+  return Status::Ok();
+}
+
+Status ValidateSampleRequest(const glint::v1::SampleRequest &r, const ValidationLimits &limits,
+                             glint::v1::EvaluateRequest *settings) {
+  Status s = ValidateSampleSettings(r, limits, settings);
+  if (!s.ok()) return s;
+  const glint::v1::QueryBatch &q = r.queries();
   if (!q.wi().empty()) {
     return Status::InvalidArgument(
         "queries.wi: set; a sample request's incident directions are its output, expected none");
@@ -76,7 +84,7 @@ Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleReques
     s = run(q, raw.data());
   } else {
     SliceOptions options = *slicing;
-    options.per_query_cost = EstimateRequestCost(settings, 1).per_query * double(k);
+    options.per_query_cost = EstimateSampleCost(settings, k, 1).per_query;
     glint::v1::QueryBatch part;
     s = RunInSlices(q.count(), engine != nullptr, options, [&](uint32_t begin, uint32_t size) {
       if (begin == 0 && size == q.count()) return run(q, raw.data());

@@ -20,13 +20,18 @@ constexpr uint32_t kMaxSamplesPerQuery = 65536;
 // has a sampler), samples_per_query in [1, kMaxSamplesPerQuery], count * K <= max_batch, the
 // queries (as Evaluate's, no `wi`, the model's own needs). On success `settings` holds the
 // request as an EvaluateRequest without queries (for MakeEvalPlan).
+// The part of ValidateSampleRequest that needs no query data (material, sampler,
+// samples_per_query, count * K): what the handler checks on gRPC's thread before admission.
+Status ValidateSampleSettings(const glint::v1::SampleRequest &request,
+                              const ValidationLimits &limits, glint::v1::EvaluateRequest *settings);
+
 Status ValidateSampleRequest(const glint::v1::SampleRequest &request,
                              const ValidationLimits &limits, glint::v1::EvaluateRequest *settings);
 
 // Validates and samples: fills response's wi, pdf and weight (not its stats). `engine` null:
 // the host path. `worker` is the engine queue to run on. Runs in query slices as Evaluate does
-// (server/sliced_eval.h; `slicing`'s per_query_cost is replaced by the request's own: the
-// model's cost of one evaluation x samples_per_query) and returns slicing.stop's status when
+// (server/sliced_eval.h; `slicing`'s per_query_cost is replaced by the request's own:
+// EstimateSampleCost, server/request_cost.h) and returns slicing.stop's status when
 // that stops it between slices; null: one launch.
 Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleRequest &request,
                  const ValidationLimits &limits, glint::v1::SampleResponse *response,

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "server/auth.h"
+#include "server/request_cost.h"
 #include "server/sample.h"
 #include "server/service.h"
 
@@ -22,9 +23,22 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Sample(grpc::CallbackServerContext *
     reactor->Finish(ToGrpcStatus(Admit({}, 0)));
     return reactor;
   }
+  // Cost admission as Evaluate's (server/request_cost.h): the settings are checked here, on
+  // gRPC's thread, the queries on the worker.
+  glint::v1::EvaluateRequest settings;
+  const uint32_t count = request->queries().count();
+  Status admitted = ValidateSampleSettings(*request, options_.limits, &settings);
+  if (admitted.ok())
+    admitted = CheckRequestCost(EstimateSampleCost(settings, request->samples_per_query(), count),
+                                count, options_.cost);
+  if (!admitted.ok()) {
+    LogLine("Sample n=" + std::to_string(count) + " refused: " + admitted.message());
+    reactor->Finish(ToGrpcStatus(admitted));
+    return reactor;
+  }
   const auto received = Clock::now();
-  bool queued =
-      scheduler_->TrySubmit([this, ctx, reactor, request, response, received](int worker) {
+  bool queued = scheduler_->TrySubmit(
+      [this, ctx, reactor, request, response, received](int worker) {
         const auto start = Clock::now();
         // In query slices, stopping between them for cancellation, deadline or shutdown.
         SliceOptions slicing;
@@ -45,7 +59,10 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Sample(grpc::CallbackServerContext *
         LogLine(line.str());
         if (!st.ok()) response->Clear();
         return [reactor, st] { reactor->Finish(ToGrpcStatus(st)); };
-      });
+      },
+      nullptr,
+      DeadCall(ctx, "Sample n=" + std::to_string(request->queries().count()),
+               [reactor](const Status &st) { reactor->Finish(ToGrpcStatus(st)); }));
   if (!queued) {
     Status busy = OverloadStatus(*scheduler_);
     LogLine("Sample n=" + std::to_string(request->queries().count()) + " " + busy.message());

@@ -21,13 +21,60 @@ bool Scheduler::TrySubmit(Job job) {
 }
 
 bool Scheduler::TrySubmit(Job job, std::shared_ptr<BatchMember> member) {
-  if (!batching_.max_queries) member.reset();
-  const bool gathering = member && batching_.delay.count() > 0;
+  return TrySubmit(std::move(job), std::move(member), nullptr);
+}
+
+namespace {
+
+void Answer(std::vector<Scheduler::Respond> *answers) {
+  for (Scheduler::Respond &respond : *answers)
+    if (respond) respond();
+  answers->clear();
+}
+
+}  // namespace
+
+void Scheduler::DropDead(std::vector<Respond> *answers) {
+  for (auto it = queue_.begin(); it != queue_.end();) {
+    Respond answer = it->dead ? it->dead() : Respond();
+    if (!answer) {
+      ++it;
+      continue;
+    }
+    answers->push_back(std::move(answer));
+    it = queue_.erase(it);
+  }
+}
+
+bool Scheduler::HasRoom() {
+  std::vector<Respond> answers;
+  bool room;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (stopping_ || queue_.size() + running_ >= max_pending_) return false;
-    queue_.push_back({std::move(job), std::move(member), std::chrono::steady_clock::now()});
+    if (queue_.size() + running_ >= max_pending_) DropDead(&answers);
+    room = !stopping_ && queue_.size() + running_ < max_pending_;
   }
+  Answer(&answers);
+  return room;
+}
+
+bool Scheduler::TrySubmit(Job job, std::shared_ptr<BatchMember> member, Dead dead) {
+  if (!batching_.max_queries) member.reset();
+  const bool gathering = member && batching_.delay.count() > 0;
+  std::vector<Respond> answers;
+  bool queued = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    // Full: the slots of queued calls that already died are freed first.
+    if (queue_.size() + running_ >= max_pending_) DropDead(&answers);
+    if (!stopping_ && queue_.size() + running_ < max_pending_) {
+      queue_.push_back(
+          {std::move(job), std::move(member), std::chrono::steady_clock::now(), std::move(dead)});
+      queued = true;
+    }
+  }
+  Answer(&answers);
+  if (!queued) return false;
   // A worker waiting for more members of a batch must hear of this one too, and an idle
   // worker must not miss it because the waiting one took the notification.
   if (gathering)
@@ -74,15 +121,25 @@ void Scheduler::WorkerLoop(int worker) {
   for (;;) {
     Entry first;
     std::vector<Entry> more;  // members gathered with `first`
+    std::vector<Respond> dropped;
     {
       std::unique_lock<std::mutex> lock(mutex_);
       wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
-      if (queue_.empty()) return;  // stopping and drained
+      // Work whose call died while it waited never starts, here or in a batch.
+      DropDead(&dropped);
+      if (queue_.empty()) {
+        const bool drained = stopping_;  // stopping and drained
+        lock.unlock();
+        Answer(&dropped);
+        if (drained) return;
+        continue;
+      }
       first = std::move(queue_.front());
       queue_.pop_front();
       ++running_;
       if (first.member) Gather(lock, first, &more);
     }
+    Answer(&dropped);
     if (more.empty()) {
       Respond respond = first.job(worker);
       {

@@ -13,6 +13,12 @@
 // the queued members of its key, oldest first, up to max_queries queries in all, and waits up
 // to `delay` after the first one's submission for more while the batch is not full. A member
 // gathered alone runs its own job, exactly as without batching.
+//
+// Dead calls (issue 12): a job may come with a Dead check that tells whether its call already
+// died (client cancelled or gone, deadline passed) and, if so, how to answer it. A dead queued
+// job never runs and does not keep its pending slot: TrySubmit and HasRoom drop the queued dead
+// jobs before refusing for a full queue, and a worker drops them whenever it takes a job. Its
+// answer is given after the lock is released, exactly once (the entry left the queue under it).
 #pragma once
 
 #include <chrono>
@@ -32,6 +38,10 @@ class Scheduler {
  public:
   using Respond = std::function<void()>;           // answers the client; may be empty
   using Job = std::function<Respond(int worker)>;  // computes on `worker`
+  // Called under the scheduler's lock while the job is queued: an empty Respond while the call
+  // is alive; for a dead call, how to answer it (its job then never runs). Must be cheap and
+  // must not call back into the scheduler.
+  using Dead = std::function<Respond()>;
 
   // What the scheduler needs to know of a batchable job; the service derives its own member
   // type (server/batch_eval.h) and the batch job casts back.
@@ -58,6 +68,10 @@ class Scheduler {
   // As TrySubmit; with batching enabled, `member` (if not null) may be run by the batch job
   // together with others instead of `job`.
   bool TrySubmit(Job job, std::shared_ptr<BatchMember> member);
+  // As above; `dead` (may be empty) lets a dead queued job give up its slot (see the header).
+  bool TrySubmit(Job job, std::shared_ptr<BatchMember> member, Dead dead);
+  // Whether a job submitted now would find a slot, after dropping the queued dead jobs.
+  bool HasRoom();
   // Before any job is submitted.
   void EnableBatching(BatchOptions options, BatchJob run);
   const BatchOptions &batching() const { return batching_; }
@@ -69,10 +83,13 @@ class Scheduler {
     Job job;
     std::shared_ptr<BatchMember> member;
     std::chrono::steady_clock::time_point submitted;
+    Dead dead;
   };
   void WorkerLoop(int worker);
   // Moves the queued members of `first`'s key into `batch` (under the lock; see the header).
   void Gather(std::unique_lock<std::mutex> &lock, const Entry &first, std::vector<Entry> *batch);
+  // Under the lock: removes the queued jobs whose call died and appends their answers.
+  void DropDead(std::vector<Respond> *answers);
 
   const size_t max_pending_;
   BatchOptions batching_;

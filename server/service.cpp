@@ -247,7 +247,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   }
   // Full already: refused before the body is parsed (no second copy of it in memory).
   Status s = Status::Ok();
-  if (scheduler_->pending() >= scheduler_->max_pending()) {
+  if (!scheduler_->HasRoom()) {  // dead queued calls give up their slots first
     s = OverloadStatus(*scheduler_);
     AddRetryPushback(ctx, options_.slice_ms);
   } else if (undelivered_.Full()) {
@@ -273,9 +273,8 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
     return reactor;
   }
   // Batchable: the scheduler may run it in one launch with others (RunEvaluateBatch) instead.
-  auto member = MakeEvaluateMember(ctx, request, response, received, [reactor](const Status &st) {
-    reactor->Finish(ToGrpcStatus(st));
-  });
+  auto finish = [reactor](const Status &st) { reactor->Finish(ToGrpcStatus(st)); };
+  auto member = MakeEvaluateMember(ctx, request, response, received, finish);
   bool queued = scheduler_->TrySubmit(
       [this, ctx, reactor, request, response, received](int worker) {
         const double queue_ms = MsSince(received);
@@ -297,7 +296,8 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
         if (!st.ok()) response->Clear();
         return [reactor, st] { reactor->Finish(ToGrpcStatus(st)); };
       },
-      std::move(member));
+      std::move(member),
+      DeadCall(ctx, "Evaluate n=" + std::to_string(request->queries().count()), finish));
   if (!queued) {
     Status busy = OverloadStatus(*scheduler_);
     LogLine("Evaluate n=" + std::to_string(request->queries().count()) + " " + busy.message());
@@ -328,11 +328,13 @@ class GlintServiceImpl::StreamReactor
       : service_(service), ctx_(ctx), start_(Clock::now()) {
     // Refused before the first chunk's body is read where that is already known: shutting
     // down, a full server, or a refused claim in the call metadata.
+    // Outside mu_: dead queued calls give up their slots first, and their answers may run here.
+    const bool room = service_->scheduler().HasRoom();
     {
       std::lock_guard<std::mutex> lock(mu_);
       if (service_->shutting_down_) {
         failure_ = ToGrpcStatus(service_->Admit({}, 0));
-      } else if (service_->scheduler().pending() >= service_->scheduler().max_pending()) {
+      } else if (!room) {
         Status busy = OverloadStatus(service_->scheduler());
         AddRetryPushback(ctx_, service_->options().slice_ms);
         failure_ = ToGrpcStatus(Status::ResourceExhausted(
@@ -511,45 +513,60 @@ class GlintServiceImpl::StreamReactor
   // Evaluates `chunk` on a worker; its result (or failure) is handed back under mu_.
   bool Submit(std::shared_ptr<Chunk> chunk) {
     chunk->queued = Clock::now();
-    return service_->scheduler().TrySubmit([this, chunk](int worker) -> Scheduler::Respond {
-      if (Metrics *m = service_->options().metrics)
-        m->ObserveQueueWait(MsSince(chunk->queued) / 1e3);
-      // The device writes the radiance straight into a pooled reply slice, which the reply's
-      // envelope wraps without a copy (proto/wire/chunk_result.h).
-      const uint32_t count = chunk->message.request().queries().count();
-      uint8_t *radiance = nullptr;
-      grpc_slice slice = ReplyPool().Take(size_t(count) * 3 * sizeof(float), &radiance);
-      glint::v1::EvaluateStats stats;
-      // The engine's own code (INTERNAL for a device failure, INVALID_ARGUMENT for a bad
-      // query, ...), exactly as the unary path would return it.
-      Status s = service_->RunBatchInto(
-          worker, *chunk->settings, chunk->message.request().queries(), chunk->first_query, true,
-          reinterpret_cast<float *>(radiance), &stats, nullptr, ctx_);
-      grpc::Status status = ChunkStatus(chunk->index, s);
-      grpc::ByteBuffer reply;
-      if (status.ok())
-        reply =
-            glint::wire::EncodeChunkResult(chunk->index, chunk->first_query, count, slice, stats);
-      else
-        grpc_slice_unref(slice);
-      return [this, chunk, status, reply = std::move(reply)]() mutable {
-        {
-          std::lock_guard<std::mutex> lock(mu_);
-          computing_ = false;
-          // Its arrays' memory serves a later chunk (ParseChunkReusing).
-          if (spare_.size() < kDepth) spare_.push_back(std::move(chunk));
-          if (status.ok() && !write_failed_) {
-            // Also after a later chunk failed to read: this chunk came before it.
-            to_write_.push_back(std::move(reply));
-            ++answered_;
-          } else if (!status.ok()) {
-            if (!failure_) failure_ = status;
-            waiting_.clear();  // the chunks after a failed one are not evaluated
-          }
+    // A chunk still queued when the call dies gives up its slot and is answered as if it had
+    // been stopped before its first slice.
+    Scheduler::Dead dead = [this, chunk]() -> Scheduler::Respond {
+      Status reason = service_->StopReason(ctx_);
+      if (reason.ok()) return {};
+      return Answered(chunk, ChunkStatus(chunk->index, reason), grpc::ByteBuffer());
+    };
+    return service_->scheduler().TrySubmit(
+        [this, chunk](int worker) -> Scheduler::Respond {
+          if (Metrics *m = service_->options().metrics)
+            m->ObserveQueueWait(MsSince(chunk->queued) / 1e3);
+          // The device writes the radiance straight into a pooled reply slice, which the reply's
+          // envelope wraps without a copy (proto/wire/chunk_result.h).
+          const uint32_t count = chunk->message.request().queries().count();
+          uint8_t *radiance = nullptr;
+          grpc_slice slice = ReplyPool().Take(size_t(count) * 3 * sizeof(float), &radiance);
+          glint::v1::EvaluateStats stats;
+          // The engine's own code (INTERNAL for a device failure, INVALID_ARGUMENT for a bad
+          // query, ...), exactly as the unary path would return it.
+          Status s = service_->RunBatchInto(
+              worker, *chunk->settings, chunk->message.request().queries(), chunk->first_query,
+              true, reinterpret_cast<float *>(radiance), &stats, nullptr, ctx_);
+          grpc::Status status = ChunkStatus(chunk->index, s);
+          grpc::ByteBuffer reply;
+          if (status.ok())
+            reply = glint::wire::EncodeChunkResult(chunk->index, chunk->first_query, count, slice,
+                                                   stats);
+          else
+            grpc_slice_unref(slice);
+          return Answered(chunk, status, std::move(reply));
+        },
+        nullptr, std::move(dead));
+  }
+
+  // Hands a chunk's result (or failure) back under mu_ and decides what comes next.
+  Scheduler::Respond Answered(std::shared_ptr<Chunk> chunk, grpc::Status status,
+                              grpc::ByteBuffer reply) {
+    return [this, chunk, status, reply = std::move(reply)]() mutable {
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        computing_ = false;
+        // Its arrays' memory serves a later chunk (ParseChunkReusing).
+        if (spare_.size() < kDepth) spare_.push_back(std::move(chunk));
+        if (status.ok() && !write_failed_) {
+          // Also after a later chunk failed to read: this chunk came before it.
+          to_write_.push_back(std::move(reply));
+          ++answered_;
+        } else if (!status.ok()) {
+          if (!failure_) failure_ = status;
+          waiting_.clear();  // the chunks after a failed one are not evaluated
         }
-        Pump();
-      };
-    });
+      }
+      Pump();
+    };
   }
 
   GlintServiceImpl *service_;

@@ -129,6 +129,11 @@ class GlintServiceImpl final : public GlintRawService {
   Status Admit(const glint::v1::EvaluateRequest &settings, uint64_t query_count) const;
   // Why work for `ctx` must stop now (OK: go on).
   Status StopReason(grpc::CallbackServerContext *ctx) const;
+  // The scheduler's Dead check (server/scheduler.h) of a job answering `ctx`: once StopReason
+  // fails while the job is queued, the job is dropped without running, `finish` answers with
+  // that status, and the line "<what> dropped from the queue: <reason>" is logged.
+  Scheduler::Dead DeadCall(grpc::CallbackServerContext *ctx, std::string what,
+                           std::function<void(const Status &)> finish);
 
   // Dynamic batching (server/batch_service.cpp, server/batch_eval.h). A unary Evaluate call
   // that may share a launch: null when batching is off or the request is not Batchable.

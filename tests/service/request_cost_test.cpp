@@ -137,3 +137,49 @@ TEST(RequestCost, DefaultsAdmitEveryExampleAsAPreview) {
 }
 
 }  // namespace
+
+// Sample admission (issue 12): one sample is one evaluation of the model (its sampler weights
+// by f cos_i / pdf, or its pdf is the model's NDF), so a query costs K x (1 per-query unit + the
+// model's factor). Explicit numbers: SMOOTH factor 1; NORMAL_MAP factor 2000 x 7 (subdivision
+// 4) x cutoff^2 / 25 (models/normal_map/normal_map_model.cpp), 56000 at cutoff_sigma 10.
+TEST(SampleCost, KSamplesEachOneEvaluationOfTheModel) {
+  v1::EvaluateRequest smooth = Smooth();
+  const glint::RequestCost s = glint::EstimateSampleCost(smooth, 65536, 3);
+  EXPECT_EQ(s.per_query, 65536.0 * 2.0);
+  EXPECT_EQ(s.total, 3 * 65536.0 * 2.0);
+  EXPECT_TRUE(glint::CheckRequestCost(s, 3, glint::CostLimits()).ok()) << "a smooth query";
+
+  // The probe's request: one NORMAL_MAP query, 65536 samples, cutoff 10, subdivision 4 (it held
+  // a worker 38 s): 65536 x 56001 = 3.67e9 units per query, refused by the default
+  // --max-query-cost with the advice that fits a sample request.
+  v1::EvaluateRequest bumpy;
+  bumpy.mutable_material()->set_model(v1::NORMAL_MAP);
+  bumpy.mutable_material()->mutable_normal_map()->set_cutoff_sigma(10.0f);
+  bumpy.mutable_material()->mutable_normal_map()->set_subdivision(4);
+  const glint::RequestCost b = glint::EstimateSampleCost(bumpy, 65536, 1);
+  EXPECT_EQ(b.per_query, 65536.0 * (1.0 + 56000.0));
+  glint::Status st = glint::CheckRequestCost(b, 1, glint::CostLimits());
+  EXPECT_EQ(st.code(), glint::Status::Code::kResourceExhausted);
+  EXPECT_NE(st.message().find("3.67e+09"), std::string::npos) << st.message();
+  EXPECT_NE(st.message().find("--max-query-cost 1e+07"), std::string::npos) << st.message();
+  EXPECT_NE(st.message().find("65536 samples_per_query"), std::string::npos) << st.message();
+  EXPECT_NE(st.message().find("NORMAL_MAP factor 5.6e+04"), std::string::npos) << st.message();
+  EXPECT_NE(st.message().find("fewer samples_per_query"), std::string::npos) << st.message();
+  // 178 samples fit under 1e7 (178 x 56001 = 9.97e6), 179 do not.
+  EXPECT_TRUE(
+      glint::CheckRequestCost(glint::EstimateSampleCost(bumpy, 178, 1), 1, glint::CostLimits())
+          .ok());
+  EXPECT_FALSE(
+      glint::CheckRequestCost(glint::EstimateSampleCost(bumpy, 179, 1), 1, glint::CostLimits())
+          .ok());
+
+  // The total limit: 512 queries x 1024 smooth samples = 1.05e6 units.
+  glint::CostLimits tight;
+  tight.max_request_cost = 1e6;
+  st = glint::CheckRequestCost(glint::EstimateSampleCost(smooth, 1024, 512), 512, tight);
+  EXPECT_EQ(st.code(), glint::Status::Code::kResourceExhausted);
+  EXPECT_NE(st.message().find("1.05e+06"), std::string::npos) << st.message();
+  EXPECT_NE(st.message().find("--max-request-cost 1e+06"), std::string::npos) << st.message();
+  EXPECT_TRUE(
+      glint::CheckRequestCost(glint::EstimateSampleCost(smooth, 1024, 488), 488, tight).ok());
+}

@@ -190,5 +190,47 @@ TEST(SchedulerBatching, WaitsUpToTheDelayForMoreMembersOnlyWhenAsked) {
   }
 }
 
+// Dead calls (issue 12): a queued job whose Dead check reports its call dead gives up its slot
+// when the queue is full (TrySubmit, HasRoom) and when a worker takes a job; its job never runs
+// and its answer runs exactly once. A live queued job keeps its slot and runs.
+TEST(Scheduler, DeadQueuedJobsGiveUpTheirSlotsAndNeverRun) {
+  std::promise<void> release;
+  std::shared_future<void> gate = release.get_future().share();
+  std::atomic<int> ran{0}, answered_dead{0};
+  std::atomic<bool> dead[3] = {false, false, false};
+  {
+    Scheduler scheduler(1, 4);
+    std::promise<void> started;
+    ASSERT_TRUE(scheduler.TrySubmit([&](int) -> Scheduler::Respond {
+      started.set_value();
+      gate.wait();
+      return nullptr;
+    }));
+    started.get_future().wait();  // the worker is busy; the queue holds 3
+    auto job = [&](int) -> Scheduler::Respond {
+      ++ran;
+      return nullptr;
+    };
+    auto check = [&](int i) -> Scheduler::Dead {
+      return [&, i]() -> Scheduler::Respond {
+        if (!dead[i]) return nullptr;
+        return [&] { ++answered_dead; };
+      };
+    };
+    for (int i = 0; i < 3; ++i) EXPECT_TRUE(scheduler.TrySubmit(job, nullptr, check(i)));
+    EXPECT_FALSE(scheduler.HasRoom());
+    EXPECT_FALSE(scheduler.TrySubmit(job, nullptr, check(0))) << "all alive: full";
+    dead[0] = dead[2] = true;
+    EXPECT_TRUE(scheduler.HasRoom());
+    EXPECT_EQ(answered_dead.load(), 2);
+    EXPECT_EQ(scheduler.pending(), 2u) << "the running job and the live queued one";
+    EXPECT_TRUE(scheduler.TrySubmit(job, nullptr, check(0)));  // dies while queued, too
+    EXPECT_EQ(answered_dead.load(), 2) << "not full: nothing dropped on submission";
+    release.set_value();  // the worker drops it when it takes the next job
+  }
+  EXPECT_EQ(ran.load(), 1) << "only the live queued job ran";
+  EXPECT_EQ(answered_dead.load(), 3);
+}
+
 }  // namespace
 }  // namespace glint

@@ -52,6 +52,9 @@ GLINT_FN real wedge_edge_term(real3 a, real3 b) {
 typedef struct {
   real3 x, r;
   glint_mask has_x, has_r;
+  /* A crossing at the origin: the boundary passes through the shading
+   * point, so the polygon's plane contains it (see polygon_wedge_form_factor). */
+  glint_mask at_origin;
 } WedgeCrossings;
 
 /* One piece s -> e of a closed boundary (in the lanes `valid`) against the
@@ -75,6 +78,7 @@ GLINT_FN void wedge_clip_piece(real3 s, real3 e, glint_mask valid, GLINT_PRIVATE
   c->r = r3_select(c->r, q, enters);
   c->has_x = c->has_x | leaves;
   c->has_r = c->has_r | enters;
+  c->at_origin = c->at_origin | ((leaves | enters) & (r3_dot(q, q) == GLINT_R(0.0)));
 }
 
 /* Signed form factor (polygon_form_factor_lanes' value) of the polygon
@@ -90,7 +94,7 @@ GLINT_FN real polygon_wedge_form_factor(const GLINT_PRIVATE real3 *o, const GLIN
   real sum = GLINT_R(0.0);
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   glint_mask none = zero.z != zero.z;
-  WedgeCrossings c1 = {zero, zero, none, none}, c2 = {zero, zero, none, none};
+  WedgeCrossings c1 = {zero, zero, none, none, none}, c2 = {zero, zero, none, none, none};
   for (int i = 0; i < n; ++i) {
     int j = i + 1 < n ? i + 1 : 0;
     real3 a = o[i], b = o[j];
@@ -106,13 +110,19 @@ GLINT_FN real polygon_wedge_form_factor(const GLINT_PRIVATE real3 *o, const GLIN
     c1.r = r3_select(c1.r, p, enters);
     c1.has_x = c1.has_x | leaves;
     c1.has_r = c1.has_r | enters;
+    c1.at_origin = c1.at_origin | ((leaves | enters) & (r3_dot(p, p) == GLINT_R(0.0)));
   }
   /* H1's chord, from where the boundary leaves H1 to where it re-enters. */
   wedge_clip_piece(c1.x, c1.r, c1.has_x & c1.has_r, &sum, &c2);
   /* H2's chord closes the loop; it lies in H1, being a chord of P n H1. */
   glint_mask closed2 = c2.has_x & c2.has_r;
   sum += glint_select(GLINT_R(0.0), wedge_edge_term(c2.r, c2.x), closed2);
-  return sum * GLINT_R(0.5) * GLINT_INV_PI;
+  /* An edge through the shading point, cut there by a plane: a piece ends at
+   * the origin, which has no direction, and its terms no longer close the
+   * loop. The polygon's plane then contains the shading point: it is seen
+   * edge-on and the exact integral is 0 (polygon_form_factor_lanes skips
+   * such a vertex to the same end). */
+  return glint_select(sum * GLINT_R(0.5) * GLINT_INV_PI, GLINT_R(0.0), c1.at_origin | c2.at_origin);
 }
 
 #endif /* GLINT_POLYGON_WEDGE_H */

@@ -171,6 +171,21 @@ TEST(PolygonWedge, MatchesTwoSequentialClipsAndTheEdgeSum) {
   EXPECT_GT(below, 500);
 }
 
+// Polygons whose plane contains the shading point (an edge through it, cut there by a clip
+// plane; issue 8): seen edge-on, the exact integral is 0, and it stays finite.
+TEST(PolygonWedge, EdgeThroughTheShadingPointGivesZero) {
+  const Map identity{1, 0, {1, 0, 0, 1}}, tilted{0.6, 0.8, {2, 0.5, -0.3, 1.5}};
+  const std::vector<std::vector<V3>> polygons = {
+      {{-1, -1, -1}, {1, 1, 1}, {0, 1, 1}},  // crosses the horizon at the origin
+      {{-2, 0, -1}, {2, 0, 1}, {0, 3, 1.5}, {-1, 2, 0.5}}};
+  for (const auto &v : polygons)
+    for (const Map &m : {identity, tilted}) {
+      const double got = Wedge(v, m);
+      EXPECT_EQ(got, 0.0);
+      EXPECT_NEAR(Reference(v, m), 0.0, 1e-12);  // the sequential clips agree
+    }
+}
+
 TEST(AtanPoly, Fp32WithinTheFitsErrorAndFp64IsLibm) {
   const double bound = 1.52e-8 + 8 * std::ldexp(1.0, -24);
   double worst = 0;

@@ -122,7 +122,13 @@ GLINT_FN real polygon_wedge_form_factor(const GLINT_PRIVATE real3 *o, const GLIN
    * loop. The polygon's plane then contains the shading point: it is seen
    * edge-on and the exact integral is 0 (polygon_form_factor_lanes skips
    * such a vertex to the same end). */
-  return glint_select(sum * GLINT_R(0.5) * GLINT_INV_PI, GLINT_R(0.0), c1.at_origin | c2.at_origin);
+  /* Overflow: the terms multiply coordinates (a x b), so points beyond
+   * ~1e19 (fp32) from the shading point give Inf / NaN; such a lane gets 0,
+   * as the sequential form factor's overflowing normalisation gave. (Exact
+   * power-of-two prescaling per lane would keep them: not done.) */
+  real ff = sum * GLINT_R(0.5) * GLINT_INV_PI;
+  return glint_select(GLINT_R(0.0), ff,
+                      (fabs(ff) <= GLINT_R(1e30)) & (!(c1.at_origin | c2.at_origin)));
 }
 
 #endif /* GLINT_POLYGON_WEDGE_H */

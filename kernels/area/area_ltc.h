@@ -5,13 +5,15 @@
  *
  * Lane-safe (compat.h): no branch on per-query values, so the smooth model's
  * LTC pass (models/smooth/smooth_area_lanes.cl) runs GLINT_LANES queries per
- * work-item; the clips keep per-lane vertex counts (polygon.h). The host and
- * the one-query kernels run the same code on scalars. */
+ * work-item; the two clips and the edge sum are one pass over the edges
+ * (polygon_wedge.h), with no per-lane vertex slots. The host and the
+ * one-query kernels run the same code on scalars. */
 #ifndef GLINT_AREA_LTC_H
 #define GLINT_AREA_LTC_H
 
 #include "kernels/area/ltc_lookup.h"
 #include "kernels/area/polygon.h"
+#include "kernels/area/polygon_wedge.h"
 #include "kernels/compat.h"
 #include "kernels/frame.h"
 #include "kernels/layout.h"
@@ -71,7 +73,9 @@ GLINT_FN real area_polygon_weight(const GLINT_PRIVATE real3 *v, int n, int two_s
  *     the tangent plane, z = n (tools/ltc/README.md "Grid");
  *  3. transform by M^-1 and clip to o.z >= 0, the clamped cosine's support;
  *  4. integrate the clamped cosine with the edge formula (HDHN16 Eq. 11,
- *     polygon_form_factor): = int_P D_ltc dw (HDHN16 Eq. 3-5);
+ *     polygon_form_factor): = int_P D_ltc dw (HDHN16 Eq. 3-5). Steps 1, 3
+ *     and 4 are one pass, polygon_wedge_form_factor (fp32: a polynomial
+ *     arctangent within 1.7e-7 of atan2, atan_poly.h);
  *  5. scale by the Fresnel-weighted albedo: Schlick int f cos F = f0 * mag +
  *     (1 - f0) * moment (exact for the albedo). Conductor and dielectric:
  *     APPROXIMATION, the exact Fresnel is replaced by Schlick's through its
@@ -79,40 +83,70 @@ GLINT_FN real area_polygon_weight(const GLINT_PRIVATE real3 *v, int n, int two_s
  *     moment for exact Fresnel.
  * Anisotropic alpha: APPROXIMATION, the tables are isotropic and we look up
  * alpha = sqrt(alpha_x alpha_y) (the lobe of equal solid-angle footprint).
- * Branch-free: every lane runs both clips over the uniform bounds n, n + 1,
- * n + 2 (n the light's vertex count); lanes seeing the light from below the
- * horizon (or a view from below, wo.z <= 0: no transmission, as
- * smooth_reflect_cos) get 0 and a zero entry e, as the sequential early
- * returns gave. */
-GLINT_FN real area_ltc_form_factor(const GLINT_GLOBAL float *table, real alpha, real3 wo,
-                                   const GLINT_PRIVATE real3 *v, int n, GLINT_PRIVATE real *e) {
-  real3 clipped[GLINT_AREA_MAX_VERTICES];
-  glint_count nc = polygon_clip_to_horizon_lanes(v, n, n, clipped);
-  glint_mask live = (wo.z > GLINT_R(0.0)) & (nc >= 3);
+ * Branch-free: every lane runs the n + 2 pieces of the clipped boundary (n
+ * the light's vertex count); lanes seeing the light from below the horizon
+ * (or a view from below, wo.z <= 0: no transmission, as smooth_reflect_cos)
+ * get 0 and a zero entry e, as the sequential early returns gave. */
 
+/* The view-aligned frame of step 2: T1 (tx, ty, 0) = the projection of wo on
+ * the tangent plane, normalised; at normal view the lobe is isotropic about n
+ * (t = 0 entries are), so any tangent will do. */
+GLINT_FN void area_ltc_view_tangent(real3 wo, GLINT_PRIVATE real *tx, GLINT_PRIVATE real *ty) {
   real sxy = sqrt(wo.x * wo.x + wo.y * wo.y);
-  /* At normal view the lobe is isotropic about n (t = 0 entries are), so any
-   * tangent will do. */
   glint_mask tilted = sxy > GLINT_R(1e-7);
-  real tx = glint_select(GLINT_R(1.0), wo.x / sxy, tilted);
-  real ty = glint_select(GLINT_R(0.0), wo.y / sxy, tilted);
-  area_ltc_lookup(table, alpha, wo.z, e);
+  *tx = glint_select(GLINT_R(1.0), wo.x / sxy, tilted);
+  *ty = glint_select(GLINT_R(0.0), wo.y / sxy, tilted);
+}
 
-  real3 o[GLINT_AREA_MAX_VERTICES];
-  o[0] = clipped[0]; /* overwritten below; tells the host compiler o[0] is always set */
-  /* All n + 1 slots of the clip, unused ones included: the second clip reads them. */
-  for (int i = 0; i < n + 1; ++i) {
-    real3 c = clipped[i];
-    real x = c.x * tx + c.y * ty;  /* . T1 */
-    real y = -c.x * ty + c.y * tx; /* . T2 = n x T1 */
-    o[i] = make_real3(e[0] * x + e[1] * c.z, y, e[2] * x + e[3] * c.z);
+/* Step 2-3's linear map of a local vector: rotate into the view-aligned
+ * frame, then M^-1 (entry e). */
+GLINT_FN real3 area_ltc_transform(const GLINT_PRIVATE real *e, real tx, real ty, real3 c) {
+  real x = c.x * tx + c.y * ty;  /* . T1 */
+  real y = -c.x * ty + c.y * tx; /* . T2 = n x T1 */
+  return make_real3(e[0] * x + e[1] * c.z, y, e[2] * x + e[3] * c.z);
+}
+
+/* Steps 1-4 of area_ltc_form_factor for a table entry e already looked up at
+ * (alpha, wo.z), and the view tangent (tx, ty) of area_ltc_view_tangent: the
+ * light loop of area_ltc_shade looks them up once per query, not per light.
+ * Zeroes e in the lanes that get 0 (view from below, light below the
+ * horizon), as area_ltc_form_factor documents. The two clips and the edge
+ * sum are one pass, polygon_wedge_form_factor (polygon_wedge.h): the linear
+ * map commutes with clipping, so the horizon clip is done after it, with the
+ * vertices' z before the map as the plane's values. */
+GLINT_FN real area_ltc_form_factor_entry(real3 wo, real tx, real ty, const GLINT_PRIVATE real3 *v,
+                                         int n, GLINT_PRIVATE real *e) {
+  real3 o[GLINT_POLYGON_MAX_VERTICES];
+  real d1[GLINT_POLYGON_MAX_VERTICES];
+  /* The horizon clip's vertex count (>= 3: something is above the horizon)
+   * and whether a vertex is at the shading point: then the polygon's plane
+   * contains it, the light is seen edge-on and the exact integral is 0
+   * (polygon_form_factor_lanes skips such a vertex to the same end). */
+  glint_count nc = 0;
+  glint_mask at_p = v[0].z != v[0].z;
+  for (int i = 0; i < n; ++i) {
+    o[i] = area_ltc_transform(e, tx, ty, v[i]);
+    d1[i] = v[i].z;
+    glint_mask in = v[i].z >= GLINT_R(0.0);
+    glint_mask next_in = v[i + 1 < n ? i + 1 : 0].z >= GLINT_R(0.0);
+    nc += glint_mask_count(in) + glint_mask_count(in != next_in);
+    at_p = at_p | (r3_dot(v[i], v[i]) == GLINT_R(0.0));
   }
-  real3 oc[GLINT_AREA_MAX_VERTICES];
-  glint_count no = polygon_clip_to_horizon_lanes(o, nc, n + 1, oc);
+  glint_mask live = (wo.z > GLINT_R(0.0)) & (nc >= 3);
   for (int k = 0; k < GLINT_LTC_ENTRY; ++k) e[k] = glint_select(GLINT_R(0.0), e[k], live);
   /* det M^-1 > 0 keeps the orientation, so the sign is the facing side; the
    * caller's weight decides whether a back face counts. */
-  return glint_select(GLINT_R(0.0), fabs(polygon_form_factor_lanes(oc, no, n + 2)), live);
+  return glint_select(GLINT_R(0.0), fabs(polygon_wedge_form_factor(o, d1, n)), live & (!at_p));
+}
+
+/* Steps 1-4 of the comment above for one light: the view tangent, the table
+ * lookup, then area_ltc_form_factor_entry. */
+GLINT_FN real area_ltc_form_factor(const GLINT_GLOBAL float *table, real alpha, real3 wo,
+                                   const GLINT_PRIVATE real3 *v, int n, GLINT_PRIVATE real *e) {
+  real tx, ty;
+  area_ltc_view_tangent(wo, &tx, &ty);
+  area_ltc_lookup(table, alpha, wo.z, e);
+  return area_ltc_form_factor_entry(wo, tx, ty, v, n, e);
 }
 
 GLINT_FN real3 area_ltc_polygon(SmoothMaterial m, const GLINT_GLOBAL float *table, real3 wo,
@@ -122,19 +156,38 @@ GLINT_FN real3 area_ltc_polygon(SmoothMaterial m, const GLINT_GLOBAL float *tabl
   return r3_scale(area_ltc_albedo(m, e), ff);
 }
 
+/* What area_ltc_shade's lights share for one query (or block of lanes): the
+ * view tangent, the table entry at (alpha, wo.z) and its Fresnel-weighted
+ * albedo, looked up once rather than per light. */
+typedef struct {
+  real tx, ty;
+  real e[GLINT_LTC_ENTRY];
+  real3 albedo;
+} AreaLtcView;
+
+GLINT_FN AreaLtcView area_ltc_view(SmoothMaterial m, const GLINT_GLOBAL float *table, real3 wo) {
+  AreaLtcView w;
+  area_ltc_view_tangent(wo, &w.tx, &w.ty);
+  area_ltc_lookup(table, sqrt(m.alpha_x * m.alpha_y), wo.z, w.e);
+  w.albedo = area_ltc_albedo(m, w.e);
+  return w;
+}
+
 /* One light's contribution to area_ltc_shade (radiance in, radiance out).
  * Called with a constant n for quads, so that the compiler unrolls the vertex
- * loops and keeps the vertices in registers. */
-GLINT_FN real3 area_ltc_shade_light(real3 radiance, SmoothMaterial m,
-                                    const GLINT_GLOBAL float *table, real3 wo, int has_frame,
-                                    ShadingFrame frame, real3 p, const GLINT_GLOBAL float *rec,
-                                    int n) {
+ * loops and keeps the vertices in registers. The lanes that get 0 from the
+ * form factor get albedo * 0 = 0, as area_ltc_polygon's zeroed entry gives. */
+GLINT_FN real3 area_ltc_shade_light(real3 radiance, const GLINT_PRIVATE AreaLtcView *w, real3 wo,
+                                    int has_frame, ShadingFrame frame, real3 p,
+                                    const GLINT_GLOBAL float *rec, int n) {
   real3 v[GLINT_POLYGON_MAX_VERTICES];
   area_polygon_load_n(rec, n, has_frame, frame, p, v);
   glint_mask facing = area_polygon_facing(v, n, rec[1] != 0.0f);
   if (!glint_any(facing)) return radiance;
   real3 L = make_real3((real)rec[2], (real)rec[3], (real)rec[4]);
-  real3 g = area_ltc_polygon(m, table, wo, v, n);
+  real e[GLINT_LTC_ENTRY];
+  for (int k = 0; k < GLINT_LTC_ENTRY; ++k) e[k] = w->e[k];
+  real3 g = r3_scale(w->albedo, area_ltc_form_factor_entry(wo, w->tx, w->ty, v, n, e));
   return r3_select(radiance, r3_add(radiance, r3_mul(g, L)), facing);
 }
 
@@ -146,11 +199,12 @@ GLINT_FN real3 area_ltc_shade(SmoothMaterial m, const GLINT_GLOBAL float *table,
                               int has_frame, ShadingFrame frame, real3 p,
                               const GLINT_GLOBAL float *polygons, uint n_polygon) {
   real3 radiance = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  AreaLtcView w = area_ltc_view(m, table, wo);
   for (uint l = 0; l < n_polygon; ++l) {
     const GLINT_GLOBAL float *rec = polygons + GLINT_POLYGON_FLOATS * l;
     int n = (int)rec[0];
-    radiance = n == 4 ? area_ltc_shade_light(radiance, m, table, wo, has_frame, frame, p, rec, 4)
-                      : area_ltc_shade_light(radiance, m, table, wo, has_frame, frame, p, rec, n);
+    radiance = n == 4 ? area_ltc_shade_light(radiance, &w, wo, has_frame, frame, p, rec, 4)
+                      : area_ltc_shade_light(radiance, &w, wo, has_frame, frame, p, rec, n);
   }
   return radiance;
 }

@@ -21,15 +21,32 @@
 #define GLINT_LANE_SCALAR double
 #define GLINT_ENTRY_VEC double8
 #define GLINT_ENTRY_LOAD(p) convert_double8(vload8(0, p))
+#define GLINT_SHUFFLE_MASK ulong8
 #else
 #define GLINT_LANE_SCALAR float
 #define GLINT_ENTRY_VEC float8
 #define GLINT_ENTRY_LOAD(p) vload8(0, p)
+#define GLINT_SHUFFLE_MASK uint8
 #endif
+/* Lane values to and from glint_mask's integer vectors (the cell indices). */
 #if GLINT_LANES == 8
 #define GLINT_LANE_VLOAD vload8
+#if GLINT_USE_DOUBLE
+#define GLINT_LANE_TO_INT(v) convert_long8(v)
+#define GLINT_LANE_FROM_INT(v) convert_double8(v)
+#else
+#define GLINT_LANE_TO_INT(v) convert_int8(v)
+#define GLINT_LANE_FROM_INT(v) convert_float8(v)
+#endif
 #else
 #define GLINT_LANE_VLOAD vload16
+#if GLINT_USE_DOUBLE
+#define GLINT_LANE_TO_INT(v) convert_long16(v)
+#define GLINT_LANE_FROM_INT(v) convert_double16(v)
+#else
+#define GLINT_LANE_TO_INT(v) convert_int16(v)
+#define GLINT_LANE_FROM_INT(v) convert_float16(v)
+#endif
 #endif
 #endif
 
@@ -41,26 +58,54 @@ GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real 
   real x = clamp(sqrt(fmax(alpha, GLINT_R(0.0))), GLINT_R(0.0), GLINT_R(1.0)) * last;
   real y = clamp(sqrt(fmax(GLINT_R(1.0) - cos_o, GLINT_R(0.0))), GLINT_R(0.0), GLINT_R(1.0)) * last;
 #if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
-  /* Lanes: each lane's four entries are a gather; per lane the same scalar
-   * interpolation as below, over the 8 floats of an entry at once (vload8),
-   * then transposed into one vector per entry component. */
-  GLINT_LANE_SCALAR t[GLINT_LTC_ENTRY][GLINT_LANES];
+  /* Lanes: the cells and weights of every lane at once (vector ops); each
+   * lane's four entries are a gather, interpolated per lane with the same
+   * arithmetic as below (so lanes equal the scalar path) over the 8 floats of
+   * an entry at once (vload8), then transposed into one vector per entry
+   * component. */
+  glint_mask a0v = min(GLINT_LANE_TO_INT(x), (glint_mask)(GLINT_LTC_GRID - 2));
+  glint_mask t0v = min(GLINT_LANE_TO_INT(y), (glint_mask)(GLINT_LTC_GRID - 2));
+  real fxv = x - GLINT_LANE_FROM_INT(a0v), fyv = y - GLINT_LANE_FROM_INT(t0v);
+  glint_mask off = (t0v * GLINT_LTC_GRID + a0v) * GLINT_LTC_ENTRY;
+  GLINT_ENTRY_VEC r[GLINT_LANES];
   for (int j = 0; j < GLINT_LANES; ++j) {
-    GLINT_LANE_SCALAR xj = x[j], yj = y[j];
-    int a0 = (int)xj, t0 = (int)yj;
-    a0 = a0 > GLINT_LTC_GRID - 2 ? GLINT_LTC_GRID - 2 : a0;
-    t0 = t0 > GLINT_LTC_GRID - 2 ? GLINT_LTC_GRID - 2 : t0;
-    GLINT_LANE_SCALAR fx = xj - (GLINT_LANE_SCALAR)a0, fy = yj - (GLINT_LANE_SCALAR)t0;
-    const GLINT_GLOBAL float *e00 = table + (t0 * GLINT_LTC_GRID + a0) * GLINT_LTC_ENTRY;
+    GLINT_LANE_SCALAR fx = fxv[j], fy = fyv[j];
+    const GLINT_GLOBAL float *e00 = table + off[j];
     const GLINT_GLOBAL float *e01 = e00 + GLINT_LTC_GRID * GLINT_LTC_ENTRY;
     GLINT_ENTRY_VEC c00 = GLINT_ENTRY_LOAD(e00), c10 = GLINT_ENTRY_LOAD(e00 + GLINT_LTC_ENTRY);
     GLINT_ENTRY_VEC c01 = GLINT_ENTRY_LOAD(e01), c11 = GLINT_ENTRY_LOAD(e01 + GLINT_LTC_ENTRY);
     GLINT_LANE_SCALAR one = (GLINT_LANE_SCALAR)1.0;
-    GLINT_ENTRY_VEC r =
-        (one - fy) * ((one - fx) * c00 + fx * c10) + fy * ((one - fx) * c01 + fx * c11);
-    for (int k = 0; k < GLINT_LTC_ENTRY; ++k) t[k][j] = r[k];
+    r[j] = (one - fy) * ((one - fx) * c00 + fx * c10) + fy * ((one - fx) * c01 + fx * c11);
   }
+#if GLINT_LANES == 8
+  /* r[j] holds lane j's entry; e[k] wants component k of every lane: an
+   * 8 x 8 transpose in three rounds of shuffles (pairs of lanes, then
+   * quadruples, then halves) instead of scalar stores to a private array
+   * read back as vectors, whose store-to-load forwarding stalls. */
+  GLINT_ENTRY_VEC p[8], q[8];
+  for (int j = 0; j < 8; j += 2) {
+    p[j] = shuffle2(r[j], r[j + 1], (GLINT_SHUFFLE_MASK)(0, 8, 2, 10, 4, 12, 6, 14));
+    p[j + 1] = shuffle2(r[j], r[j + 1], (GLINT_SHUFFLE_MASK)(1, 9, 3, 11, 5, 13, 7, 15));
+  }
+  /* p[0] = components 0,2,4,6 of lanes 0,1; p[1] = 1,3,5,7 of lanes 0,1; ... */
+  for (int h = 0; h < 8; h += 4) {
+    for (int o = 0; o < 2; ++o) {
+      q[h + o] = shuffle2(p[h + o], p[h + 2 + o], (GLINT_SHUFFLE_MASK)(0, 1, 8, 9, 4, 5, 12, 13));
+      q[h + 2 + o] =
+          shuffle2(p[h + o], p[h + 2 + o], (GLINT_SHUFFLE_MASK)(2, 3, 10, 11, 6, 7, 14, 15));
+    }
+  }
+  /* q[h + c] = components c and c + 4 (c = 0 .. 3) of lanes h .. h + 3. */
+  for (int c = 0; c < 4; ++c) {
+    e[c] = shuffle2(q[c], q[4 + c], (GLINT_SHUFFLE_MASK)(0, 1, 2, 3, 8, 9, 10, 11));
+    e[c + 4] = shuffle2(q[c], q[4 + c], (GLINT_SHUFFLE_MASK)(4, 5, 6, 7, 12, 13, 14, 15));
+  }
+#else
+  GLINT_LANE_SCALAR t[GLINT_LTC_ENTRY][GLINT_LANES];
+  for (int j = 0; j < GLINT_LANES; ++j)
+    for (int k = 0; k < GLINT_LTC_ENTRY; ++k) t[k][j] = r[j][k];
   for (int k = 0; k < GLINT_LTC_ENTRY; ++k) e[k] = GLINT_LANE_VLOAD(0, t[k]);
+#endif
 #else
   int a0 = (int)x, t0 = (int)y;
   a0 = a0 > GLINT_LTC_GRID - 2 ? GLINT_LTC_GRID - 2 : a0;

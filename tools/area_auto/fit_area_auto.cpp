@@ -26,10 +26,13 @@ using namespace glint::area_auto;
 // 2-core PoCL machine (docs/area_speed_accuracy.csv, evals/s of each method, GGX then Beckmann):
 // LTC, LECOCQ, LECOCQ_PEARSON as measured; REFERENCE n as a + b (4 ceil(n / 4))^2 through the
 // measured REFERENCE 8 and 32 (the nodes per triangle); MONTE_CARLO as a + b n through the
-// measured 4 ... 256 samples (least squares). Only their order matters to the choice.
+// measured 4 ... 256 samples (least squares); an intercept below LTC's cost set to it. Printed by
+// `python3 tools/area_auto/costs_from_bench_area.py docs/area_speed_accuracy.csv`. Measured
+// 2026-11-30 on a loaded machine (load average 7-12: absolute costs ~5-10x the quiet ones, and
+// noisier); only their order matters to the choice.
 const float kCost[2][kCandidates + 2] = {
-    {0.17f, 16.4f, 33.4f, 2.0f, 4.5f, 14.5f, 54.5f, 0.5f, 0.148f},
-    {0.18f, 18.7f, 55.7f, 7.4f, 27.3f, 118.0f, 474.0f, 1.5f, 0.27f},
+    {0.257f, 191.0f, 231.0f, 20.8f, 42.2f, 128.0f, 471.0f, 4.66f, 1.03f},
+    {0.249f, 149.0f, 169.0f, 62.5f, 249.0f, 996.0f, 3.98e+03f, 0.249f, 1.49f},
 };
 
 std::string Num(float x) {

@@ -18,17 +18,6 @@
 
 namespace {
 
-double CpuSeconds() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
-}
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
 struct Case {
   glint::bench::Lights lights;
   glint::v1::EvaluateRequest request;
@@ -101,21 +90,23 @@ int main(int argc, char **argv) {
       const glint::EvalPlan plan =
           glint::MakeEvalPlan(cases[k].request, cases[k].request.queries());
       const auto t0 = glint::bench::Clock::now();
-      const double c0 = CpuSeconds();
+      const double c0 = glint::bench::ProcessCpuSeconds();
       for (int r = 0; r < reps[k]; ++r)
         (void)engine->Evaluate(0, plan, cases[k].request.queries(), out.data());
       const double evals = double(queries) * reps[k];
-      cases[k].cpu.push_back(evals / (CpuSeconds() - c0));
+      cases[k].cpu.push_back(evals / (glint::bench::ProcessCpuSeconds() - c0));
       cases[k].wall.push_back(
           evals / std::chrono::duration<double>(glint::bench::Clock::now() - t0).count());
     }
   }
-  const double wall0 = Median(cases[0].wall), cpu0 = Median(cases[0].cpu);
+  const double wall0 = glint::bench::Median(cases[0].wall),
+               cpu0 = glint::bench::Median(cases[0].cpu);
   std::printf(
       "| lights | wall evals/s | ratio | CPU evals/CPU-s | ratio |\n|---|---|---|---|---|\n");
   for (const Case &c : cases) {
     std::printf("| %s | %.4g | %.3f | %.4g | %.3f |\n", glint::bench::LightsName(c.lights),
-                Median(c.wall), Median(c.wall) / wall0, Median(c.cpu), Median(c.cpu) / cpu0);
+                glint::bench::Median(c.wall), glint::bench::Median(c.wall) / wall0,
+                glint::bench::Median(c.cpu), glint::bench::Median(c.cpu) / cpu0);
   }
   return 0;
 }

@@ -27,17 +27,6 @@ namespace {
 using namespace glint;
 using namespace glint::bench;
 
-double CpuSeconds() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
-}
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
-
 std::vector<std::string> Split(const std::string &s) {
   std::vector<std::string> v;
   std::stringstream ss(s);
@@ -123,14 +112,14 @@ int main(int argc, char **argv) {
         return 1;
       }
       const EvalPlan plan = MakeEvalPlan(c.request, c.request.queries());
-      const double c0 = CpuSeconds();
+      const double c0 = glint::bench::ProcessCpuSeconds();
       const auto t0 = Clock::now();
       if (Status s = engine->Evaluate(0, plan, c.request.queries(), out.data()); !s.ok()) {
         std::fprintf(stderr, "binomial_breakdown: %s: %s\n", c.name.c_str(), s.message().c_str());
         return 1;
       }
       const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
-      const double cpu = CpuSeconds() - c0;
+      const double cpu = glint::bench::ProcessCpuSeconds() - c0;
       if (round >= 0) c.wall.push_back(wall), c.cpu.push_back(cpu);
       if (round == -1) {
         uint64_t h = 1469598103934665603ull;
@@ -158,7 +147,8 @@ int main(int argc, char **argv) {
       rc.push_back(cases[0].cpu[k] / c.cpu[k]);
     }
     std::printf("| %s | %.3g | %.4f | %.3g | %.4f | %016llx |\n", c.name.c_str(),
-                1e-6 * n / Median(c.wall), Median(rw), 1e-6 * n / Median(c.cpu), Median(rc),
+                1e-6 * n / glint::bench::Median(c.wall), glint::bench::Median(rw),
+                1e-6 * n / glint::bench::Median(c.cpu), glint::bench::Median(rc),
                 (unsigned long long)c.hash);
   }
   return 0;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <ctime>
 
 #include "client/lib/glint_client.h"
 #include "server/validation.h"
@@ -149,6 +150,12 @@ std::vector<double> RelativeErrors(const float *x, const std::vector<double> &re
       ++*nonfinite;
   }
   return e;
+}
+
+double ProcessCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
 }
 
 }  // namespace glint::bench

@@ -31,6 +31,16 @@ double MedianSeconds(int repeat, F &&run) {
   return t[t.size() / 2];
 }
 
+// The median of `v` (the upper one of an even count).
+inline double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+// CPU seconds used by the whole process (every thread, PoCL's included): a rate per CPU-second
+// holds still on a shared machine where wall-clock rates swing 2x.
+double ProcessCpuSeconds();
+
 // The first `count` queries of `base` repeated cyclically (queries 0, 1, ..., n-1, 0, 1, ...),
 // every per-query field `base` carries.
 glint::v1::QueryBatch Tile(const glint::v1::QueryBatch &base, uint32_t count);

@@ -7,9 +7,11 @@
 #include <google/protobuf/message.h>
 #include <grpcpp/grpcpp.h>
 
+#include <cstdint>
 #include <string>
 
 #include "server/auth.h"
+#include "server/delivery_budget.h"
 #include "server/status.h"
 
 namespace glint {
@@ -22,6 +24,37 @@ Status ParseBody(const grpc::ByteBuffer *body, google::protobuf::Message *out,
 
 // Serialises a response into the raw reply buffer.
 grpc::Status SerializeReply(const google::protobuf::Message &message, grpc::ByteBuffer *out);
+
+// A unary call's reactor that owns its typed request and response (the methods are raw, see
+// service.h); Finish serialises the response into the reply buffer. With a DeliveryBudget, the
+// reply's bytes are held in it from Finish until OnDone.
+template <class Request, class Response>
+class OwningUnaryReactor : public grpc::ServerUnaryReactor {
+ public:
+  explicit OwningUnaryReactor(grpc::ByteBuffer *reply, DeliveryBudget *budget = nullptr)
+      : reply_(reply), budget_(budget) {}
+  Request request;
+  Response response;
+  void Finish(grpc::Status s) {
+    if (s.ok()) s = SerializeReply(response, reply_);
+    response.Clear();  // the serialised copy is what stays until the reply has left
+    request.Clear();
+    if (s.ok() && budget_) {
+      held_ = reply_->Length();
+      budget_->Hold(held_);
+    }
+    grpc::ServerUnaryReactor::Finish(s);
+  }
+  void OnDone() override {
+    if (budget_) budget_->Release(held_);
+    delete this;
+  }
+
+ private:
+  grpc::ByteBuffer *reply_;
+  DeliveryBudget *budget_;
+  uint64_t held_ = 0;
+};
 
 // A raw unary method answered at once (no scheduler work): the token check, then the body
 // parsed as a Request, then `handle(request, &response)`; the response is serialised into

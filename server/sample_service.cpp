@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "server/auth.h"
+#include "server/raw_messages.h"
 #include "server/request_cost.h"
 #include "server/sample.h"
 #include "server/service.h"
@@ -11,12 +12,21 @@
 namespace glint {
 
 grpc::ServerUnaryReactor *GlintServiceImpl::Sample(grpc::CallbackServerContext *ctx,
-                                                   const glint::v1::SampleRequest *request,
-                                                   glint::v1::SampleResponse *response) {
+                                                   const grpc::ByteBuffer *body,
+                                                   grpc::ByteBuffer *reply) {
   using Clock = std::chrono::steady_clock;
-  grpc::ServerUnaryReactor *reactor = ctx->DefaultReactor();
+  // Raw (service.h): the body is parsed here, after the token check, so one that does not parse
+  // is INVALID_ARGUMENT naming the message rather than gRPC's bare UNIMPLEMENTED.
+  using Reactor = OwningUnaryReactor<glint::v1::SampleRequest, glint::v1::SampleResponse>;
+  auto *reactor = new Reactor(reply);
+  const glint::v1::SampleRequest *request = &reactor->request;
+  glint::v1::SampleResponse *response = &reactor->response;
   if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
     reactor->Finish(denied);
+    return reactor;
+  }
+  if (Status parsed = ParseBody(body, &reactor->request, "request"); !parsed.ok()) {
+    reactor->Finish(ToGrpcStatus(parsed));
     return reactor;
   }
   if (shutting_down_) {

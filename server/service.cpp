@@ -87,37 +87,6 @@ glint::wire::SlicePool &ReplyPool() {
   return *pool;
 }
 
-// A unary call's reactor that owns its typed request and response (the methods are raw, see
-// service.h); Finish serialises the response into the reply buffer.
-// With a DeliveryBudget, the reply's bytes are held in it from Finish until OnDone.
-template <class Request, class Response>
-class OwningUnaryReactor : public grpc::ServerUnaryReactor {
- public:
-  explicit OwningUnaryReactor(grpc::ByteBuffer *reply, DeliveryBudget *budget = nullptr)
-      : reply_(reply), budget_(budget) {}
-  Request request;
-  Response response;
-  void Finish(grpc::Status s) {
-    if (s.ok()) s = SerializeReply(response, reply_);
-    response.Clear();  // the serialised copy is what stays until the reply has left
-    request.Clear();
-    if (s.ok() && budget_) {
-      held_ = reply_->Length();
-      budget_->Hold(held_);
-    }
-    grpc::ServerUnaryReactor::Finish(s);
-  }
-  void OnDone() override {
-    if (budget_) budget_->Release(held_);
-    delete this;
-  }
-
- private:
-  grpc::ByteBuffer *reply_;
-  DeliveryBudget *budget_;
-  uint64_t held_ = 0;
-};
-
 }  // namespace
 
 grpc::Status ToGrpcStatus(const Status &s) {

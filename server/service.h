@@ -44,12 +44,12 @@ struct ServiceOptions {
 // gives INVALID_ARGUMENT naming what did not parse. (A new typed callback method is added to
 // this chain as glint::v1::GlintService::WithCallbackMethod_<Name><...>.)
 // The small unary calls answered at once (normal-map list/delete, shared-memory regions) are raw
-// too (server/raw_messages.h AnswerNow). Sample and UploadNormalMap are still typed: a body of
-// theirs that does not parse gets gRPC's own answer.
+// too (server/raw_messages.h AnswerNow), and so is Sample. UploadNormalMap is still typed: a body
+// of its that does not parse gets gRPC's own answer.
 using GlintRawService = glint::v1::GlintService::WithRawCallbackMethod_Evaluate<
     glint::v1::GlintService::WithRawCallbackMethod_EvaluateStream<
         glint::v1::GlintService::WithRawCallbackMethod_GetCapabilities<
-            glint::v1::GlintService::WithCallbackMethod_Sample<
+            glint::v1::GlintService::WithRawCallbackMethod_Sample<
                 glint::v1::GlintService::WithCallbackMethod_UploadNormalMap<
                     glint::v1::GlintService::WithRawCallbackMethod_ListNormalMaps<
                         glint::v1::GlintService::WithRawCallbackMethod_DeleteNormalMap<
@@ -79,9 +79,8 @@ class GlintServiceImpl final : public GlintRawService {
   void BeginShutdown() { shutting_down_ = true; }
   void CancelInFlight() { cancel_in_flight_ = true; }
   // Importance sampling (server/sample_service.cpp, server/sample.h).
-  grpc::ServerUnaryReactor *Sample(grpc::CallbackServerContext *ctx,
-                                   const glint::v1::SampleRequest *request,
-                                   glint::v1::SampleResponse *response) override;
+  grpc::ServerUnaryReactor *Sample(grpc::CallbackServerContext *ctx, const grpc::ByteBuffer *body,
+                                   grpc::ByteBuffer *reply) override;
   // Normal-map resources (server/normal_map_rpc.cpp, the store in server/normal_map_store.h).
   grpc::ServerReadReactor<glint::v1::NormalMapChunk> *UploadNormalMap(
       grpc::CallbackServerContext *ctx, glint::v1::NormalMapInfo *response) override;

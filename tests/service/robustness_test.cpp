@@ -242,7 +242,7 @@ TEST_F(Robustness, UnparseableUnaryBodyGetsInvalidArgumentWithAMessage) {
        {"/glint.v1.GlintService/Evaluate", "/glint.v1.GlintService/GetCapabilities",
         "/glint.v1.GlintService/ListNormalMaps", "/glint.v1.GlintService/DeleteNormalMap",
         "/glint.v1.GlintService/RegisterSharedMemory", "/glint.v1.GlintService/ListSharedMemory",
-        "/glint.v1.GlintService/UnregisterSharedMemory"}) {
+        "/glint.v1.GlintService/UnregisterSharedMemory", "/glint.v1.GlintService/Sample"}) {
     grpc::ByteBuffer reply;
     grpc::Status s = RawUnary(channel(), method, Bytes(BadBytes()), &reply);
     EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << method;

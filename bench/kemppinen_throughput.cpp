@@ -16,6 +16,7 @@
 #include <ctime>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -39,7 +40,7 @@ struct Config {
 
 }  // namespace
 
-int main(int argc, char **argv) {
+static int Run(int argc, char **argv) {
   std::string lights_name = "directional_point", ks = "1,4,9,16", json, out_prefix;
   std::string cache_dir = glint::bench::DefaultCacheDir();
   double density = 1e5, min_time = 0.3;
@@ -47,26 +48,30 @@ int main(int argc, char **argv) {
   int rounds = 5;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
-    if (a == "--lights")
-      lights_name = v;
-    else if (a == "--ks")
-      ks = v;
-    else if (a == "--density")
-      density = std::stod(v);
-    else if (a == "--queries")
-      queries = uint32_t(std::stoul(v));
-    else if (a == "--rounds")
-      rounds = std::stoi(v);
-    else if (a == "--min-time")
-      min_time = std::stod(v);
-    else if (a == "--cache-dir")
-      cache_dir = v;
-    else if (a == "--json")
-      json = v;
-    else if (a == "--out")
-      out_prefix = v;
-    else
-      return Fail("unknown option " + a);
+    try {
+      if (a == "--lights")
+        lights_name = v;
+      else if (a == "--ks")
+        ks = v;
+      else if (a == "--density")
+        density = std::stod(v);
+      else if (a == "--queries")
+        queries = uint32_t(std::stoul(v));
+      else if (a == "--rounds")
+        rounds = std::stoi(v);
+      else if (a == "--min-time")
+        min_time = std::stod(v);
+      else if (a == "--cache-dir")
+        cache_dir = v;
+      else if (a == "--json")
+        json = v;
+      else if (a == "--out")
+        out_prefix = v;
+      else
+        return Fail("unknown option " + a);
+    } catch (const std::exception &) {  // std::stod / stoul / stoi
+      return Fail(a + ": expected a number, got '" + v + "'");
+    }
   }
   glint::bench::Lights lights{};
   bool found = false;
@@ -100,7 +105,13 @@ int main(int argc, char **argv) {
     auto *km = c.request.mutable_material();
     km->set_model(glint::v1::KEMPPINEN);
     km->mutable_kemppinen()->set_density(float(density));
-    km->mutable_kemppinen()->set_neighbors(uint32_t(std::stoul(k)));
+    uint32_t neighbors = 0;
+    try {
+      neighbors = uint32_t(std::stoul(k));
+    } catch (const std::exception &) {
+      return Fail("--ks: expected numbers separated by commas, got '" + ks + "'");
+    }
+    km->mutable_kemppinen()->set_neighbors(neighbors);
     configs.push_back(std::move(c));
   }
   for (Config &c : configs)
@@ -167,4 +178,12 @@ int main(int argc, char **argv) {
       << load[2] << "],\n \"rows\": [\n  " << rows << "]}\n";
   }
   return 0;
+}
+
+int main(int argc, char **argv) {
+  try {
+    return Run(argc, argv);
+  } catch (const std::exception &e) {  // a request the engine refuses
+    return Fail(e.what());
+  }
 }

@@ -361,9 +361,14 @@ GLINT_FN real kemppinen_u16_lo(kemp_uint h) {
   return KEMP_TO_REAL(h & 0xffffu) * GLINT_R(1.52587890625e-5);
 }
 
-GLINT_FN KemppinenFacet kemppinen_facet(kemp_uint spatial_key, real ix, real iy) {
-  kemp_uint key =
-      kemppinen_absorb(kemppinen_absorb(spatial_key, KEMP_TO_UINT(ix)), KEMP_TO_UINT(iy));
+/* The facet's hash in two steps: the angular column ix (shared by the n cells
+ * of a column of the n x n block, kemppinen_level_at), then the row iy. */
+GLINT_FN kemp_uint kemppinen_column_key(kemp_uint spatial_key, real ix) {
+  return kemppinen_absorb(spatial_key, KEMP_TO_UINT(ix));
+}
+
+GLINT_FN KemppinenFacet kemppinen_facet_in_column(kemp_uint column_key, real iy) {
+  kemp_uint key = kemppinen_absorb(column_key, KEMP_TO_UINT(iy));
   kemp_uint h1 = kemppinen_mix(key ^ 0x1u), h2 = kemppinen_mix(key ^ 0x2u);
   KemppinenFacet g;
   g.sx = kemppinen_u16_hi(h1);
@@ -373,6 +378,10 @@ GLINT_FN KemppinenFacet kemppinen_facet(kemp_uint spatial_key, real ix, real iy)
   g.r = kemppinen_u16_hi(key);
   g.pick = kemppinen_u16_lo(key); /* bits 0-15, independent of r's 16-31 */
   return g;
+}
+
+GLINT_FN KemppinenFacet kemppinen_facet(kemp_uint spatial_key, real ix, real iy) {
+  return kemppinen_facet_in_column(kemppinen_column_key(spatial_key, ix), iy);
 }
 
 /* The angular query: x_a = T(h) and the lobe's standard deviations in U. */
@@ -677,14 +686,18 @@ GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
   for (int j = 0; j < 4; ++j) {
     real dxc = q->s.ts_x - (q->s.bs_x + (real)(j & 1));
     real dyc = q->s.ts_y - (q->s.bs_y + (real)(j >> 1));
-    kemp_uint key = q->key[j];
+    /* The n columns' absorbs once per spatial cell, not per facet (the
+     * same hashes: kemppinen_facet = kemppinen_facet_in_column o
+     * kemppinen_column_key); the summation order is unchanged. */
+    kemp_uint column[4];
+    for (int mx = 0; mx < n; ++mx) column[mx] = kemppinen_column_key(q->key[j], ba_x + (real)mx);
     for (int my = 0; my < n; ++my) {
       real iy = ba_y + (real)my;
       for (int mx = 0; mx < n; ++mx) {
         real ix = ba_x + (real)mx;
         /* Cells past the grid's end (res_a < n at the coarsest levels) drop. */
         glint_mask valid = (ix < ea_x) & (iy < ea_y);
-        KemppinenFacet g = kemppinen_facet(key, ix, iy);
+        KemppinenFacet g = kemppinen_facet_in_column(column[mx], iy);
         real keep = kemppinen_roulette(g.r, w);
         /* No branch on the roulette: with 16 lanes some lane almost always
          * keeps the facet, and the branch cost 10% (measured at k = 1, 4). */

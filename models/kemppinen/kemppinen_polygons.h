@@ -107,28 +107,36 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
     real sn = b.norm * GLINT_R(2.0) * GLINT_PI * (a.sx * res_a) * (a.sy * res_a);
     real3 sum = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
     int n = pb.n_side;
+    /* res_a = 2^l (l <= 24): a product by inv_res_a is the exact quotient,
+     * without a division per cell and facet. */
+    real inv_res_a = GLINT_R(1.0) / res_a;
     for (int j = 0; j < 4; ++j) {
       real cx = b.bs_x + (real)(j & 1);
       real cy = b.bs_y + (real)(j >> 1);
       kemp_uint key = kemppinen_spatial_key(fp.seed_key, level, cx, cy);
-      for (int mm = 0; mm < n * n; ++mm) {
-        real ix = b.ba_x + (real)(mm % n);
-        real iy = b.ba_y + (real)(mm / n);
-        if (!(ix < b.ea_x && iy < b.ea_y)) continue;
-        /* No lobe centred in this cell reaches R: mass 0, skip the hash. */
-        if (kemppinen_lines_rect_apart(&lines, ix / res_a, (ix + GLINT_R(1.0)) / res_a, iy / res_a,
-                                       (iy + GLINT_R(1.0)) / res_a))
-          continue;
-        KemppinenFacet g = kemppinen_facet(key, ix, iy);
-        real keep = kemppinen_roulette(g.r, w);
-        if (!(keep > GLINT_R(0.0))) continue;
-        real gx = (ix + g.ax) / res_a, gy = (iy + g.ay) / res_a;
-        real ox = gx - GLINT_R(0.5), oy = gy - GLINT_R(0.5);
-        if (ox * ox + oy * oy >= GLINT_R(0.25)) continue; /* rejected (3.3.1) */
-        real dx = b.ts_x - cx - g.sx, dy = b.ts_y - cy - g.sy;
-        real ns = sn * exp(-(b.qxx * dx * dx + b.qxy * dx * dy + b.qyy * dy * dy));
-        real mass = kemppinen_lines_mass(R, &lines, gx, gy, a.sx, a.sy);
-        sum = r3_add(sum, r3_scale(kemppinen_facet_color(p, g), keep * ns * mass));
+      /* Rows outer, columns inner, in the order of the former single loop
+       * over mm (ix = mm % n, iy = mm / n): the same sum, no integer division. */
+      for (int my = 0; my < n; ++my) {
+        real iy = b.ba_y + (real)my;
+        if (!(iy < b.ea_y)) break;
+        for (int mx = 0; mx < n; ++mx) {
+          real ix = b.ba_x + (real)mx;
+          if (!(ix < b.ea_x)) break;
+          /* No lobe centred in this cell reaches R: mass 0, skip the hash. */
+          if (kemppinen_lines_rect_apart(&lines, ix * inv_res_a, (ix + GLINT_R(1.0)) * inv_res_a,
+                                         iy * inv_res_a, (iy + GLINT_R(1.0)) * inv_res_a))
+            continue;
+          KemppinenFacet g = kemppinen_facet(key, ix, iy);
+          real keep = kemppinen_roulette(g.r, w);
+          if (!(keep > GLINT_R(0.0))) continue;
+          real gx = (ix + g.ax) * inv_res_a, gy = (iy + g.ay) * inv_res_a;
+          real ox = gx - GLINT_R(0.5), oy = gy - GLINT_R(0.5);
+          if (ox * ox + oy * oy >= GLINT_R(0.25)) continue; /* rejected (3.3.1) */
+          real dx = b.ts_x - cx - g.sx, dy = b.ts_y - cy - g.sy;
+          real ns = sn * exp(-(b.qxx * dx * dx + b.qxy * dx * dy + b.qyy * dy * dy));
+          real mass = kemppinen_lines_mass(R, &lines, gx, gy, a.sx, a.sy);
+          sum = r3_add(sum, r3_scale(kemppinen_facet_color(p, g), keep * ns * mass));
+        }
       }
     }
     real ps = GLINT_R(1.0) - kemppinen_spatial_outside(fp, b);

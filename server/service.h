@@ -153,6 +153,8 @@ class GlintServiceImpl final : public GlintRawService {
   std::vector<Scheduler::Respond> RunEvaluateBatch(int worker, const Scheduler::Members &members);
 
   Scheduler &scheduler() { return *scheduler_; }
+  // Unary replies answered but not yet taken by their clients (--max-undelivered-mb).
+  DeliveryBudget &undelivered() { return undelivered_; }
   const ServiceOptions &options() const { return options_; }
   void LogLine(const std::string &line);
 

@@ -24,6 +24,10 @@ typedef struct {
   int has_frame;       /* queries carry world position / normal / tangent */
   int has_directional; /* request has directional lights */
   int has_point;       /* request has point lights */
+  /* Sample only (the Sample RPC, kernels/sample.h): the queries carry uv, so a
+   * sampler of a model that does not read uv (the smooth one) still keys its
+   * random numbers on it. 0 in every Evaluate pass. */
+  int sample_uv;
 } EvalSpec;
 
 typedef struct {
@@ -105,6 +109,9 @@ GLINT_FN KernelInputs kernel_inputs_make(
 }
 
 /* The spec from the build options (server/eval_plan.cpp KernelSpec::BuildOptions). */
+#ifndef GLINT_SAMPLE_UV
+#define GLINT_SAMPLE_UV 0 /* set only for sample passes whose queries carry uv */
+#endif
 GLINT_FN EvalSpec kernel_spec(void) {
   EvalSpec spec;
   spec.ndf = GLINT_NDF;
@@ -113,6 +120,7 @@ GLINT_FN EvalSpec kernel_spec(void) {
   spec.has_frame = GLINT_HAS_FRAME;
   spec.has_directional = GLINT_HAS_DIRECTIONAL;
   spec.has_point = GLINT_HAS_POINT;
+  spec.sample_uv = GLINT_SAMPLE_UV;
   return spec;
 }
 

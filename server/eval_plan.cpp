@@ -30,6 +30,7 @@ std::string KernelSpec::BuildOptions() const {
     << " -DGLINT_HAS_POINT=" << has_point << " -DGLINT_USE_DOUBLE=" << fp64;
   // Literals such as GLINT_R(0.5) must not promote fp32 arithmetic to double.
   if (!fp64) o << " -cl-single-precision-constant";
+  if (sample_uv) o << " -DGLINT_SAMPLE_UV=1";
   return o.str();
 }
 
@@ -48,6 +49,7 @@ std::string KernelSpec::Describe() const {
   if (has_point) o << "/point";
   if (has_polygon) o << "/polygon";
   if (has_frame) o << "/frame";
+  if (sample_uv) o << "/uv";
   o << (fp64 ? "/fp64" : "/fp32");
   return o.str();
 }

@@ -28,6 +28,9 @@ struct KernelSpec {
   // polygon pass, models/smooth/smooth_area.cl); not a build option.
   bool has_polygon = false;
   bool fp64 = false;
+  // Sample only (server/sample.cpp): the queries carry uv (kernels/kernel_args.h sample_uv). A
+  // build option only when set, so Evaluate's programs and their cache keys are unchanged.
+  bool sample_uv = false;
 
   bool operator==(const KernelSpec &) const = default;
   // "-DGLINT_NDF=1 ..." for clBuildProgram.

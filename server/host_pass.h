@@ -16,6 +16,7 @@ namespace glint {
 struct HostInputs {
   // EvalSpec
   int ndf = 1, fresnel = 1, probe = 0, has_frame = 0, has_directional = 0, has_point = 0;
+  int sample_uv = 0;
   // KernelInputs
   uint32_t n = 0;
   const float *uv = nullptr, *footprint = nullptr, *wo = nullptr, *wi = nullptr;
@@ -54,6 +55,7 @@ void FillKernelInputs(const HostInputs &h, Spec *spec_out, Inputs *in_out) {
   spec.has_frame = h.has_frame;
   spec.has_directional = h.has_directional;
   spec.has_point = h.has_point;
+  spec.sample_uv = h.sample_uv;
   Inputs &in = *in_out;
   in.n = h.n;
   in.uv = h.uv;

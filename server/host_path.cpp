@@ -34,6 +34,7 @@ HostInputs MakeHostInputs(const EvalPlan &plan, const glint::v1::QueryBatch &q, 
   in.has_frame = plan.spec.has_frame;
   in.has_directional = plan.spec.has_directional;
   in.has_point = plan.spec.has_point;
+  in.sample_uv = plan.spec.sample_uv;
   in.n = q.count();
   in.uv = q.uv().data();
   in.footprint = q.footprint().data();

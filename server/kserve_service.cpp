@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "server/auth.h"
+#include "server/counted_reactor.h"
 #include "server/eval_plan.h"
 #include "server/kserve_tensors.h"
 
@@ -235,6 +236,11 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
     glint_->LogLine("ModelInfer model=" + model->name + " refused: " + s.message());
     return Done(ctx, ToGrpcStatus(s));
   };
+  // Replies not yet taken by their clients are bounded as Evaluate's (--max-undelivered-mb).
+  if (Status full = glint_->undelivered().Admit(); !full.ok()) {
+    AddRetryPushback(ctx, glint_->options().slice_ms);
+    return refuse(full);
+  }
   // The settings (preset + parameter overrides) are checked here, on gRPC's thread, as
   // Evaluate does; the tensors are decoded and validated on the worker.
   auto settings = std::make_shared<glint::v1::EvaluateRequest>(model->settings);
@@ -243,7 +249,10 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
   if (s.ok()) s = CheckRequestedOutputs(*request);
   if (!s.ok()) return refuse(s);
 
-  grpc::ServerUnaryReactor *reactor = ctx->DefaultReactor();
+  // The reply counts in --max-undelivered-mb until it has left; a cancelled call leaves the
+  // queue at once (server/counted_reactor.h).
+  auto *reactor = new CountedUnaryReactor(response, &glint_->undelivered(),
+                                          [this] { glint_->scheduler().DropDeadJobs(); });
   const bool queued = glint_->scheduler().TrySubmit(
       [this, reactor, request, response, settings, model, model_index,
        received](int worker) -> Scheduler::Respond {

@@ -13,16 +13,23 @@ namespace {
 
 // Collects the chunks (refusing early once the file is over the size limit), then decodes and
 // stores on a thread of its own: decoding a large map takes a while and must not hold a gRPC
-// callback thread.
-class UploadReactor : public grpc::ServerReadReactor<glint::v1::NormalMapChunk> {
+// callback thread. Raw like the other methods (service.h): each chunk is parsed here, so one
+// that does not parse ends the upload with INVALID_ARGUMENT naming the chunk and the message
+// (gRPC's typed reader ended the reads as if the client had half-closed, and the bytes before
+// it were decoded as the whole file).
+class UploadReactor : public grpc::ServerReadReactor<grpc::ByteBuffer> {
  public:
-  UploadReactor(GlintServiceImpl *service, glint::v1::NormalMapInfo *response)
-      : service_(service), response_(response), max_bytes_(NormalMaps().limits().max_upload_bytes) {
-    StartRead(&chunk_);
+  UploadReactor(GlintServiceImpl *service, grpc::ByteBuffer *reply)
+      : service_(service), reply_(reply), max_bytes_(NormalMaps().limits().max_upload_bytes) {
+    StartRead(&raw_chunk_);
   }
 
   void OnReadDone(bool ok) override {
     if (ok) {
+      if (Status parsed = ParseBody(&raw_chunk_, &chunk_, "chunk " + std::to_string(chunks_read_));
+          !parsed.ok())
+        return Done(parsed);
+      ++chunks_read_;
       if (filename_.empty()) filename_ = chunk_.filename();
       if (bytes_.size() + chunk_.data().size() > max_bytes_) {
         return Done(Status::InvalidArgument(
@@ -30,11 +37,11 @@ class UploadReactor : public grpc::ServerReadReactor<glint::v1::NormalMapChunk> 
             " bytes; the server accepts at most that (Capabilities.max_normal_map_upload_bytes)"));
       }
       bytes_ += chunk_.data();
-      StartRead(&chunk_);
+      StartRead(&raw_chunk_);
       return;
     }
     std::thread([this] {
-      Status s = NormalMaps().Upload(Name(), bytes_, response_);
+      Status s = NormalMaps().Upload(Name(), bytes_, &response_);
       Done(s);
     }).detach();
   }
@@ -46,27 +53,31 @@ class UploadReactor : public grpc::ServerReadReactor<glint::v1::NormalMapChunk> 
   void Done(const Status &s) {
     std::ostringstream line;
     line << "UploadNormalMap " << Name() << " bytes=" << bytes_.size() << " "
-         << (s.ok() ? response_->digest() + (response_->already_present() ? " (already held)" : "")
+         << (s.ok() ? response_.digest() + (response_.already_present() ? " (already held)" : "")
                     : "refused: " + s.message());
     service_->LogLine(line.str());
-    if (!s.ok()) response_->Clear();
-    Finish(ToGrpcStatus(s));
+    grpc::Status status = ToGrpcStatus(s);
+    if (status.ok()) status = SerializeReply(response_, reply_);
+    Finish(status);
   }
 
   GlintServiceImpl *service_;
-  glint::v1::NormalMapInfo *response_;
+  grpc::ByteBuffer *reply_;
+  glint::v1::NormalMapInfo response_;
   uint64_t max_bytes_;
+  grpc::ByteBuffer raw_chunk_;
+  uint64_t chunks_read_ = 0;
   glint::v1::NormalMapChunk chunk_;
   std::string filename_, bytes_;
 };
 
 }  // namespace
 
-grpc::ServerReadReactor<glint::v1::NormalMapChunk> *GlintServiceImpl::UploadNormalMap(
-    grpc::CallbackServerContext *ctx, glint::v1::NormalMapInfo *response) {
+grpc::ServerReadReactor<grpc::ByteBuffer> *GlintServiceImpl::UploadNormalMap(
+    grpc::CallbackServerContext *ctx, grpc::ByteBuffer *reply) {
   if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok())
-    return new RefusedReadReactor<glint::v1::NormalMapChunk>(denied);
-  return new UploadReactor(this, response);
+    return new RefusedReadReactor<grpc::ByteBuffer>(denied);
+  return new UploadReactor(this, reply);
 }
 
 grpc::ServerUnaryReactor *GlintServiceImpl::ListNormalMaps(grpc::CallbackServerContext *ctx,

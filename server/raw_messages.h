@@ -8,6 +8,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include "server/auth.h"
@@ -27,12 +28,15 @@ grpc::Status SerializeReply(const google::protobuf::Message &message, grpc::Byte
 
 // A unary call's reactor that owns its typed request and response (the methods are raw, see
 // service.h); Finish serialises the response into the reply buffer. With a DeliveryBudget, the
-// reply's bytes are held in it from Finish until OnDone.
+// reply's bytes are held in it from Finish until OnDone. `on_cancel` (if set) runs when gRPC
+// reports the call cancelled (client cancel, disconnect or deadline): the service drops the
+// call's queued job there (Scheduler::DropDeadJobs).
 template <class Request, class Response>
 class OwningUnaryReactor : public grpc::ServerUnaryReactor {
  public:
-  explicit OwningUnaryReactor(grpc::ByteBuffer *reply, DeliveryBudget *budget = nullptr)
-      : reply_(reply), budget_(budget) {}
+  explicit OwningUnaryReactor(grpc::ByteBuffer *reply, DeliveryBudget *budget = nullptr,
+                              std::function<void()> on_cancel = {})
+      : reply_(reply), budget_(budget), on_cancel_(std::move(on_cancel)) {}
   Request request;
   Response response;
   void Finish(grpc::Status s) {
@@ -45,6 +49,9 @@ class OwningUnaryReactor : public grpc::ServerUnaryReactor {
     }
     grpc::ServerUnaryReactor::Finish(s);
   }
+  void OnCancel() override {
+    if (on_cancel_) on_cancel_();
+  }
   void OnDone() override {
     if (budget_) budget_->Release(held_);
     delete this;
@@ -53,6 +60,7 @@ class OwningUnaryReactor : public grpc::ServerUnaryReactor {
  private:
   grpc::ByteBuffer *reply_;
   DeliveryBudget *budget_;
+  std::function<void()> on_cancel_;
   uint64_t held_ = 0;
 };
 

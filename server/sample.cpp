@@ -69,6 +69,9 @@ Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleReques
   const uint32_t k = request.samples_per_query();
   const size_t samples = size_t(q.count()) * k;
   EvalPlan plan = MakeEvalPlan(settings, q);
+  // uv keys every model's samples when the queries carry it, also where the BRDF does not read
+  // it (README "Determinism"; models/smooth/smooth_sample.h).
+  plan.spec.sample_uv = q.uv_size() > 0;
   // The normal map of a NORMAL_MAP material (NOT_FOUND naming the digest when it is gone).
   s = ResolveRequestTable(settings.material(), &plan);
   if (!s.ok()) return s;

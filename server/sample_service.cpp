@@ -18,7 +18,9 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Sample(grpc::CallbackServerContext *
   // Raw (service.h): the body is parsed here, after the token check, so one that does not parse
   // is INVALID_ARGUMENT naming the message rather than gRPC's bare UNIMPLEMENTED.
   using Reactor = OwningUnaryReactor<glint::v1::SampleRequest, glint::v1::SampleResponse>;
-  auto *reactor = new Reactor(reply);
+  // Its reply counts in --max-undelivered-mb as Evaluate's; a cancelled call leaves the queue at
+  // once (server/raw_messages.h).
+  auto *reactor = new Reactor(reply, &undelivered_, [this] { scheduler_->DropDeadJobs(); });
   const glint::v1::SampleRequest *request = &reactor->request;
   glint::v1::SampleResponse *response = &reactor->response;
   if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok()) {
@@ -31,6 +33,13 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Sample(grpc::CallbackServerContext *
   }
   if (shutting_down_) {
     reactor->Finish(ToGrpcStatus(Admit({}, 0)));
+    return reactor;
+  }
+  if (Status full = undelivered_.Admit(); !full.ok()) {
+    LogLine("Sample n=" + std::to_string(request->queries().count()) +
+            " refused: " + full.message());
+    AddRetryPushback(ctx, options_.slice_ms);
+    reactor->Finish(ToGrpcStatus(full));
     return reactor;
   }
   // Cost admission as Evaluate's (server/request_cost.h): the settings are checked here, on

@@ -58,6 +58,15 @@ bool Scheduler::HasRoom() {
   return room;
 }
 
+void Scheduler::DropDeadJobs() {
+  std::vector<Respond> answers;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    DropDead(&answers);
+  }
+  Answer(&answers);
+}
+
 bool Scheduler::TrySubmit(Job job, std::shared_ptr<BatchMember> member, Dead dead) {
   if (!batching_.max_queries) member.reset();
   const bool gathering = member && batching_.delay.count() > 0;

@@ -17,7 +17,8 @@
 // Dead calls (issue 12): a job may come with a Dead check that tells whether its call already
 // died (client cancelled or gone, deadline passed) and, if so, how to answer it. A dead queued
 // job never runs and does not keep its pending slot: TrySubmit and HasRoom drop the queued dead
-// jobs before refusing for a full queue, and a worker drops them whenever it takes a job. Its
+// jobs before refusing for a full queue, a worker drops them whenever it takes a job, and
+// DropDeadJobs drops them when gRPC reports a call cancelled (its reactor's OnCancel). Its
 // answer is given after the lock is released, exactly once (the entry left the queue under it).
 #pragma once
 
@@ -72,6 +73,10 @@ class Scheduler {
   bool TrySubmit(Job job, std::shared_ptr<BatchMember> member, Dead dead);
   // Whether a job submitted now would find a slot, after dropping the queued dead jobs.
   bool HasRoom();
+  // Drops the queued dead jobs and answers them now: a call's OnCancel (the client cancelled, went
+  // away, or the deadline passed) frees its slot at once instead of when the queue is next full
+  // or a worker takes a job, so --max-pending and the queue-depth metric count live calls only.
+  void DropDeadJobs();
   // Before any job is submitted.
   void EnableBatching(BatchOptions options, BatchJob run);
   const BatchOptions &batching() const { return batching_; }

@@ -206,7 +206,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
                                                      const grpc::ByteBuffer *body,
                                                      grpc::ByteBuffer *reply) {
   using Reactor = OwningUnaryReactor<glint::v1::EvaluateRequest, glint::v1::EvaluateResponse>;
-  auto *reactor = new Reactor(reply, &undelivered_);
+  auto *reactor = new Reactor(reply, &undelivered_, [this] { scheduler_->DropDeadJobs(); });
   const glint::v1::EvaluateRequest *request = &reactor->request;
   glint::v1::EvaluateResponse *response = &reactor->response;
   const auto received = Clock::now();
@@ -219,11 +219,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   if (!scheduler_->HasRoom()) {  // dead queued calls give up their slots first
     s = OverloadStatus(*scheduler_);
     AddRetryPushback(ctx, options_.slice_ms);
-  } else if (undelivered_.Full()) {
-    s = Status::ResourceExhausted(
-        "server busy: " + std::to_string(undelivered_.held() >> 20) +
-        " MiB of answered replies not yet read by their clients (--max-undelivered-mb " +
-        std::to_string(undelivered_.limit() >> 20) + "); retry later or send to another replica");
+  } else if (s = undelivered_.Admit(); !s.ok()) {
     AddRetryPushback(ctx, options_.slice_ms);
   }
   // The client's claim (query count, model) before the body is parsed.

@@ -44,13 +44,13 @@ struct ServiceOptions {
 // gives INVALID_ARGUMENT naming what did not parse. (A new typed callback method is added to
 // this chain as glint::v1::GlintService::WithCallbackMethod_<Name><...>.)
 // The small unary calls answered at once (normal-map list/delete, shared-memory regions) are raw
-// too (server/raw_messages.h AnswerNow), and so is Sample. UploadNormalMap is still typed: a body
-// of its that does not parse gets gRPC's own answer.
+// too (server/raw_messages.h AnswerNow), and so are Sample and UploadNormalMap (its chunks
+// parsed one by one, server/normal_map_rpc.cpp).
 using GlintRawService = glint::v1::GlintService::WithRawCallbackMethod_Evaluate<
     glint::v1::GlintService::WithRawCallbackMethod_EvaluateStream<
         glint::v1::GlintService::WithRawCallbackMethod_GetCapabilities<
             glint::v1::GlintService::WithRawCallbackMethod_Sample<
-                glint::v1::GlintService::WithCallbackMethod_UploadNormalMap<
+                glint::v1::GlintService::WithRawCallbackMethod_UploadNormalMap<
                     glint::v1::GlintService::WithRawCallbackMethod_ListNormalMaps<
                         glint::v1::GlintService::WithRawCallbackMethod_DeleteNormalMap<
                             glint::v1::GlintService::WithRawCallbackMethod_RegisterSharedMemory<
@@ -82,8 +82,8 @@ class GlintServiceImpl final : public GlintRawService {
   grpc::ServerUnaryReactor *Sample(grpc::CallbackServerContext *ctx, const grpc::ByteBuffer *body,
                                    grpc::ByteBuffer *reply) override;
   // Normal-map resources (server/normal_map_rpc.cpp, the store in server/normal_map_store.h).
-  grpc::ServerReadReactor<glint::v1::NormalMapChunk> *UploadNormalMap(
-      grpc::CallbackServerContext *ctx, glint::v1::NormalMapInfo *response) override;
+  grpc::ServerReadReactor<grpc::ByteBuffer> *UploadNormalMap(grpc::CallbackServerContext *ctx,
+                                                             grpc::ByteBuffer *reply) override;
   grpc::ServerUnaryReactor *ListNormalMaps(grpc::CallbackServerContext *ctx,
                                            const grpc::ByteBuffer *request,
                                            grpc::ByteBuffer *response) override;
@@ -153,6 +153,8 @@ class GlintServiceImpl final : public GlintRawService {
   std::vector<Scheduler::Respond> RunEvaluateBatch(int worker, const Scheduler::Members &members);
 
   Scheduler &scheduler() { return *scheduler_; }
+  // Unary replies answered but not yet taken by their clients (--max-undelivered-mb).
+  DeliveryBudget &undelivered() { return undelivered_; }
   const ServiceOptions &options() const { return options_; }
   void LogLine(const std::string &line);
 

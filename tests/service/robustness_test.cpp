@@ -847,3 +847,52 @@ TEST(Cancellation, CancelledOrExpiredSampleFreesTheWorkerWithinASlice) {
 }
 
 }  // namespace
+
+// UploadNormalMap is raw too (server/normal_map_rpc.cpp): a chunk whose body does not parse ends
+// the upload with INVALID_ARGUMENT naming the chunk and the message. (Before: gRPC's typed reader
+// ended the reads as if the client had half-closed, and the chunks before it were decoded as the
+// whole file, refused as "empty" or as a broken image, naming neither.)
+TEST_F(Robustness, UnparseableUploadChunkGetsInvalidArgumentNamingTheChunk) {
+  v1::NormalMapChunk first;
+  first.set_filename("bump.exr");
+  first.set_data(std::string(64, 'x'));
+  for (const std::vector<grpc::ByteBuffer> &frames :
+       {std::vector<grpc::ByteBuffer>{Serialized(first), Bytes(BadBytes())},
+        std::vector<grpc::ByteBuffer>{Serialized(first), Bytes(BadBytes()), Serialized(first)}}) {
+    grpc::GenericStub stub(channel());
+    grpc::CompletionQueue cq;
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    auto call = stub.PrepareCall(&ctx, "/glint.v1.GlintService/UploadNormalMap", &cq);
+    int next_tag = 1;
+    auto step = [&](auto &&start) {
+      void *want = reinterpret_cast<void *>(intptr_t(next_tag++));
+      start(want);
+      void *tag = nullptr;
+      bool ok = false;
+      EXPECT_TRUE(cq.Next(&tag, &ok));
+      EXPECT_EQ(tag, want);
+      return ok;
+    };
+    step([&](void *t) { call->StartCall(t); });
+    for (const grpc::ByteBuffer &f : frames)
+      if (!step([&](void *t) { call->Write(f, t); })) break;
+    step([&](void *t) { call->WritesDone(t); });
+    grpc::ByteBuffer reply;
+    const bool answered = step([&](void *t) { call->Read(&reply, t); });
+    grpc::Status status;
+    step([&](void *t) { call->Finish(&status, t); });
+    cq.Shutdown();
+    void *tag;
+    bool ok;
+    while (cq.Next(&tag, &ok)) {
+    }
+    EXPECT_FALSE(answered) << "a refused upload has no NormalMapInfo";
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+    EXPECT_NE(status.error_message().find("chunk 1: "), std::string::npos)
+        << status.error_message();
+    EXPECT_NE(status.error_message().find("does not parse as a glint.v1.NormalMapChunk"),
+              std::string::npos)
+        << status.error_message();
+  }
+}

@@ -8,6 +8,8 @@
 //    the hemisphere (HostEvaluate with queries.wi), within 4.5 standard errors (from the sample
 //    variance) plus the quadrature's error (the difference of two resolutions);
 //  - determinism: the device's samples bit-identical however the batch is split, and repeated;
+//    SMOOTH samples keyed by uv when the queries carry it (no direction shared by two queries
+//    differing only in uv; one set for all without uv);
 //  - refusals: K = 0 or beyond the limit, too many samples per call, BINOMIAL, wi set, no uv.
 #include "server/sample.h"
 
@@ -644,6 +646,75 @@ TEST_F(SampleDeviceTest, DeviceMeanWeightMatchesQuadrature) {
   const double se = std::sqrt(std::max(0.0, sum2 / kSamples - mean * mean) / (kSamples - 1));
   std::printf("device: mean weight %.5f +- %.5f, quadrature %.5f\n", mean, se, fine[0]);
   EXPECT_NEAR(mean, fine[0], 4.5 * se + std::fabs(fine[0] - coarse[0]));
+}
+
+// SMOOTH samples are keyed by uv when the queries carry it (README "Determinism"), though the
+// smooth BRDF does not read uv: 12 queries with one wo and 12 different uv get 12 independent
+// sample sets (no wi shared between any two, on the device and on the host), while the same
+// queries without uv get one set 12 times (the key is then wo alone, as before); and the uv-keyed
+// samples stay bit-identical however the batch is split.
+TEST_F(SampleDeviceTest, SmoothSamplesAreKeyedByUvAndUnchangedByChunking) {
+  constexpr int kQueries = 12, kK = 16;
+  SampleRequest with_uv;
+  *with_uv.mutable_material() = Smooth(v1::GGX, 0.3f, 0.2f);
+  with_uv.set_samples_per_query(kK);
+  with_uv.set_seed(5);
+  v1::QueryBatch *q = with_uv.mutable_queries();
+  q->set_count(kQueries);
+  const Vec wo = WoAt(35, 20);
+  for (int i = 0; i < kQueries; ++i) {
+    for (double v : {wo.x, wo.y, wo.z}) q->add_wo(float(v));
+    for (float v : {0.1f + 0.05f * float(i), 0.7f}) q->add_uv(v);
+    for (float v : {1e-3f, 0.0f, 0.0f, 1e-3f}) q->add_footprint(v);
+  }
+  SampleRequest without_uv = with_uv;
+  without_uv.mutable_queries()->clear_uv();
+  without_uv.mutable_queries()->clear_footprint();
+  auto wi_of = [](const SampleResponse &r, int query, int k) {
+    const int g = 3 * (query * kK + k);
+    return std::array<float, 3>{r.wi(g), r.wi(g + 1), r.wi(g + 2)};
+  };
+  auto host = [](const SampleRequest &r) {
+    SampleResponse out;
+    ValidationLimits limits;
+    Status s = RunSample(nullptr, 0, r, limits, &out);
+    EXPECT_TRUE(s.ok()) << s.message();
+    return out;
+  };
+  for (bool device : {true, false}) {
+    SCOPED_TRACE(device ? "device" : "host");
+    const SampleResponse keyed = device ? Device(with_uv) : host(with_uv);
+    const SampleResponse plain = device ? Device(without_uv) : host(without_uv);
+    ASSERT_EQ(keyed.wi_size(), kQueries * kK * 3);
+    ASSERT_EQ(plain.wi_size(), kQueries * kK * 3);
+    int shared = 0, live = 0;
+    for (int i = 0; i < kQueries; ++i) {
+      for (int k = 0; k < kK; ++k) {
+        live += keyed.pdf(i * kK + k) > 0.0f;
+        EXPECT_EQ(wi_of(plain, i, k), wi_of(plain, 0, k)) << "query " << i << " sample " << k;
+        for (int j = 0; j < i; ++j)
+          for (int l = 0; l < kK; ++l)
+            shared += keyed.pdf(i * kK + k) > 0.0f && wi_of(keyed, i, k) == wi_of(keyed, j, l);
+      }
+    }
+    EXPECT_EQ(shared, 0) << "queries differing only in uv share sampled directions";
+    EXPECT_GT(live, kQueries * kK / 2);  // a kernel writing only null samples would pass the rest
+  }
+  const SampleResponse whole = Device(with_uv);
+  int first = 0;
+  for (int size : {5, 1, 6}) {
+    const SampleResponse part = Device(Slice(with_uv, first, size));
+    ASSERT_EQ(part.pdf_size(), size * kK);
+    for (int j = 0; j < part.pdf_size(); ++j) {
+      const int g = first * kK + j;
+      ASSERT_EQ(part.pdf(j), whole.pdf(g)) << "sample " << g;
+      for (int c = 0; c < 3; ++c) {
+        ASSERT_EQ(part.wi(3 * j + c), whole.wi(3 * g + c)) << "sample " << g;
+        ASSERT_EQ(part.weight(3 * j + c), whole.weight(3 * g + c)) << "sample " << g;
+      }
+    }
+    first += size;
+  }
 }
 
 }  // namespace

@@ -1,0 +1,161 @@
+// A queued call that is cancelled, or whose deadline passes, leaves the queue at once (issue 12):
+// its reactor's OnCancel asks the scheduler to drop the dead queued jobs
+// (Scheduler::DropDeadJobs), so its --max-pending slot and the queue-depth gauge are freed then,
+// not when the queue is next full or the worker takes the job. With the one worker busy on a
+// long request (~30 s of REFERENCE work, cancelled at the end) and room in the queue, the gauge
+// (glintd --metrics-listen, scraped with cpp-httplib) must fall back to 1 while the long request
+// still runs. Before, it stayed at 2 until the worker was free again.
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <regex>
+#include <string>
+#include <thread>
+
+#include "glint/v1/glint.grpc.pb.h"
+#include "glintd_process.h"
+#include "test_queries.h"
+
+namespace {
+
+namespace v1 = glint::v1;
+using Clock = std::chrono::steady_clock;
+
+std::string GlintdPath() {
+  const char *path = std::getenv("GLINTD_UNDER_TEST");
+  return path ? path : GLINTD_PATH;
+}
+
+v1::Material Smooth() {
+  v1::Material m;
+  m.set_model(v1::SMOOTH);
+  m.set_ndf(v1::GGX);
+  m.set_alpha_x(0.3f);
+  m.set_alpha_y(0.2f);
+  for (float f : {0.9f, 0.6f, 0.3f}) m.mutable_schlick()->add_f0(f);
+  return m;
+}
+
+// ~50 ms of device work per query: 4 quads by REFERENCE with 512 nodes per dimension (as
+// robustness_test's LongRequest).
+v1::EvaluateRequest LongRequest(uint32_t n) {
+  v1::EvaluateRequest r;
+  *r.mutable_material() = Smooth();
+  for (int k = 0; k < 4; ++k) {
+    auto *p = r.add_lights()->mutable_polygon();
+    for (int v = 0; v < 4; ++v) {
+      const double t = -2.0 * 3.14159265358979 * v / 4;
+      for (double c : {0.5 * k + 2.0 * std::cos(t), 2.0 * std::sin(t), 3.0})
+        p->add_vertices(float(c));
+    }
+    for (float v : {1.0f, 1.0f, 1.0f}) p->add_radiance(v);
+    p->set_two_sided(true);
+  }
+  r.set_area_method(v1::REFERENCE);
+  r.set_area_samples(512);
+  *r.mutable_queries() = glint::test::RandomQueries(n, false, false, 5);
+  return r;
+}
+
+// glint_queue_depth (queued + running requests) from /metrics; -1 when unreadable.
+double QueueDepth(httplib::Client &http) {
+  auto res = http.Get("/metrics");
+  if (!res || res->status != 200) return -1;
+  std::smatch m;
+  static const std::regex line(R"((^|\n)glint_queue_depth ([0-9.eE+-]+)\n)");
+  if (!std::regex_search(res->body, m, line)) return -1;
+  return std::stod(m[2]);
+}
+
+// Polls the gauge until it equals `want` or `stop()` or 10 s; returns the last value read.
+template <class Stop>
+double WaitForDepth(httplib::Client &http, double want, Stop &&stop) {
+  const auto until = Clock::now() + std::chrono::seconds(10);
+  double depth = QueueDepth(http);
+  while (depth != want && !stop() && Clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    depth = QueueDepth(http);
+  }
+  return depth;
+}
+
+TEST(DeadCall, CancelledQueuedCallLeavesTheQueueAtOnce) {
+  glint::test::TempDir dir("glint_dead_call_test");
+  const int metrics_port = glint::test::FreeLoopbackPort();
+  ASSERT_GT(metrics_port, 0);
+  std::string error;
+  auto server =
+      glint::test::Glintd::Start(GlintdPath(), dir, "dead_call",
+                                 {"--workers", "1", "--max-pending", "8", "--slice-ms", "50",
+                                  "--metrics-listen", "127.0.0.1:" + std::to_string(metrics_port)},
+                                 &error);
+  ASSERT_NE(server, nullptr) << error;
+  httplib::Client http("127.0.0.1", metrics_port);
+  auto stub = v1::GlintService::NewStub(
+      grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials()));
+  ASSERT_EQ(QueueDepth(http), 0);
+
+  grpc::ClientContext long_ctx;
+  long_ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(300));
+  std::atomic<bool> long_done{false};
+  grpc::Status long_status;
+  std::thread long_call([&] {
+    v1::EvaluateResponse res;
+    long_status = stub->Evaluate(&long_ctx, LongRequest(600), &res);
+    long_done = true;
+  });
+  auto long_ended = [&] { return long_done.load(); };
+  ASSERT_EQ(WaitForDepth(http, 1, long_ended), 1);
+
+  struct Case {
+    const char *what;
+    bool sample, use_deadline;
+  };
+  for (const Case &c :
+       {Case{"Evaluate cancelled", false, false}, Case{"Evaluate past its deadline", false, true},
+        Case{"Sample cancelled", true, false}}) {
+    SCOPED_TRACE(c.what);
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() +
+                     std::chrono::milliseconds(c.use_deadline ? 1500 : 60000));
+    grpc::Status status;
+    std::atomic<bool> answered{false};
+    std::thread queued([&] {
+      if (c.sample) {
+        v1::SampleRequest req;
+        *req.mutable_material() = Smooth();
+        *req.mutable_queries() = glint::test::RandomQueries(16, false, false, 3);
+        req.set_samples_per_query(4);
+        v1::SampleResponse res;
+        status = stub->Sample(&ctx, req, &res);
+      } else {
+        v1::EvaluateRequest req;
+        *req.mutable_material() = Smooth();
+        *req.mutable_queries() = glint::test::RandomQueries(16, true, false, 7);
+        v1::EvaluateResponse res;
+        status = stub->Evaluate(&ctx, req, &res);
+      }
+      answered = true;
+    });
+    // Queued behind the long request: the gauge counts it.
+    EXPECT_EQ(WaitForDepth(http, 2, [&] { return long_done || answered; }), 2);
+    if (!c.use_deadline) ctx.TryCancel();
+    queued.join();
+    EXPECT_EQ(status.error_code(),
+              c.use_deadline ? grpc::StatusCode::DEADLINE_EXCEEDED : grpc::StatusCode::CANCELLED);
+    EXPECT_EQ(WaitForDepth(http, 1, long_ended), 1) << "the dead call kept its slot";
+    EXPECT_FALSE(long_done) << "the long request ended first, so the check proved nothing ("
+                            << long_status.error_message() << ")";
+  }
+  long_ctx.TryCancel();
+  long_call.join();
+  EXPECT_EQ(long_status.error_code(), grpc::StatusCode::CANCELLED) << long_status.error_message();
+  EXPECT_EQ(WaitForDepth(http, 0, [] { return false; }), 0);
+  EXPECT_TRUE(server->Alive());
+}
+
+}  // namespace

@@ -283,7 +283,9 @@ def main():
         for variant, rs in sorted(bench_rows.items()):
             r = dict(rs[0])
             r["evals_per_s"] = statistics.median(x["evals_per_s"] for x in rs)
-            r["ratio_to_smooth"] = statistics.median(x["ratio_to_smooth"] for x in rs)
+            # (null: the ratio's reference, the directional_point row, is not in these runs)
+            ratios = [x["ratio_to_smooth"] for x in rs if x["ratio_to_smooth"] is not None]
+            r["ratio_to_smooth"] = statistics.median(ratios) if ratios else None
             r["ratio_to_mitsuba"] = r["evals_per_s"] / mitsuba_rate
             r["driver"] = f"bench_models --quick (median of {len(rs)} runs)"
             rows.append(r)

@@ -19,13 +19,25 @@ newer libLLVM than bookworm's default 14/15 (those abort compiling its kernel), 
 Timings: wall M/s on this (shared) machine, and M per CPU-second (all threads of the process),
 which another process's load changes much less.
   /tmp/mitsuba-venv/bin/python bench/mitsuba_compare.py [--n 1048576] [--rounds 7] [--per-round 5]
-      [--driver build/bench/smooth_probe_driver] [--host] [--json PATH]
+      [--driver build/bench/smooth_probe_driver] [--bench-models build/bench/bench_models]
+      [--host] [--json PATH]
 --host adds a second comparison: Mitsuba on one thread against glint's host path (one thread).
-Prints a markdown table; --json writes the numbers.
+--bench-models (default on when the binary exists; --bench-models '' skips it) also runs, once per
+round between Mitsuba's evals, `bench_models --quick --models SMOOTH --lights probe --precisions
+fp32 --paths device` (its own probe queries, the SMOOTH `conductor` and `schlick` rows) and keeps
+the median rate of each row over the rounds, so the benchmark's rows and Mitsuba are timed under
+the same load.
+Prints a markdown table; --json writes {"command", "machine", "rows": [...]} with rows in the
+bench_models format (model, variant, lights, precision, path, evals_per_s, ratio_to_smooth,
+error_mean, error_p95, error_max) plus evals_per_cpu_s and ratio_to_mitsuba (this row's rate over
+Mitsuba's, wall); Mitsuba's rows have model MITSUBA3. error_* of the SMOOTH conductor row on the
+1M pairs is its relative difference to Mitsuba (G2 corrected, see above); mean is the median.
+Not asserted in a test: a measurement on a shared machine.
 """
 import argparse
 import json
 import os
+import shlex
 import statistics
 import subprocess
 import sys
@@ -86,12 +98,24 @@ class GlintDriver:
         self.p.wait()
 
 
+def bench_models_round(binary, json_path):
+    """One bench_models run of the SMOOTH fp32 probe rows on the device: {variant: row}."""
+    subprocess.run([binary, "--quick", "--models", "SMOOTH", "--lights", "probe", "--precisions",
+                    "fp32", "--paths", "device", "--json", json_path],
+                   check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    with open(json_path) as f:
+        return {r["variant"]: r for r in json.load(f)["rows"]
+                if r["model"] == "SMOOTH" and r["lights"] == "probe" and r["path"] == "device"}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--n", type=int, default=1 << 20)
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--per-round", type=int, default=5)
     ap.add_argument("--driver", default="build/bench/smooth_probe_driver")
+    ap.add_argument("--bench-models", default="build/bench/bench_models",
+                    help="bench_models binary for the interleaved SMOOTH probe rows ('' skips)")
     ap.add_argument("--host", action="store_true",
                     help="also Mitsuba on one thread against glint's host path")
     ap.add_argument("--json")
@@ -147,6 +171,8 @@ def main():
         return time.perf_counter() - t0, out
 
     results = {}
+    use_bench_models = bool(args.bench_models) and os.path.exists(args.bench_models)
+    bench_rows = {}  # variant -> [row of each round]
     with tempfile.TemporaryDirectory() as tmp:
         wo_path, wi_path = os.path.join(tmp, "wo.f32"), os.path.join(tmp, "wi.f32")
         out_path = os.path.join(tmp, "out.f32")
@@ -169,6 +195,12 @@ def main():
                 t_gl += glint.round(args.per_round)
                 for _ in range(max(1, args.per_round // 2)):
                     t_mi_np.append(mitsuba_eval_numpy()[0])
+                if use_bench_models and path == "device":
+                    rows = bench_models_round(args.bench_models, os.path.join(tmp, "bm.json"))
+                    for variant, r in rows.items():
+                        bench_rows.setdefault(variant, []).append(r)
+                    for _ in range(args.per_round):  # Mitsuba again, after the bench run
+                        t_mi.append(mitsuba_eval()[0])
             glint.write()
             glint.close()
             ours = np.fromfile(out_path, dtype=np.float32).reshape(n, 3).astype(np.float64)
@@ -212,9 +244,57 @@ def main():
               f"{r['glint_evals_per_cpu_s'] / r['mitsuba_evals_per_cpu_s']:.2f} | "
               f"{r['rel_error_median']:.2g} | {r['rel_error_p99']:.2g} | "
               f"{r['rel_error_max']:.2g} |")
+    mitsuba_rate = results["all cores"]["mitsuba_evals_per_s"]
+    if bench_rows:
+        print(f"\nbench_models SMOOTH fp32 device probe rows (median of {args.rounds} runs "
+              f"interleaved with the Mitsuba evals above):\n")
+        print("| variant | M evals/s | / Mitsuba (wall) | batch |")
+        print("|---|---|---|---|")
+        for variant, rs in sorted(bench_rows.items()):
+            rate = statistics.median(r["evals_per_s"] for r in rs)
+            print(f"| {variant} | {rate / 1e6:.0f} | {rate / mitsuba_rate:.2f} | "
+                  f"{rs[0]['batch']} |")
     if args.json:
+        def row(model, variant, path, rate, cpu_rate=None, err=None, **extra):
+            r = {"model": model, "variant": variant, "lights": "probe", "precision": "fp32",
+                 "path": path, "evals_per_s": rate, "ratio_to_smooth": None,
+                 "error_mean": None, "error_p95": None, "error_max": None,
+                 "evals_per_cpu_s": cpu_rate, "ratio_to_mitsuba": None}
+            if err:
+                r.update(err)
+            r.update(extra)
+            return r
+        rows = []
+        for label, r in results.items():
+            threads = "all_cores" if label == "all cores" else "one_thread"
+            ref = r["mitsuba_evals_per_s"]
+            rows.append(row("MITSUBA3", "roughconductor", f"llvm_ad_rgb_{threads}",
+                            ref, r["mitsuba_evals_per_cpu_s"], queries=n))
+            rows.append(row("MITSUBA3", "roughconductor", f"llvm_ad_rgb_{threads}_numpy_io",
+                            r["mitsuba_numpy_io_evals_per_s"], queries=n,
+                            ratio_to_mitsuba=r["mitsuba_numpy_io_evals_per_s"] / ref))
+            rows.append(row("SMOOTH", "conductor", r["glint_path"], r["glint_evals_per_s"],
+                            r["glint_evals_per_cpu_s"],
+                            {"error_mean": r["rel_error_median"], "error_p95": r["rel_error_p99"],
+                             "error_max": r["rel_error_max"]},
+                            error_reference="Mitsuba 3 x G2/(G1 G1), mean = median, p95 = p99",
+                            ratio_to_mitsuba=r["glint_evals_per_s"] / ref, queries=n,
+                            driver="smooth_probe_driver", threads=threads))
+        for variant, rs in sorted(bench_rows.items()):
+            r = dict(rs[0])
+            r["evals_per_s"] = statistics.median(x["evals_per_s"] for x in rs)
+            # (null: the ratio's reference, the directional_point row, is not in these runs)
+            ratios = [x["ratio_to_smooth"] for x in rs if x["ratio_to_smooth"] is not None]
+            r["ratio_to_smooth"] = statistics.median(ratios) if ratios else None
+            r["ratio_to_mitsuba"] = r["evals_per_s"] / mitsuba_rate
+            r["driver"] = f"bench_models --quick (median of {len(rs)} runs)"
+            rows.append(r)
         with open(args.json, "w") as f:
-            json.dump({"n": n, "mitsuba": mi.__version__, "rows": results}, f, indent=1)
+            json.dump({"command": " ".join(shlex.quote(a) for a in sys.argv),
+                       "machine": {"cores": os.cpu_count(), "mitsuba": mi.__version__,
+                                   "load_average_end": " ".join(f"{x:.2f}" for x in load),
+                                   "note": "shared machine: compare ratios, not absolutes"},
+                       "n": n, "rows": rows}, f, indent=1)
     return 0
 
 

@@ -19,7 +19,7 @@ GLINT_FN real F_schlick(real f0, real cos_theta) {
  * approximations for metals" (Eq. 1-2), via a^2 + b^2 = sqrt(t0^2 + 4 eta^2 k^2):
  *   Rs = (a2b2 + c^2 - 2 a c) / (a2b2 + c^2 + 2 a c)
  *   Rp = Rs (c^2 a2b2 + s^4 - 2 a c s^2) / (c^2 a2b2 + s^4 + 2 a c s^2).
- * Two square roots and two divisions per channel (the cost that matters: the
+ * Two square roots and one division per channel (the cost that matters: the
  * conductor runs this three times per evaluation, issue 13). */
 GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
   real c = clamp(cos_theta, GLINT_R(0.0), GLINT_R(1.0));
@@ -28,21 +28,32 @@ GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
   real t0 = eta * eta - k * k - s2;
   real a2b2 = sqrt(fmax(t0 * t0 + GLINT_R(4.0) * eta * eta * k * k, GLINT_R(0.0)));
   /* a^2 = (a2b2 + t0) / 2 cancels when t0 < 0 and |t0| >> 2 eta k (small eta, large k: silver,
-   * gold in the red), costing fp32 up to 1e-5 in F. As a2b2^2 - t0^2 = 4 eta^2 k^2, it equals
-   * 2 eta^2 k^2 / (a2b2 - t0) there. With u = a2b2 + |t0| (a sum of non-negatives: no
-   * cancellation) a^2 is u / 2 for t0 >= 0 and 2 eta^2 k^2 / u for t0 < 0; both are computed
-   * (branch-free, see compat.h), the fmax keeping the unused quotient finite. */
+   * gold in the red), costing fp32 up to 1e-5 in F. With u = a2b2 + |t0| (a sum of
+   * non-negatives: no cancellation) and w = sqrt(u / 2): a = w for t0 >= 0, and for t0 < 0
+   * (then w = b, as b^2 = (a2b2 - t0) / 2 and a b = eta k) a = eta k / w. That division is
+   * merged into the final one: both fractions below are multiplied through by w, with
+   * T = 2 a c w = c u (t0 >= 0) or 2 c eta k (t0 < 0), so no term needs a itself. */
   real u = a2b2 + fabs(t0);
-  real a2_quot = GLINT_R(2.0) * eta * eta * k * k / fmax(u, GLINT_R(1e-30));
-  real a = sqrt(glint_select(a2_quot, GLINT_R(0.5) * u, t0 >= GLINT_R(0.0)));
-  real t1 = a2b2 + c2;
-  real t2 = GLINT_R(2.0) * a * c;
-  real t3 = c2 * a2b2 + s2 * s2;
-  real t4 = t2 * s2;
-  /* (Rs + Rp) / 2 = Rs (1 + (t3 - t4) / (t3 + t4)) / 2 = Rs t3 / (t3 + t4): one division for
-   * both polarisations. t3 > 0, so no cancellation is added; eta, k <= 1e6 (validation) keep
-   * the product of the denominators below 1e26, far from the float range. */
-  real f = (t1 - t2) * t3 / ((t1 + t2) * (t3 + t4));
+  real w = sqrt(GLINT_R(0.5) * u);
+  real T = glint_select(GLINT_R(2.0) * c * (eta * k), c * u, t0 >= GLINT_R(0.0));
+  /* The fractions are now of degree 2 in w, and their terms can be as small as ~w^4 (a2b2 is
+   * between w^2 and 2 w^2, and t1 t3 >= ~a2b2 as c -> 0 or 1): below w ~ 2^-32 they reach the
+   * fp32 subnormals, where numerator and denominator lose different digits (1e-5 to 1e-3 of F at
+   * grazing c, tests/kernels/fresnel_test.cpp). So for w < 2^-24, w and T are scaled by 2^64
+   * (exact; the fractions do not change); there a <= w and a2b2 <= 2 w^2 keep t1, t3 <= ~1, so
+   * nothing overflows. w = 0 means a = 0 and T = 0: any positive w gives the exact
+   * F = t1 t3 / (t1 t3) = 1 there (e.g. k = 0 at the critical angle), hence ws = 1. */
+  glint_mask tiny = w < GLINT_R(5.9604644775390625e-8);                           /* 2^-24 */
+  real scale = glint_select(GLINT_R(1.0), GLINT_R(18446744073709551616.0), tiny); /* 2^64 */
+  real ws = glint_select(w * scale, GLINT_R(1.0), w <= GLINT_R(0.0));
+  T = T * scale;
+  real t1w = (a2b2 + c2) * ws;           /* t1 w, t1 = a2b2 + c^2 */
+  real t3w = (c2 * a2b2 + s2 * s2) * ws; /* t3 w */
+  /* (Rs + Rp) / 2 = Rs (1 + (t3 - t4) / (t3 + t4)) / 2 = Rs t3 / (t3 + t4), t4 = 2 a c s^2,
+   * here with every term times w: one division for both polarisations and for a. t3 > 0, so
+   * no cancellation is added. Range: eta, k <= 1e6 (validation) give t1, t3 <= ~2e12 and
+   * w <= ~1.5e6, so numerator and denominator stay below ~1e37, inside the float range. */
+  real f = (t1w - T) * t3w / ((t1w + T) * (t3w + T * s2));
   return clamp(f, GLINT_R(0.0), GLINT_R(1.0));
 }
 

@@ -107,12 +107,33 @@ GLINT_FN real smith_visibility_correlated(int ndf, real3 wo, real3 wi, real alph
   return glint_select(v, GLINT_R(0.0), (wo.z <= GLINT_R(0.0)) | (wi.z <= GLINT_R(0.0)));
 }
 
+/* GGX in closed form: with r = sqrt(z^2 + s^2) (s^2 = ax^2 wx^2 + ay^2 wy^2), Lambda =
+ * (r / z - 1) / 2 (Heitz 2014 Eq. 86), so 1 + Lambda_o + Lambda_i = (r_o / z_o + r_i / z_i) / 2,
+ * a sum of positives (no cancellation),
+ *   V zi = G2 / (4 zo) = 1 / (2 (r_o + zo (r_i / zi))).
+ * Two divisions instead of four. r_i / zi overflows only for subnormal zi, where the result
+ * correctly tends to 0, as in the general form below. */
+GLINT_FN real smith_visibility_cos_i_ggx(real3 wo, real3 wi, real alpha_x, real alpha_y) {
+  glint_mask dead = (wo.z <= GLINT_R(0.0)) | (wi.z <= GLINT_R(0.0));
+  real xo = alpha_x * wo.x, yo = alpha_y * wo.y;
+  real xi = alpha_x * wi.x, yi = alpha_y * wi.y;
+  real zo = fmax(wo.z, GLINT_R(0.0));
+  real zi = glint_select(wi.z, GLINT_R(1.0), dead); /* dead lanes: no 0/0 */
+  real r_o = sqrt(zo * zo + (xo * xo + yo * yo));
+  real r_i = sqrt(zi * zi + (xi * xi + yi * yi));
+  real denom = GLINT_R(2.0) * (r_o + zo * (r_i / zi));
+  real v = glint_select(GLINT_R(0.0), GLINT_R(1.0) / denom, denom > GLINT_R(0.0));
+  return glint_select(v, GLINT_R(0.0), dead);
+}
+
 /* V cos_i = G2 / (4 cos_o), the factor smooth_reflect_cos needs. V itself overflows in fp32
  * when both cosines are tiny (denominator < 1 / FLT_MAX: cos ~1e-36 at alpha 1e-4) although
  * V cos_i stays moderate, so divide V's denominator by zi first:
  *   V zi = 1 / (4 (zo + zo Lambda_o + zo Lambda_i)) = 1 / (4 (zo + zlo + zo (zli / zi))).
- * zli / zi overflows only for subnormal zi, where the result correctly tends to 0. */
+ * zli / zi overflows only for subnormal zi, where the result correctly tends to 0. GGX takes
+ * the closed form above. */
 GLINT_FN real smith_visibility_cos_i(int ndf, real3 wo, real3 wi, real alpha_x, real alpha_y) {
+  if (ndf != GLINT_NDF_BECKMANN) return smith_visibility_cos_i_ggx(wo, wi, alpha_x, alpha_y);
   real zlo = ndf_z_lambda(ndf, wo, alpha_x, alpha_y);
   real zli = ndf_z_lambda(ndf, wi, alpha_x, alpha_y);
   glint_mask dead = (wo.z <= GLINT_R(0.0)) | (wi.z <= GLINT_R(0.0));

@@ -47,16 +47,17 @@ GLINT_FN QueryInputs query_load(EvalSpec spec, KernelInputs in, uint i) {
 }
 
 /* Where a query is shaded: its local frame, its position in the lights' space
- * (the origin without a frame) and the unit view direction in the local frame. */
+ * (the origin without a frame) and the unit view direction in the local frame.
+ * shading_point_unit takes q.wo already normalised (by the caller's choice of rounding). */
 typedef struct {
   ShadingFrame frame;
   real3 p;
   real3 wo;
 } ShadingPoint;
 
-GLINT_FN ShadingPoint shading_point(EvalSpec spec, QueryInputs q) {
+GLINT_FN ShadingPoint shading_point_unit(EvalSpec spec, QueryInputs q, real3 wo_unit) {
   ShadingPoint sp;
-  sp.wo = r3_normalize(q.wo);
+  sp.wo = wo_unit;
   sp.p = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   sp.frame = frame_identity();
   if (spec.has_frame) {
@@ -65,6 +66,11 @@ GLINT_FN ShadingPoint shading_point(EvalSpec spec, QueryInputs q) {
     sp.wo = frame_to_local(sp.frame, sp.wo);
   }
   return sp;
+}
+
+/* The shading point of q, its view direction q.wo normalised by r3_normalize (exact division). */
+GLINT_FN ShadingPoint shading_point(EvalSpec spec, QueryInputs q) {
+  return shading_point_unit(spec, q, r3_normalize(q.wo));
 }
 
 /* A direction of the lights' space (world, or local without a frame) in the local frame. */

@@ -182,5 +182,48 @@ TEST(KernelFresnel, EvalDispatchesPerChannel) {
   }
 }
 
+// F_conductor computes a = Re sqrt((eta + i k)^2 - sin^2) through w = sqrt((a2b2 + |t0|) / 2)
+// and multiplies both Fresnel fractions by w (one division per channel, fresnel.h). Two regimes
+// of that form: w ~ 1e-10 (eta^2 - k^2 ~ sin^2 and eta k tiny), where the terms of degree 2 in w
+// reach the fp32 subnormals unless rescaled (at grazing cosines F then lost 3e-6 to 6e-5, found
+// by emulating the unscaled form in numpy float32), and w = 0 (k = 0 exactly at the critical
+// angle, t0 rounding to 0), where both fractions are 0/0 unless w is replaced. Against the
+// complex-amplitude reference on the same (float) inputs: F is well conditioned in these inputs
+// (the reference's own 1 - cos^2 rounds like the kernel's), so fp32 gets a few eps
+// (4 eps_32 = 4.8e-7), fp64 1e-12.
+TEST(KernelFresnel, ConductorTinyAbsorptionTinyEtaAndCriticalAngle) {
+  constexpr double kTol32 = 4.8e-7, kTol64 = 1e-12;
+  struct Case {
+    double eta, k, c;
+  };
+  // (eta^4 must stay above the fp32 subnormals for the tiny-eta cases, or t0^2 and with it
+  // a2b2 flush to 0: 0/0 at c = 1 in any form of the formula; validation asks eta >= 1e-6.)
+  for (const Case &m : {Case{1e-10, 0.0, 1.0}, Case{3e-11, 1e-11, 1.0}, Case{1.0, 5e-21, 1e-14},
+                        Case{1.0, 1e-21, 1e-15}, Case{1.0, 2e-20, 3e-15}}) {
+    const double e = ref::round_to_float(m.eta), kk = ref::round_to_float(m.k),
+                 cc = ref::round_to_float(m.c);
+    const double expected = ref::fresnel_complex(e, kk, cc);
+    EXPECT_NEAR(f32::fresnel_conductor(e, kk, cc), expected, kTol32 * expected)
+        << "eta " << e << " k " << kk << " c " << cc;
+    EXPECT_NEAR(f64::fresnel_conductor(e, kk, cc), expected, kTol64 * expected)
+        << "eta " << e << " k " << kk << " c " << cc;
+  }
+  // k = 0, eta = 0.5: the critical angle is at sin^2 = 0.25. Find float cosines next to
+  // sqrt(0.75) for which 1 - c^2 rounds to exactly 0.25 in fp32 (t0 = 0, w = 0): total internal
+  // reflection begins there, F = 1 (r_s = r_p = 1 with a real cos_t = 0).
+  int at_critical = 0;
+  float below = std::sqrt(0.75f), above = below;
+  for (int step = 0; step < 64; ++step) {
+    for (float c : {below, above}) {
+      if (0.5f * 0.5f - (1.0f - c * c) != 0.0f) continue;
+      EXPECT_EQ(f32::fresnel_conductor(0.5, 0.0, c), 1.0) << "cos " << c;
+      ++at_critical;
+    }
+    below = std::nextafter(below, 0.0f);
+    above = std::nextafter(above, 2.0f);
+  }
+  EXPECT_GT(at_critical, 0) << "no float cosine puts t0 at exactly 0: the w = 0 case is untested";
+}
+
 }  // namespace
 }  // namespace glint_test

@@ -39,6 +39,9 @@ Status ValidateBinomialParams(const Material &m) {
   } else if (!(b.slope_cell() >= 0.0f && b.slope_cell() <= 1e3f)) {
     o << "material.binomial.slope_cell: " << b.slope_cell()
       << "; expected a slope in (0, 1000] (0 = 0.05)";
+  } else if (!glint::v1::FootprintInterpolation_IsValid(b.footprint_interpolation())) {
+    o << "material.binomial.footprint_interpolation: unknown value " << b.footprint_interpolation()
+      << "; expected TRILINEAR or TETRAHEDRAL";
   } else {
     return Status::Ok();
   }
@@ -93,6 +96,8 @@ void PackBinomialParams(const Material &m, float *params) {
   params[3] =
       b.normal_threshold() > 0.0f ? b.normal_threshold() : GLINT_BINOMIAL_DEFAULT_NORMAL_THRESHOLD;
   params[4] = b.slope_cell() > 0.0f ? b.slope_cell() : GLINT_BINOMIAL_DEFAULT_SLOPE_CELL;
+  params[5] = b.footprint_interpolation() == glint::v1::TETRAHEDRAL ? GLINT_BINOMIAL_TETRAHEDRAL
+                                                                    : GLINT_BINOMIAL_TRILINEAR;
 }
 
 void BinomialExample(Material *m, glint::v1::QueryBatch *one_query) {

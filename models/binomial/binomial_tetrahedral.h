@@ -78,11 +78,12 @@ GLINT_FN void binomial_cos_sin_pi(real f, GLINT_PRIVATE real *c, GLINT_PRIVATE r
 }
 
 /* The cell key of uv in the grid (level, anisotropy level, rotation bin): the chain of
- * binomial_footprint_grids (seed, level, anisotropy level, bin wrapped at pi, cell). */
-GLINT_FN glint_key binomial_tetrahedral_key(glint_key seed_key, real level, real aniso_level,
-                                            real bin, real rot_u, real rot_v) {
-  real side = exp2(level);
-  real ratio = exp2(aniso_level);
+ * binomial_footprint_grids (seed, level, anisotropy level, bin wrapped at pi, cell), with the
+ * grid's side = 2^level, ratio = 2^aniso_level and bins = 4 ratio passed in (exact powers of
+ * two, computed once per footprint instead of per grid). */
+GLINT_FN glint_key binomial_tetrahedral_key(glint_key seed_key, real level, real side,
+                                            real aniso_level, real ratio, real bin, real rot_u,
+                                            real rot_v) {
   real bins = GLINT_R(4.0) * ratio;
   glint_key key = rng_absorb_key(seed_key, binomial_cell_key(level));
   key = rng_absorb_key(key, binomial_cell_key(aniso_level));
@@ -103,7 +104,9 @@ GLINT_FN FootprintGrids binomial_footprint_grids_tetrahedral(real density, real 
   real t = f.lod - lod0;
   real a0 = floor(f.aniso);
   real s = f.aniso - a0;
-  real bins0 = GLINT_R(4.0) * exp2(a0);
+  /* 2^l and 2^a of the lower levels; the upper ones are exactly twice */
+  real side0 = exp2(lod0), ratio0 = exp2(a0);
+  real bins0 = GLINT_R(4.0) * ratio0;
   real pos0 = f.theta * bins0 / GLINT_PI;
   real b0 = floor(pos0);
   real x = pos0 - b0;
@@ -129,7 +132,8 @@ GLINT_FN FootprintGrids binomial_footprint_grids_tetrahedral(real density, real 
   for (int i = 0; i < 3; ++i) {
     /* the angle bin pi / bins, as binomial_footprint_grids has it (bin <= bins) */
     real c, sn;
-    binomial_cos_sin_pi(vert_bin[i] / (GLINT_R(4.0) * exp2(vert_aniso[i])), &c, &sn);
+    binomial_cos_sin_pi(vert_bin[i] / glint_select(bins0, GLINT_R(2.0) * bins0, vert_aniso[i] > a0),
+                        &c, &sn);
     rot_u[i] = c * u + sn * v;
     rot_v[i] = -sn * u + c * v;
   }
@@ -148,19 +152,27 @@ GLINT_FN FootprintGrids binomial_footprint_grids_tetrahedral(real density, real 
   real l1 = lod0 + GLINT_R(1.0);
   real level[GLINT_BINOMIAL_TETRAHEDRAL_GRIDS] = {lod0, glint_select(lod0, l1, early),
                                                   glint_select(l1, lod0, late), l1};
+  real side[GLINT_BINOMIAL_TETRAHEDRAL_GRIDS] = {
+      side0, glint_select(side0, GLINT_R(2.0) * side0, early),
+      glint_select(GLINT_R(2.0) * side0, side0, late), GLINT_R(2.0) * side0};
+  real vert_ratio[3];
+  for (int i = 0; i < 3; ++i)
+    vert_ratio[i] = glint_select(ratio0, GLINT_R(2.0) * ratio0, vert_aniso[i] > a0);
   glint_key seed_key = rng_hash2(seed_lo, seed_hi);
-  g.cell_key[0] =
-      binomial_tetrahedral_key(seed_key, level[0], vert_aniso[0], vert_bin[0], rot_u[0], rot_v[0]);
+  g.cell_key[0] = binomial_tetrahedral_key(seed_key, level[0], side[0], vert_aniso[0],
+                                           vert_ratio[0], vert_bin[0], rot_u[0], rot_v[0]);
   g.cell_key[1] = binomial_tetrahedral_key(
-      seed_key, level[1], glint_select(vert_aniso[0], vert_aniso[1], !early),
+      seed_key, level[1], side[1], glint_select(vert_aniso[0], vert_aniso[1], !early),
+      glint_select(vert_ratio[0], vert_ratio[1], !early),
       glint_select(vert_bin[0], vert_bin[1], !early), glint_select(rot_u[0], rot_u[1], !early),
       glint_select(rot_v[0], rot_v[1], !early));
   g.cell_key[2] = binomial_tetrahedral_key(
-      seed_key, level[2], glint_select(vert_aniso[1], vert_aniso[2], late),
+      seed_key, level[2], side[2], glint_select(vert_aniso[1], vert_aniso[2], late),
+      glint_select(vert_ratio[1], vert_ratio[2], late),
       glint_select(vert_bin[1], vert_bin[2], late), glint_select(rot_u[1], rot_u[2], late),
       glint_select(rot_v[1], rot_v[2], late));
-  g.cell_key[3] =
-      binomial_tetrahedral_key(seed_key, level[3], vert_aniso[2], vert_bin[2], rot_u[2], rot_v[2]);
+  g.cell_key[3] = binomial_tetrahedral_key(seed_key, level[3], side[3], vert_aniso[2],
+                                           vert_ratio[2], vert_bin[2], rot_u[2], rot_v[2]);
   for (int k = 0; k < GLINT_BINOMIAL_TETRAHEDRAL_GRIDS; ++k) g.share[k] = fmax(w[k], GLINT_R(0.0));
   for (int k = GLINT_BINOMIAL_TETRAHEDRAL_GRIDS; k < GLINT_BINOMIAL_GRIDS; ++k) {
     g.share[k] = GLINT_R(0.0);

@@ -136,8 +136,13 @@ extern const Model kBinomialModel;
 // regimes, binomial_count.h), which admission cannot see (footprints are per query), so it
 // bounds the dear end. Polygons are capped at request_cost.cpp's kPolygonFactor (8): one quad
 // by LTC measured 30-50x the smooth directional + point query = 90-150 units, vs 161 charged.
-double BinomialCostFactor(const glint::v1::Material &) {
-  return 90.0;
+// TETRAHEDRAL (4 grids, binomial_tetrahedral.h): its dearest case, directional + point at
+// N_P = 1e6, measured 0.027-0.029 of SMOOTH (35-37x; binomial_breakdown --interpolation
+// trilinear,tetrahedral, 2026-12-01, loaded), so 1 + 2 f = 3 x 37 gives f ~ 55. Its quad
+// (0.044-0.063 of SMOOTH directional + point) is cheaper than TRILINEAR's, under the same
+// polygon cap (request_cost.cpp kPolygonFactor).
+double BinomialCostFactor(const glint::v1::Material &m) {
+  return m.binomial().footprint_interpolation() == glint::v1::TETRAHEDRAL ? 55.0 : 90.0;
 }
 
 const Model kBinomialModel = {

@@ -9,7 +9,7 @@
 // bits compares results across builds.
 //
 //   binomial_breakdown [--n 262144] [--rounds 7] [--lights directional_point,quad]
-//                      [--np 1e2,1e4,1e6] [--threshold 9]
+//                      [--np 1e2,1e4,1e6] [--threshold 9] [--interpolation trilinear,tetrahedral]
 #include <time.h>
 
 #include <algorithm>
@@ -48,6 +48,7 @@ int main(int argc, char **argv) {
   int rounds = 7;
   float threshold = 9.0f;
   std::vector<std::string> lights = {"directional_point", "quad"}, nps = {"1e2", "1e4", "1e6"};
+  std::vector<std::string> interpolations = {"trilinear"};  // footprint_interpolation
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
     if (a == "--n") {
@@ -60,6 +61,8 @@ int main(int argc, char **argv) {
       nps = Split(v);
     } else if (a == "--threshold") {
       threshold = std::stof(v);
+    } else if (a == "--interpolation") {
+      interpolations = Split(v);
     } else {
       std::fprintf(stderr, "binomial_breakdown: unknown flag %s\n", a.c_str());
       return 2;
@@ -96,13 +99,18 @@ int main(int argc, char **argv) {
                                           : Lights::kDirectionalPoint;
     if (l != Lights::kDirectionalPoint)
       cases.push_back({"SMOOTH LTC " + ln, request(glint::v1::SMOOTH, l), {}, {}});
-    for (const std::string &np : nps) {
-      Case c{"BINOMIAL N_P=" + np + " " + ln, request(glint::v1::BINOMIAL, l), {}, {}};
-      auto *b = c.request.mutable_material()->mutable_binomial();
-      b->set_density(std::stod(np) / stats.mean_footprint_area);
-      b->set_normal_threshold(threshold);
-      cases.push_back(c);
-    }
+    for (const std::string &np : nps)
+      for (const std::string &interp : interpolations) {
+        Case c{"BINOMIAL N_P=" + np + " " + ln + (interpolations.size() > 1 ? " " + interp : ""),
+               request(glint::v1::BINOMIAL, l),
+               {},
+               {}};
+        auto *b = c.request.mutable_material()->mutable_binomial();
+        b->set_density(std::stod(np) / stats.mean_footprint_area);
+        b->set_normal_threshold(threshold);
+        if (interp == "tetrahedral") b->set_footprint_interpolation(glint::v1::TETRAHEDRAL);
+        cases.push_back(c);
+      }
   }
   std::vector<float> out(3 * size_t(n));
   for (int round = -1; round < rounds; ++round)  // round -1 compiles and warms

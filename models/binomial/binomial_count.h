@@ -71,6 +71,7 @@ typedef struct {
   real r;                /* HEURISTIC_R: p = r D(h) / D(n) (DB23) */
   real normal_threshold; /* variance n p (1 - p) from which counts are approximated */
   real slope_cell;       /* angular correlation length of the pattern, slope units */
+  int interpolation;     /* GLINT_BINOMIAL_TRILINEAR or _TETRAHEDRAL (binomial_tetrahedral.h) */
 } BinomialParams;
 
 GLINT_FN BinomialParams binomial_params_unpack(const GLINT_GLOBAL float *packed) {
@@ -80,6 +81,7 @@ GLINT_FN BinomialParams binomial_params_unpack(const GLINT_GLOBAL float *packed)
   b.r = (real)packed[2];
   b.normal_threshold = (real)packed[3];
   b.slope_cell = (real)packed[4];
+  b.interpolation = (int)packed[5];
   return b;
 }
 
@@ -97,16 +99,24 @@ GLINT_FN glint_key binomial_cell_key(real c) {
   return rng_real_key(c);
 }
 
-/* Step 1 and 2 above. `footprint` = (du/dx, dv/dx, du/dy, dv/dy). */
-GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
-                                                 const GLINT_PRIVATE real *footprint, uint seed_lo,
-                                                 uint seed_hi) {
-  FootprintGrids g;
+/* Step 1 above: the footprint's facet count and its ellipse's continuous grid coordinates,
+ * which both interpolations (trilinear below, tetrahedral in binomial_tetrahedral.h) share. */
+typedef struct {
+  real n_facets; /* N_P = density * |det J|, 0 when not finite and positive */
+  real lod;      /* log2 of the minor semi-axis (after the anisotropy clamp) */
+  real aniso;    /* log2(major / minor) in [0, GLINT_BINOMIAL_MAX_ANISO_LOG2] */
+  real theta;    /* the major axis' angle in [0, pi) */
+} FootprintShape;
+
+/* `footprint` = (du/dx, dv/dx, du/dy, dv/dy). */
+GLINT_FN FootprintShape binomial_footprint_shape(real density,
+                                                 const GLINT_PRIVATE real *footprint) {
+  FootprintShape f;
   real x1 = footprint[0], y1 = footprint[1], x2 = footprint[2], y2 = footprint[3];
   real area = fabs(x1 * y2 - x2 * y1);
-  g.n_facets = density * area;
-  g.n_facets =
-      glint_select(g.n_facets, GLINT_R(0.0), !(g.n_facets > GLINT_R(0.0)) | !isfinite(g.n_facets));
+  f.n_facets = density * area;
+  f.n_facets =
+      glint_select(f.n_facets, GLINT_R(0.0), !(f.n_facets > GLINT_R(0.0)) | !isfinite(f.n_facets));
 
   /* Ellipse of the covariance J J^T = [[A, B], [B, C]]: eigenvalues
    * m +- d; the small one as det / large (no cancellation), the major-axis
@@ -129,11 +139,25 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
   const real max_aniso = GLINT_R(1 << GLINT_BINOMIAL_MAX_ANISO_LOG2);
   minor = fmax(minor, major / max_aniso);
 
-  real lod = log2(minor);
+  f.lod = log2(minor);
+  real aniso = fmin(log2(major / minor), GLINT_R(GLINT_BINOMIAL_MAX_ANISO_LOG2));
+  f.aniso = fmax(aniso, GLINT_R(0.0));
+  f.theta = theta;
+  return f;
+}
+
+/* Step 2 above, trilinear. `footprint` = (du/dx, dv/dx, du/dy, dv/dy). */
+GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
+                                                 const GLINT_PRIVATE real *footprint, uint seed_lo,
+                                                 uint seed_hi) {
+  FootprintGrids g;
+  FootprintShape f = binomial_footprint_shape(density, footprint);
+  g.n_facets = f.n_facets;
+  real theta = f.theta;
+  real lod = f.lod;
   real lod0 = floor(lod);
   real t_lod = lod - lod0;
-  real aniso = fmin(log2(major / minor), GLINT_R(GLINT_BINOMIAL_MAX_ANISO_LOG2));
-  aniso = fmax(aniso, GLINT_R(0.0));
+  real aniso = f.aniso;
   real aniso0 = floor(aniso);
   real t_aniso = aniso - aniso0;
 

@@ -42,6 +42,7 @@
 #include "kernels/query.h"
 #include "kernels/smooth_brdf.h"
 #include "models/binomial/binomial_count.h"
+#include "models/binomial/binomial_tetrahedral.h"
 #if !defined(__OPENCL_VERSION__) || GLINT_LANES == 1
 #include "kernels/area/area_lights.h"
 #include "kernels/area/polygon_lights.h"
@@ -140,7 +141,8 @@ GLINT_FN real3 binomial_shade(EvalSpec spec, KernelInputs in, QueryInputs q, rea
   real3 wo = sp.wo;
   glint_mask live = wo.z > GLINT_R(0.0);
   if (!glint_any(live)) return radiance;
-  FootprintGrids g = binomial_footprint_grids(b.density, u, v, footprint, in.seed_lo, in.seed_hi);
+  FootprintGrids g = binomial_footprint_grids_for(b.interpolation, b.density, u, v, footprint,
+                                                  in.seed_lo, in.seed_hi);
   live = live & (g.n_facets > GLINT_R(0.0));
   if (!glint_any(live)) return radiance;
 

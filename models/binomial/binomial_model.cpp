@@ -39,6 +39,9 @@ Status ValidateBinomialParams(const Material &m) {
   } else if (!(b.slope_cell() >= 0.0f && b.slope_cell() <= 1e3f)) {
     o << "material.binomial.slope_cell: " << b.slope_cell()
       << "; expected a slope in (0, 1000] (0 = 0.05)";
+  } else if (!glint::v1::FootprintInterpolation_IsValid(b.footprint_interpolation())) {
+    o << "material.binomial.footprint_interpolation: unknown value " << b.footprint_interpolation()
+      << "; expected TRILINEAR or TETRAHEDRAL";
   } else {
     return Status::Ok();
   }
@@ -93,6 +96,8 @@ void PackBinomialParams(const Material &m, float *params) {
   params[3] =
       b.normal_threshold() > 0.0f ? b.normal_threshold() : GLINT_BINOMIAL_DEFAULT_NORMAL_THRESHOLD;
   params[4] = b.slope_cell() > 0.0f ? b.slope_cell() : GLINT_BINOMIAL_DEFAULT_SLOPE_CELL;
+  params[5] = b.footprint_interpolation() == glint::v1::TETRAHEDRAL ? GLINT_BINOMIAL_TETRAHEDRAL
+                                                                    : GLINT_BINOMIAL_TRILINEAR;
 }
 
 void BinomialExample(Material *m, glint::v1::QueryBatch *one_query) {
@@ -131,8 +136,13 @@ extern const Model kBinomialModel;
 // regimes, binomial_count.h), which admission cannot see (footprints are per query), so it
 // bounds the dear end. Polygons are capped at request_cost.cpp's kPolygonFactor (8): one quad
 // by LTC measured 30-50x the smooth directional + point query = 90-150 units, vs 161 charged.
-double BinomialCostFactor(const glint::v1::Material &) {
-  return 90.0;
+// TETRAHEDRAL (4 grids, binomial_tetrahedral.h): its dearest case, directional + point at
+// N_P = 1e6, measured 0.027-0.029 of SMOOTH (35-37x; binomial_breakdown --interpolation
+// trilinear,tetrahedral, 2026-12-01, loaded), so 1 + 2 f = 3 x 37 gives f ~ 55. Its quad
+// (0.044-0.063 of SMOOTH directional + point) is cheaper than TRILINEAR's, under the same
+// polygon cap (request_cost.cpp kPolygonFactor).
+double BinomialCostFactor(const glint::v1::Material &m) {
+  return m.binomial().footprint_interpolation() == glint::v1::TETRAHEDRAL ? 55.0 : 90.0;
 }
 
 const Model kBinomialModel = {

@@ -64,7 +64,8 @@ void AddPolygon(EvaluateRequest *r, const std::vector<float> &xyz, bool two_side
 
 // A sun, a sphere light, a softbox above, a tiny and a huge quad, and a two-sided pentagon
 // standing across the horizon (lights in world space; the queries' random frames tilt them).
-EvaluateRequest Settings(float alpha_x, float alpha_y, double density, bool fp64) {
+EvaluateRequest Settings(float alpha_x, float alpha_y, double density, bool fp64,
+                         v1::FootprintInterpolation interpolation = v1::TRILINEAR) {
   EvaluateRequest r;
   auto *m = r.mutable_material();
   m->set_model(v1::BINOMIAL);
@@ -73,6 +74,7 @@ EvaluateRequest Settings(float alpha_x, float alpha_y, double density, bool fp64
   m->set_alpha_y(alpha_y);
   for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
   m->mutable_binomial()->set_density(density);
+  m->mutable_binomial()->set_footprint_interpolation(interpolation);
   auto *d = r.add_lights()->mutable_directional();
   for (float v : {0.28221626f, -0.18814417f, 0.94072087f}) d->add_direction(v);
   for (float v : {2.0f, 2.0f, 2.0f}) d->add_irradiance(v);
@@ -143,46 +145,47 @@ v1::QueryBatch Slice(const v1::QueryBatch &q, int pad, int pad_from, int first, 
 }
 
 TEST_F(BinomialLanes, ResultDoesNotDependOnLaneNeighboursOrBatchSize) {
-  for (bool fp64 : {false, true}) {
-    const EvaluateRequest settings = Settings(0.2f, 0.05f, 1e8, fp64);
-    const v1::QueryBatch q = Queries(403, 23);
-    ASSERT_TRUE(ValidateSettings(settings, {}).ok());
-    ASSERT_TRUE(ValidateQueriesForModel(q, settings).ok());
-    ASSERT_EQ(MakeEvalPlan(settings, q).area_method, GLINT_AREA_LTC);
-    const std::vector<float> whole = Device(settings, q);
-    int lit = 0, dark = 0;
-    for (float v : whole) lit += v > 0.0f, dark += v == 0.0f;
-    // The comparisons below must see glints: many lit values next to many exact zeros.
-    ASSERT_GT(lit, int(whole.size()) / 20);
-    ASSERT_GT(dark, int(whole.size()) / 20);
-    for (int pad = 1; pad < 8; ++pad) {
-      // Padding with query 40 (above the horizon) and query 48 (below: RandomQueries puts every
-      // 8th wo under the surface) changes every work-item's mix of lanes.
-      for (int pad_from : {40, 48}) {
-        const std::vector<float> shifted = Device(settings, Slice(q, pad, pad_from, 0, 403));
-        ASSERT_EQ(0,
-                  std::memcmp(shifted.data() + 3 * pad, whole.data(), whole.size() * sizeof(float)))
-            << "fp64 " << fp64 << " shifted by " << pad << " copies of query " << pad_from;
+  for (auto interpolation : {v1::TRILINEAR, v1::TETRAHEDRAL})
+    for (bool fp64 : {false, true}) {
+      const EvaluateRequest settings = Settings(0.2f, 0.05f, 1e8, fp64, interpolation);
+      const v1::QueryBatch q = Queries(403, 23);
+      ASSERT_TRUE(ValidateSettings(settings, {}).ok());
+      ASSERT_TRUE(ValidateQueriesForModel(q, settings).ok());
+      ASSERT_EQ(MakeEvalPlan(settings, q).area_method, GLINT_AREA_LTC);
+      const std::vector<float> whole = Device(settings, q);
+      int lit = 0, dark = 0;
+      for (float v : whole) lit += v > 0.0f, dark += v == 0.0f;
+      // The comparisons below must see glints: many lit values next to many exact zeros.
+      ASSERT_GT(lit, int(whole.size()) / 20);
+      ASSERT_GT(dark, int(whole.size()) / 20);
+      for (int pad = 1; pad < 8; ++pad) {
+        // Padding with query 40 (above the horizon) and query 48 (below: RandomQueries puts every
+        // 8th wo under the surface) changes every work-item's mix of lanes.
+        for (int pad_from : {40, 48}) {
+          const std::vector<float> shifted = Device(settings, Slice(q, pad, pad_from, 0, 403));
+          ASSERT_EQ(
+              0, std::memcmp(shifted.data() + 3 * pad, whole.data(), whole.size() * sizeof(float)))
+              << "fp64 " << fp64 << " shifted by " << pad << " copies of query " << pad_from;
+        }
+      }
+      const std::vector<float> reversed = Device(settings, Slice(q, 0, 0, 0, 403, true));
+      for (int i = 0; i < 403; ++i)
+        for (int c = 0; c < 3; ++c)
+          ASSERT_EQ(reversed[size_t(3 * (402 - i) + c)], whole[size_t(3 * i + c)]) << "query " << i;
+      // Batches of odd sizes, of the lane width and of its multiples (the last one partial).
+      for (uint32_t chunk : {1u, 3u, 8u, 13u, 64u}) {
+        std::vector<float> pieces;
+        for (uint32_t first = 0; first < q.count(); first += chunk) {
+          const v1::QueryBatch part =
+              client::SliceQueries(q, first, first + std::min(chunk, q.count() - first));
+          const std::vector<float> out = Device(settings, part);
+          pieces.insert(pieces.end(), out.begin(), out.end());
+        }
+        ASSERT_EQ(pieces.size(), whole.size());
+        EXPECT_EQ(0, std::memcmp(pieces.data(), whole.data(), whole.size() * sizeof(float)))
+            << "fp64 " << fp64 << " batches of " << chunk;
       }
     }
-    const std::vector<float> reversed = Device(settings, Slice(q, 0, 0, 0, 403, true));
-    for (int i = 0; i < 403; ++i)
-      for (int c = 0; c < 3; ++c)
-        ASSERT_EQ(reversed[size_t(3 * (402 - i) + c)], whole[size_t(3 * i + c)]) << "query " << i;
-    // Batches of odd sizes, of the lane width and of its multiples (the last one partial).
-    for (uint32_t chunk : {1u, 3u, 8u, 13u, 64u}) {
-      std::vector<float> pieces;
-      for (uint32_t first = 0; first < q.count(); first += chunk) {
-        const v1::QueryBatch part =
-            client::SliceQueries(q, first, first + std::min(chunk, q.count() - first));
-        const std::vector<float> out = Device(settings, part);
-        pieces.insert(pieces.end(), out.begin(), out.end());
-      }
-      ASSERT_EQ(pieces.size(), whole.size());
-      EXPECT_EQ(0, std::memcmp(pieces.data(), whole.data(), whole.size() * sizeof(float)))
-          << "fp64 " << fp64 << " batches of " << chunk;
-    }
-  }
 }
 
 // Device against host at the extremes. A glint is a discrete event: where the device's and the
@@ -197,38 +200,41 @@ TEST_F(BinomialLanes, ResultDoesNotDependOnLaneNeighboursOrBatchSize) {
 TEST_F(BinomialLanes, MatchesHostPathAtExtremes) {
   const float alphas[][2] = {{1e-4f, 1e-4f}, {1.0f, 1.0f}, {0.3f, 1e-4f}};
   int lit_total = 0, values_total = 0;
-  for (const auto &alpha : alphas)
-    for (double density : {1e5, 1e8, 1e12})
-      for (bool fp64 : {false, true}) {
-        const EvaluateRequest settings = Settings(alpha[0], alpha[1], density, fp64);
-        const v1::QueryBatch q = Queries(301, 29);
-        ASSERT_TRUE(ValidateQueriesForModel(q, settings).ok());
-        const EvalPlan plan = MakeEvalPlan(settings, q);
-        const std::vector<float> dev = Device(settings, q);
-        std::vector<float> host(dev.size());
-        HostEvaluate(plan, q, host.data());
-        const double rel = fp64 ? 4e-6 : 1e-3;
-        int agree = 0, lit = 0;
-        for (size_t i = 0; i < dev.size(); ++i) {
-          ASSERT_TRUE(std::isfinite(dev[i]) && dev[i] >= 0.0f)
-              << "alpha " << alpha[0] << " density " << density << " query " << i / 3 << " value "
-              << dev[i];
-          const bool ok = std::fabs(dev[i] - host[i]) <= rel * std::fabs(host[i]) + 1e-7;
-          if (fp64) {
-            ASSERT_TRUE(ok) << "alpha " << alpha[0] << " density " << density << " query " << i / 3
-                            << ": device " << dev[i] << " host " << host[i];
+  for (auto interpolation : {v1::TRILINEAR, v1::TETRAHEDRAL})
+    for (const auto &alpha : alphas)
+      for (double density : {1e5, 1e8, 1e12})
+        for (bool fp64 : {false, true}) {
+          const EvaluateRequest settings =
+              Settings(alpha[0], alpha[1], density, fp64, interpolation);
+          const v1::QueryBatch q = Queries(301, 29);
+          ASSERT_TRUE(ValidateQueriesForModel(q, settings).ok());
+          const EvalPlan plan = MakeEvalPlan(settings, q);
+          const std::vector<float> dev = Device(settings, q);
+          std::vector<float> host(dev.size());
+          HostEvaluate(plan, q, host.data());
+          const double rel = fp64 ? 4e-6 : 1e-3;
+          int agree = 0, lit = 0;
+          for (size_t i = 0; i < dev.size(); ++i) {
+            ASSERT_TRUE(std::isfinite(dev[i]) && dev[i] >= 0.0f)
+                << "alpha " << alpha[0] << " density " << density << " query " << i / 3 << " value "
+                << dev[i];
+            const bool ok = std::fabs(dev[i] - host[i]) <= rel * std::fabs(host[i]) + 1e-7;
+            if (fp64) {
+              ASSERT_TRUE(ok) << "alpha " << alpha[0] << " density " << density << " query "
+                              << i / 3 << ": device " << dev[i] << " host " << host[i];
+            }
+            agree += ok;
+            lit += dev[i] > 0.0f;
           }
-          agree += ok;
-          lit += dev[i] > 0.0f;
+          std::printf(
+              "interpolation %d alpha %g density %g fp64 %d: %d of %zu values agree, %d lit\n",
+              int(interpolation), alpha[0], density, int(fp64), agree, dev.size(), lit);
+          EXPECT_GE(agree, int(dev.size()) * 99 / 100)
+              << "alpha " << alpha[0] << " density " << density << " fp64 " << fp64;
+          EXPECT_GT(lit, 0) << "alpha " << alpha[0] << " density " << density;
+          lit_total += lit;
+          values_total += int(dev.size());
         }
-        std::printf("alpha %g density %g fp64 %d: %d of %zu values agree, %d lit\n", alpha[0],
-                    density, int(fp64), agree, dev.size(), lit);
-        EXPECT_GE(agree, int(dev.size()) * 99 / 100)
-            << "alpha " << alpha[0] << " density " << density << " fp64 " << fp64;
-        EXPECT_GT(lit, 0) << "alpha " << alpha[0] << " density " << density;
-        lit_total += lit;
-        values_total += int(dev.size());
-      }
   // The agreement above must have been tested on glints, not only on zeros.
   EXPECT_GT(lit_total, values_total / 20);
 }

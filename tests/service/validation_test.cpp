@@ -402,6 +402,12 @@ TEST(Validation, BinomialRefusalsNameTheFieldAndWhatIsNeeded) {
          r.mutable_material()->mutable_binomial()->set_normal_threshold(100);
        },
        {"material.binomial.normal_threshold: 100", "[1, 40]"}},
+      {"unknown footprint_interpolation",
+       [](EvaluateRequest &r) {
+         r.mutable_material()->mutable_binomial()->set_footprint_interpolation(
+             static_cast<v1::FootprintInterpolation>(9));
+       },
+       {"material.binomial.footprint_interpolation: unknown value 9", "TETRAHEDRAL"}},
       {"binomial block on a smooth material",
        [](EvaluateRequest &r) { r.mutable_material()->set_model(v1::SMOOTH); },
        {"material.binomial: set, but material.model is SMOOTH"}},

@@ -19,6 +19,9 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <functional>
+#include <limits>
+#include <map>
 #include <random>
 #include <string>
 #include <vector>
@@ -43,6 +46,7 @@ struct Scene {
   double density = 1e6;
   int p_mode = 1;  // AREA
   double r = 1.0, threshold = 9.0, slope_cell = 0.05;
+  int interpolation = 0;  // GLINT_BINOMIAL_TRILINEAR; 1 TETRAHEDRAL
   std::vector<float> directional, point, polygon;
   unsigned n_dir = 0, n_pnt = 0, n_poly = 0;
   int area_method = 1;  // LTC
@@ -122,13 +126,24 @@ std::array<double, 4> Footprint(double side) {
   return {side, 0.0, 0.0, side};
 }
 
-// Radiance of the binomial model at `count` uv positions spread over many cells.
-std::vector<double> GlintSamples(const Scene &s, V3 wo, double side, int count) {
+// Radiance of the binomial model at `count` uv positions spread over many cells; with
+// `anisotropic`, each footprint an ellipse of the same area side^2 with axis ratio 1 .. 16 and a
+// random angle (so the grids' anisotropy and rotation weights are exercised, not only levels).
+std::vector<double> GlintSamples(const Scene &s, V3 wo, double side, int count,
+                                 bool anisotropic = false) {
   std::vector<double> out(static_cast<size_t>(count));
   std::mt19937_64 rng(99);
   std::uniform_real_distribution<double> uni(0.0, 1000.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
   auto fp = Footprint(side);
-  for (int i = 0; i < count; ++i) out[size_t(i)] = k64::Glint(s, uni(rng), uni(rng), fp.data(), wo);
+  for (int i = 0; i < count; ++i) {
+    if (anisotropic) {
+      const double r = std::exp2(2 * unit(rng)), theta = M_PI * unit(rng);
+      fp = {side * r * std::cos(theta), side * r * std::sin(theta), -side / r * std::sin(theta),
+            side / r * std::cos(theta)};
+    }
+    out[size_t(i)] = k64::Glint(s, uni(rng), uni(rng), fp.data(), wo);
+  }
   return out;
 }
 
@@ -375,6 +390,223 @@ TEST(FootprintGrids, CellsAreStableUnderSmallMovesAndBlendContinuously) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// The TETRAHEDRAL footprint interpolation (binomial_tetrahedral.h).
+
+TEST(TetrahedralGrids, CosSinPiMatchesLongDoubleInBothPrecisions) {
+  // Every rotation angle k pi / bins the grids use (bins = 4 2^a, a = 0 .. 7, and one level
+  // beyond), against long double cos and sin. Error budget: the reduction is exact, x = pi g
+  // rounds once (plus pi's own rounding: <= eps relative, x <= pi/4, |derivative| <= 1), the
+  // Horner sums round ~1 eps at the last step, the Taylor remainder is < 2e-18: < 2 eps.
+  const double eps64 = std::numeric_limits<double>::epsilon();
+  const double eps32 = std::numeric_limits<float>::epsilon();
+  for (int bins = 4; bins <= 1024; bins *= 2)
+    for (int k = 0; k <= bins; ++k) {
+      const long double angle = 3.141592653589793238462643383279502884L * k / bins;
+      const double c_ref = double(std::cos(angle)), s_ref = double(std::sin(angle));
+      k64::real c64, s64;
+      k64::binomial_cos_sin_pi(double(k) / bins, &c64, &s64);
+      ASSERT_NEAR(c64, c_ref, 2 * eps64) << k << " / " << bins;
+      ASSERT_NEAR(s64, s_ref, 2 * eps64) << k << " / " << bins;
+      k32::real c32, s32;
+      k32::binomial_cos_sin_pi(float(k) / float(bins), &c32, &s32);
+      ASSERT_NEAR(c32, c_ref, 2 * eps32) << k << " / " << bins;
+      ASSERT_NEAR(s32, s_ref, 2 * eps32) << k << " / " << bins;
+    }
+}
+
+// The footprint (du/dx, dv/dx, du/dy, dv/dy) of the ellipse with semi-axes a (major) and b at
+// angle theta: J = R(theta) diag(a, b), so J J^T = R diag(a^2, b^2) R^T.
+std::array<double, 4> Ellipse(double a, double b, double theta) {
+  return {a * std::cos(theta), a * std::sin(theta), -b * std::sin(theta), b * std::cos(theta)};
+}
+
+// The footprint's continuous grid coordinates from the ellipse of J J^T (closed-form
+// eigenvalues in long double; the kernel's clamps: minor >= major / 64, anisotropy in [0, 6]).
+struct GridCoords {
+  double lod, aniso, theta;
+};
+GridCoords CoordsOf(const double *f) {
+  const long double A = (long double)f[0] * f[0] + (long double)f[2] * f[2];
+  const long double B = (long double)f[0] * f[1] + (long double)f[2] * f[3];
+  const long double C = (long double)f[1] * f[1] + (long double)f[3] * f[3];
+  const long double m = 0.5L * (A + C), d = std::sqrt(0.25L * (A - C) * (A - C) + B * B);
+  const long double major = std::sqrt(m + d);
+  long double minor = std::fabs((long double)f[0] * f[3] - (long double)f[2] * f[1]) / major;
+  minor = std::max(minor, major / 64);
+  double theta = double(0.5L * std::atan2(2 * B, A - C));
+  if (theta < 0) theta += M_PI;
+  return {double(std::log2(minor)), std::min(6.0, double(std::log2(major / minor))), theta};
+}
+
+// Facets per cell key.
+std::map<unsigned, double> SharesByKey(const k64::FootprintGrids &g) {
+  std::map<unsigned, double> m;
+  for (int k = 0; k < GLINT_BINOMIAL_GRIDS; ++k)
+    if (g.share[k] > 0) m[g.cell_key[k]] += g.share[k];
+  return m;
+}
+
+TEST(TetrahedralGrids, WeightsAreBarycentricOverTrilinearGrids) {
+  // Barycentric weights: >= 0, sum 1, at most 4 grids, and linear precision - the weighted mean
+  // of the grids' (level, anisotropy level, rotation angle) is the footprint's own (lod, aniso,
+  // theta) from the test's eigen-decomposition. Every grid is one of the trilinear scheme's
+  // (same cell key), whose index k = 4 il + 2 ia + ir gives its lattice point: level
+  // floor(lod) + il, anisotropy level a = floor(aniso) + ia, angle (floor(pos_a) + ir) pi /
+  // (4 2^a) with pos_a = theta 4 2^a / pi. The trilinear weights pass the same check.
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  int checked = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const double b = 1e-3 * std::exp2(4 * uni(rng)), aniso = 6.5 * uni(rng);
+    const std::array<double, 4> f = Ellipse(b * std::exp2(aniso), b, M_PI * uni(rng));
+    const GridCoords x = CoordsOf(f.data());
+    const double l0 = std::floor(x.lod), a0 = std::floor(x.aniso);
+    // Skip the few footprints within rounding of a lattice boundary, where the kernel's floor
+    // may differ from the test's.
+    auto near_int = [](double y) { return std::fabs(y - std::nearbyint(y)) < 1e-9; };
+    if (near_int(x.lod) || (near_int(x.aniso) && x.aniso < 6) ||
+        near_int(x.theta * 4 * std::exp2(a0) / M_PI) ||
+        near_int(x.theta * 8 * std::exp2(a0) / M_PI))
+      continue;
+    k64::real fp[4] = {f[0], f[1], f[2], f[3]};
+    const double u = 100 * uni(rng), v = 100 * uni(rng);
+    const auto tri = k64::binomial_footprint_grids(1e6, u, v, fp, 1, 2);
+    const auto tet = k64::binomial_footprint_grids_tetrahedral(1e6, u, v, fp, 1, 2);
+    for (const auto *g : {&tri, &tet}) {
+      double sum = 0, level = 0, aniso_level = 0, angle = 0;
+      int used = 0;
+      for (int k = 0; k < GLINT_BINOMIAL_GRIDS; ++k) {
+        ASSERT_GE(g->share[k], 0.0);
+        if (!(g->share[k] > 0)) continue;
+        ++used;
+        int j = 0;
+        while (j < GLINT_BINOMIAL_GRIDS && tri.cell_key[j] != g->cell_key[k]) ++j;
+        ASSERT_LT(j, GLINT_BINOMIAL_GRIDS) << "a tetrahedral grid that is no trilinear grid";
+        const int il = j / 4, ia = (j / 2) % 2, ir = j % 2;
+        const double a = a0 + ia, bins = 4 * std::exp2(a);
+        sum += g->share[k];
+        level += g->share[k] * (l0 + il);
+        aniso_level += g->share[k] * a;
+        angle += g->share[k] * (std::floor(x.theta * bins / M_PI) + ir) * M_PI / bins;
+      }
+      if (g == &tet) {
+        EXPECT_LE(used, GLINT_BINOMIAL_TETRAHEDRAL_GRIDS);
+        for (int k = GLINT_BINOMIAL_TETRAHEDRAL_GRIDS; k < GLINT_BINOMIAL_GRIDS; ++k)
+          EXPECT_EQ(g->share[k], 0.0);
+      }
+      const char *name = g == &tet ? "tetrahedral" : "trilinear";
+      ASSERT_NEAR(sum, 1.0, 1e-12) << name;
+      ASSERT_NEAR(level, x.lod, 1e-9) << name;
+      ASSERT_NEAR(aniso_level, x.aniso, 1e-9) << name;
+      ASSERT_NEAR(angle, x.theta, 1e-9) << name;
+    }
+    ++checked;
+  }
+  EXPECT_GT(checked, 19000);
+}
+
+TEST(TetrahedralGrids, SharesAreContinuousAcrossEveryLatticeBoundary) {
+  // Sweeps of the footprint's angle, anisotropy and size across many bin, triangle, anisotropy
+  // and level boundaries: the facets held by each cell (keyed) change by at most the weights'
+  // Lipschitz bound per step. Each weight is a difference of two of C1, C2, T (binomial_tetra-
+  // hedral.h, step 2), whose slopes in the lattice coordinates (x, s, t) are <= 2, so a weight
+  // moves <= 4 and the 4 weights <= 16 per unit of |dx| + |ds| + |dt|. A grid that appeared or
+  // vanished with weight (a pop) would move it by O(1).
+  struct Sweep {
+    const char *name;
+    std::function<std::array<double, 4>(double)> footprint;  // of the sweep parameter in [0, 1]
+  };
+  const Sweep sweeps[] = {
+      {"angle, anisotropy 2^2.5",
+       [](double q) { return Ellipse(1e-3 * std::exp2(2.5), 1e-3, 0.01 + 3.12 * q); }},
+      {"angle, anisotropy 2^0.2",
+       [](double q) { return Ellipse(1e-3 * std::exp2(0.2), 1e-3, 0.01 + 3.12 * q); }},
+      {"anisotropy 2^0.05 .. 2^5.95",
+       [](double q) { return Ellipse(1e-3 * std::exp2(0.05 + 5.9 * q), 1e-3, 1.0); }},
+      {"size 2^0 .. 2^6",
+       [](double q) {
+         return Ellipse(1e-3 * std::exp2(1.3 + 6 * q), 1e-3 * std::exp2(6 * q), 0.7);
+       }},
+  };
+  const int steps = 20000;
+  for (const Sweep &sw : sweeps) {
+    std::map<unsigned, double> last;
+    GridCoords last_x{};
+    int changes = 0;
+    double worst = 0;
+    for (int i = 0; i <= steps; ++i) {
+      const std::array<double, 4> f = sw.footprint(double(i) / steps);
+      k64::real fp[4] = {f[0], f[1], f[2], f[3]};
+      const auto now =
+          SharesByKey(k64::binomial_footprint_grids_tetrahedral(1e6, 0.3, 0.7, fp, 1, 2));
+      const GridCoords x = CoordsOf(f.data());
+      if (i > 0) {
+        double moved = 0;
+        for (const auto &[key, w] : now) moved += std::fabs(w - (last.count(key) ? last[key] : 0));
+        for (const auto &[key, w] : last)
+          if (!now.count(key)) moved += w;
+        // The step in lattice units: pos0 = theta 4 2^floor(aniso) / pi (the finer of the two
+        // levels bounds it), s = aniso, t = lod.
+        const double bins = 8 * std::exp2(std::floor(std::max(x.aniso, last_x.aniso)));
+        const double step = std::fabs(x.theta - last_x.theta) * bins / M_PI +
+                            std::fabs(x.aniso - last_x.aniso) + std::fabs(x.lod - last_x.lod);
+        worst = std::max(worst, moved / step);
+        ASSERT_LE(moved, 16 * step + 1e-12) << sw.name << " step " << i;
+        changes += now.size() != last.size() ||
+                   !std::equal(now.begin(), now.end(), last.begin(),
+                               [](const auto &a, const auto &b) { return a.first == b.first; });
+      }
+      last = now;
+      last_x = x;
+    }
+    std::printf("%-28s %d changes of the grid set, worst |dw| / step %.3g\n", sw.name, changes,
+                worst);
+    EXPECT_GT(changes, 10) << sw.name << ": the sweep must cross lattice boundaries";
+  }
+}
+
+TEST(TetrahedralGrids, CountMeanIsNpTimesPWithinTheBinomialStandardError) {
+  // E[b(N_P, p) / (N_P p)] = 1 (KK24 Eq. 16) for both interpolations, over 20000 positions with
+  // random anisotropic, rotated footprints, against the binomial law's standard error computed
+  // from the grids' trial counts: grid g draws floor(n_g) trials of p and one of frac(n_g) p
+  // (binomial_draw), variance floor(n_g) p (1 - p) + f p (1 - f p), independent across grids
+  // and (distinct cells) positions.
+  std::mt19937_64 rng(6);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  for (int interpolation : {GLINT_BINOMIAL_TRILINEAR, GLINT_BINOMIAL_TETRAHEDRAL})
+    for (double n_p : {0.3, 30.0, 3e4})
+      for (double p : {0.01, 0.3, 0.9}) {
+        Scene s;
+        s.interpolation = interpolation;
+        const int m = 20000;
+        double sum = 0, var = 0;
+        for (int i = 0; i < m; ++i) {
+          const double b = 1e-3, a = b * std::exp2(3 * uni(rng));
+          const std::array<double, 4> f = Ellipse(a, b, M_PI * uni(rng));
+          s.density = n_p / (a * b);
+          const double u = 1000 * uni(rng), v = 1000 * uni(rng);
+          double n_facets = 0;
+          const double count = k64::Count(s, u, v, f.data(), p, 77u, &n_facets);
+          k64::real fp[4] = {f[0], f[1], f[2], f[3]};
+          const auto g = k64::binomial_footprint_grids_for(interpolation, s.density, u, v, fp,
+                                                           s.seed_lo, s.seed_hi);
+          double var_i = 0;
+          for (int k = 0; k < GLINT_BINOMIAL_GRIDS; ++k) {
+            const double n_g = g.share[k] * g.n_facets, whole = std::floor(n_g), fr = n_g - whole;
+            var_i += whole * p * (1 - p) + fr * p * (1 - fr * p);
+          }
+          sum += count / (n_facets * p);
+          var += var_i / (n_facets * p * n_facets * p);
+        }
+        const double mean = sum / m, se = std::sqrt(var) / m;
+        std::printf("interpolation %d N_P %-6g p %-4g mean count / (N_P p) %.5f se %.2g\n",
+                    interpolation, n_p, p, mean, se);
+        EXPECT_NEAR(mean, 1.0, 4 * se)
+            << "interpolation " << interpolation << " N_P " << n_p << " p " << p;
+      }
+}
+
+// ---------------------------------------------------------------------------------------------
 // The model.
 
 Scene DirectionalScene(double cone_deg) {
@@ -411,18 +643,25 @@ TEST(BinomialModel, UnbiasedForEveryLightKind) {
                         {"polygon below horizon", below},
                         {"beckmann aniso polygon", beck},
                         {"heuristic r", heuristic}};
-  for (const Case &c : cases) {
-    Scene s = c.scene;
-    s.density = 3e7;
-    const double side = 1e-3;  // N_P = 30
-    Stats st = Summarise(GlintSamples(s, kWo, side, 40000));
-    double smooth = k64::Smooth(s, kWo);
-    std::printf("%-24s smooth %.5g glint mean %.5g se %.2g lit %.3f\n", c.name, smooth, st.mean,
-                st.se(), st.nonzero);
-    ASSERT_GT(smooth, 0.0) << c.name;
-    EXPECT_NEAR(st.mean, smooth, 4 * st.se()) << c.name;
-    EXPECT_LT(st.nonzero, 0.95) << c.name << ": glints expected, not a smooth field";
-  }
+  // Both footprint interpolations (TRILINEAR, TETRAHEDRAL: binomial_tetrahedral.h).
+  // Square footprints (levels only) and anisotropic rotated ones (every grid weight).
+  for (int interpolation : {GLINT_BINOMIAL_TRILINEAR, GLINT_BINOMIAL_TETRAHEDRAL})
+    for (bool anisotropic : {false, true})
+      for (const Case &c : cases) {
+        Scene s = c.scene;
+        s.interpolation = interpolation;
+        s.density = 3e7;
+        const double side = 1e-3;  // N_P = 30
+        Stats st = Summarise(GlintSamples(s, kWo, side, 40000, anisotropic));
+        double smooth = k64::Smooth(s, kWo);
+        std::printf(
+            "%-24s interpolation %d aniso %d smooth %.5g glint mean %.5g se %.2g lit %.3f\n",
+            c.name, interpolation, int(anisotropic), smooth, st.mean, st.se(), st.nonzero);
+        ASSERT_GT(smooth, 0.0) << c.name;
+        EXPECT_NEAR(st.mean, smooth, 4 * st.se())
+            << c.name << " interpolation " << interpolation << " anisotropic " << anisotropic;
+        EXPECT_LT(st.nonzero, 0.95) << c.name << ": glints expected, not a smooth field";
+      }
 }
 
 TEST(BinomialModel, ConvergesToTheSmoothModelAtTheBinomialRate) {
@@ -435,20 +674,27 @@ TEST(BinomialModel, ConvergesToTheSmoothModelAtTheBinomialRate) {
   ASSERT_GT(p, 0.0);
   ASSERT_LT(p, 1.0);
   std::printf("p = %.4g\n  N_P        rel. RMS error   predicted\n", p);
-  double last = 1e30;
-  for (int decade = 2; decade <= 12; ++decade) {
-    double n_p = std::pow(10.0, decade);
-    s.density = n_p / (1e-3 * 1e-3);
-    std::vector<double> x = GlintSamples(s, kWo, 1e-3, 3000);
-    double sq = 0;
-    for (double v : x) sq += (v / smooth - 1) * (v / smooth - 1);
-    double rms = std::sqrt(sq / double(x.size()));
-    double predicted = std::sqrt((1 - p) / (n_p * p));
-    std::printf("  1e%-2d       %.3e        %.3e\n", decade, rms, predicted);
-    EXPECT_LT(rms, last) << "error must fall with every decade";
-    // Within 20% of the law (3000 samples: ~1.3% noise on an RMS); fp64 floor 1e-9.
-    EXPECT_NEAR(rms, predicted, 0.2 * predicted + 1e-9) << "N_P 1e" << decade;
-    last = rms;
+  // Both footprint interpolations: either splits the N_P trials between independent binomials
+  // of the same p, so the law is the same.
+  for (int interpolation : {GLINT_BINOMIAL_TRILINEAR, GLINT_BINOMIAL_TETRAHEDRAL}) {
+    s.interpolation = interpolation;
+    double last = 1e30;
+    for (int decade = 2; decade <= 12; ++decade) {
+      double n_p = std::pow(10.0, decade);
+      s.density = n_p / (1e-3 * 1e-3);
+      std::vector<double> x =
+          GlintSamples(s, kWo, 1e-3, 3000, interpolation == GLINT_BINOMIAL_TETRAHEDRAL);
+      double sq = 0;
+      for (double v : x) sq += (v / smooth - 1) * (v / smooth - 1);
+      double rms = std::sqrt(sq / double(x.size()));
+      double predicted = std::sqrt((1 - p) / (n_p * p));
+      std::printf("  1e%-2d       %.3e        %.3e\n", decade, rms, predicted);
+      EXPECT_LT(rms, last) << "error must fall with every decade";
+      // Within 20% of the law (3000 samples: ~1.3% noise on an RMS); fp64 floor 1e-9.
+      EXPECT_NEAR(rms, predicted, 0.2 * predicted + 1e-9)
+          << "N_P 1e" << decade << " interpolation " << interpolation;
+      last = rms;
+    }
   }
 }
 
@@ -797,21 +1043,26 @@ TEST(BinomialModel, StableAtTheExtremesInFp32AndFp64) {
       {"huge footprint", 0.3, 1e2, 1e3, 1.0, 0.5, kWo, {}},
       {"tiny footprint", 0.3, 1e20, 1e-15, 1.0, 0.5, kWo, {}},
   };
-  for (const Case &c : cases) {
-    Scene s = DirectionalScene(c.cone_deg);
-    s.ax = s.ay = c.ax;
-    s.AddPoint({1.0, 0.0, 1.0}, 1.0, 0.01);
-    s.AddPolygon(Quad(0.9, -0.1, 2.0, 0.3, 0.2), 1.0);
-    s.density = c.density;
-    std::array<double, 4> fp = c.side > 0 ? Footprint(c.side) : c.fp;
-    for (int i = 0; i < 64; ++i) {
-      double u = c.u + i * 0.013, v = 0.25 + i * 0.007;
-      double a = k32::Glint(s, u, v, fp.data(), c.wo);
-      ASSERT_TRUE(std::isfinite(a) && a >= 0.0) << c.name << ": " << a;
-      double d = k64::Glint(s, u, v, fp.data(), c.wo);
-      ASSERT_TRUE(std::isfinite(d) && d >= 0.0) << c.name << " (fp64): " << d;
+  for (int interpolation : {GLINT_BINOMIAL_TRILINEAR, GLINT_BINOMIAL_TETRAHEDRAL})
+    for (const Case &c : cases) {
+      Scene s = DirectionalScene(c.cone_deg);
+      s.interpolation = interpolation;
+      s.ax = s.ay = c.ax;
+      s.AddPoint({1.0, 0.0, 1.0}, 1.0, 0.01);
+      s.AddPolygon(Quad(0.9, -0.1, 2.0, 0.3, 0.2), 1.0);
+      s.density = c.density;
+      std::array<double, 4> fp = c.side > 0 ? Footprint(c.side) : c.fp;
+      // TETRAHEDRAL on a square footprint uses the trilinear grids: stretch and turn it.
+      if (interpolation == GLINT_BINOMIAL_TETRAHEDRAL && c.side > 0)
+        fp = Ellipse(3 * c.side, c.side / 3, 0.3);
+      for (int i = 0; i < 64; ++i) {
+        double u = c.u + i * 0.013, v = 0.25 + i * 0.007;
+        double a = k32::Glint(s, u, v, fp.data(), c.wo);
+        ASSERT_TRUE(std::isfinite(a) && a >= 0.0) << c.name << ": " << a;
+        double d = k64::Glint(s, u, v, fp.data(), c.wo);
+        ASSERT_TRUE(std::isfinite(d) && d >= 0.0) << c.name << " (fp64): " << d;
+      }
     }
-  }
 }
 
 TEST(BinomialModel, KeysDifferingInOneBitGiveUncorrelatedCounts) {

@@ -28,6 +28,12 @@ class ReflectionProbability(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
     AREA: _ClassVar[ReflectionProbability]
     HEURISTIC_R: _ClassVar[ReflectionProbability]
 
+class FootprintInterpolation(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+    __slots__ = ()
+    FOOTPRINT_INTERPOLATION_UNSPECIFIED: _ClassVar[FootprintInterpolation]
+    TRILINEAR: _ClassVar[FootprintInterpolation]
+    TETRAHEDRAL: _ClassVar[FootprintInterpolation]
+
 class AreaMethod(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
     __slots__ = ()
     AREA_METHOD_UNSPECIFIED: _ClassVar[AreaMethod]
@@ -55,6 +61,9 @@ BECKMANN: Ndf
 P_MODE_UNSPECIFIED: ReflectionProbability
 AREA: ReflectionProbability
 HEURISTIC_R: ReflectionProbability
+FOOTPRINT_INTERPOLATION_UNSPECIFIED: FootprintInterpolation
+TRILINEAR: FootprintInterpolation
+TETRAHEDRAL: FootprintInterpolation
 AREA_METHOD_UNSPECIFIED: AreaMethod
 LTC: AreaMethod
 LECOCQ: AreaMethod
@@ -87,18 +96,20 @@ class DielectricFresnel(_message.Message):
     def __init__(self, ior: _Optional[float] = ...) -> None: ...
 
 class BinomialParams(_message.Message):
-    __slots__ = ("density", "p_mode", "r", "normal_threshold", "slope_cell")
+    __slots__ = ("density", "p_mode", "r", "normal_threshold", "slope_cell", "footprint_interpolation")
     DENSITY_FIELD_NUMBER: _ClassVar[int]
     P_MODE_FIELD_NUMBER: _ClassVar[int]
     R_FIELD_NUMBER: _ClassVar[int]
     NORMAL_THRESHOLD_FIELD_NUMBER: _ClassVar[int]
     SLOPE_CELL_FIELD_NUMBER: _ClassVar[int]
+    FOOTPRINT_INTERPOLATION_FIELD_NUMBER: _ClassVar[int]
     density: float
     p_mode: ReflectionProbability
     r: float
     normal_threshold: float
     slope_cell: float
-    def __init__(self, density: _Optional[float] = ..., p_mode: _Optional[_Union[ReflectionProbability, str]] = ..., r: _Optional[float] = ..., normal_threshold: _Optional[float] = ..., slope_cell: _Optional[float] = ...) -> None: ...
+    footprint_interpolation: FootprintInterpolation
+    def __init__(self, density: _Optional[float] = ..., p_mode: _Optional[_Union[ReflectionProbability, str]] = ..., r: _Optional[float] = ..., normal_threshold: _Optional[float] = ..., slope_cell: _Optional[float] = ..., footprint_interpolation: _Optional[_Union[FootprintInterpolation, str]] = ...) -> None: ...
 
 class ChermainParams(_message.Message):
     __slots__ = ("log_density", "relative_area", "density_randomisation", "max_anisotropy", "dictionary_size", "colors")

@@ -139,7 +139,7 @@ void Ops::Configure(grpc::ServerBuilder *builder, const Scheduler *scheduler,
                     DeviceEngine *engine) {
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
   // First, so that the metrics interceptor after it counts the status the client gets.
-  creators.push_back(std::make_unique<UnparsedBodyInterceptorFactory>());
+  creators.push_back(std::make_unique<UnparsedBodyInterceptorFactory>(auth_.get()));
   if (metrics_) creators.push_back(std::make_unique<MetricsInterceptorFactory>(metrics_.get()));
   builder->experimental().SetInterceptorCreators(std::move(creators));
   if (!metrics_) return;

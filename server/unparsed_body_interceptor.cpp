@@ -11,7 +11,8 @@ using grpc::experimental::InterceptionHookPoints;
 
 class UnparsedBodyInterceptor final : public grpc::experimental::Interceptor {
  public:
-  explicit UnparsedBodyInterceptor(const char *method) : method_(method ? method : "") {}
+  UnparsedBodyInterceptor(const TokenAuth *auth, grpc::experimental::ServerRpcInfo *info)
+      : auth_(auth), info_(info), method_(info->method() ? info->method() : "") {}
 
   void Intercept(grpc::experimental::InterceptorBatchMethods *methods) override {
     // Unary and server-streaming calls: gRPC deserialises the one request before the handler
@@ -20,8 +21,12 @@ class UnparsedBodyInterceptor final : public grpc::experimental::Interceptor {
       unparsed_ = methods->GetRecvMessage() == nullptr;
     if (unparsed_ && methods->QueryInterceptionHookPoint(InterceptionHookPoints::PRE_SEND_STATUS)) {
       const grpc::Status sent = methods->GetSendStatus();
-      if (sent.error_code() == grpc::StatusCode::UNIMPLEMENTED && sent.error_message().empty())
-        methods->ModifySendStatus(grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, Message()));
+      if (sent.error_code() == grpc::StatusCode::UNIMPLEMENTED && sent.error_message().empty()) {
+        grpc::Status denied;
+        if (auth_ && !NeedsNoToken()) denied = CheckBearer(auth_, *info_->server_context());
+        methods->ModifySendStatus(
+            denied.ok() ? grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, Message()) : denied);
+      }
     }
     methods->Proceed();
   }
@@ -35,6 +40,16 @@ class UnparsedBodyInterceptor final : public grpc::experimental::Interceptor {
            m->file()->name();
   }
 
+  // The typed calls that answer without a token (server/health_service.h; KServe's health
+  // calls, server/kserve_service.h).
+  bool NeedsNoToken() const {
+    return method_.rfind("/grpc.health.v1.Health/", 0) == 0 ||
+           method_ == "/inference.GRPCInferenceService/ServerLive" ||
+           method_ == "/inference.GRPCInferenceService/ServerReady";
+  }
+
+  const TokenAuth *auth_;
+  grpc::experimental::ServerRpcInfo *info_;
   std::string method_;
   bool unparsed_ = false;
 };
@@ -43,7 +58,7 @@ class UnparsedBodyInterceptor final : public grpc::experimental::Interceptor {
 
 grpc::experimental::Interceptor *UnparsedBodyInterceptorFactory::CreateServerInterceptor(
     grpc::experimental::ServerRpcInfo *info) {
-  return new UnparsedBodyInterceptor(info->method());
+  return new UnparsedBodyInterceptor(auth_, info);
 }
 
 }  // namespace glint

@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
+#include <fstream>
 #include <future>
 #include <memory>
 #include <regex>
@@ -187,6 +188,42 @@ TEST_F(OutsideClient, TypedServicesRefuseAnUnparseableBodyNamingTheMessage) {
              "grpc_method=\"ModelInfer\",grpc_code=\"UNIMPLEMENTED\"}"),
       -1.0)
       << text;
+}
+
+// With --auth-tokens, a bad body to a typed method that needs a token is refused for the missing
+// token first, as the raw glint.v1 handlers do (a caller without a token learns nothing about
+// the body); with the token it gets the INVALID_ARGUMENT above. Health needs no token either way.
+TEST(OutsideClientWithTokens, UnparseableBodyWithoutATokenIsUnauthenticated) {
+  glint::test::TempDir dir("glint_outside_client_tokens");
+  const std::string tokens = dir.File("tokens");
+  std::ofstream(tokens) << "probe-token-1\n";
+  std::string error;
+  auto server = glint::test::Glintd::Start(GlintdPath(), dir, "glintd",
+                                           {"--device", "host", "--auth-tokens", tokens}, &error);
+  ASSERT_NE(server, nullptr) << error;
+  auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
+  auto call = [&](const char *method, const char *token) {
+    grpc::GenericStub stub(channel);
+    grpc::ClientContext ctx;
+    if (token) ctx.AddMetadata("authorization", std::string("Bearer ") + token);
+    grpc::ByteBuffer request = Bytes(BadBytes()), response;
+    std::promise<grpc::Status> done;
+    stub.UnaryCall(&ctx, method, grpc::StubOptions(), &request, &response,
+                   [&done](grpc::Status s) { done.set_value(std::move(s)); });
+    return done.get_future().get();
+  };
+  const char *infer = "/inference.GRPCInferenceService/ModelInfer";
+  EXPECT_EQ(call(infer, nullptr).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_EQ(call(infer, "wrong-token").error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  grpc::Status s = call(infer, "probe-token-1");
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << s.error_message();
+  EXPECT_NE(s.error_message().find("inference.ModelInferRequest"), std::string::npos);
+  for (const char *open :
+       {"/grpc.health.v1.Health/Check", "/inference.GRPCInferenceService/ServerLive"}) {
+    s = call(open, nullptr);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT)
+        << open << ": " << s.error_message();
+  }
 }
 
 // A unary call that ends before one whole message arrived is refused naming the message that

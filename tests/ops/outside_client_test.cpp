@@ -20,7 +20,9 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <thread>
 
+#include "glint/v1/glint.pb.h"
 #include "glintd_process.h"
 
 namespace {
@@ -224,6 +226,75 @@ TEST(OutsideClientWithTokens, UnparseableBodyWithoutATokenIsUnauthenticated) {
     EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT)
         << open << ": " << s.error_message();
   }
+}
+
+// glintd's request log (without --quiet) shows client-chosen strings as one escaped, bounded
+// line: a normal-map file name with a newline cannot forge a log line, a 6 KB name does not
+// make a 6 KB line (before: both were written raw).
+TEST(OutsideClientLog, ClientStringsCannotForgeOrFloodLogLines) {
+  glint::test::TempDir dir("glint_outside_client_log");
+  const std::string port_file = dir.File("port"), log = dir.File("glintd.log");
+  const pid_t pid = glint::test::Spawn({GlintdPath(), "--listen", "127.0.0.1:0", "--port-file",
+                                        port_file, "--device", "host", "--warm", "none"},
+                                       log + ".out", log);
+  ASSERT_GT(pid, 0);
+  const auto deadline = std::chrono::steady_clock::now() + glint::test::kServerStartTimeout;
+  while (glint::test::ReadFile(port_file).empty() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  const std::string port = glint::test::ReadFile(port_file);
+  ASSERT_FALSE(port.empty()) << glint::test::ReadFile(log);
+  auto channel = grpc::CreateChannel("127.0.0.1:" + port, grpc::InsecureChannelCredentials());
+  // UploadNormalMap with one chunk: file name `name`, 8 bytes that are no PNG (refused, logged).
+  auto upload = [&](const std::string &name) {
+    glint::v1::NormalMapChunk chunk;
+    chunk.set_filename(name);
+    chunk.set_data("notapng!");
+    grpc::GenericStub stub(channel);
+    grpc::CompletionQueue cq;
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    auto call = stub.PrepareCall(&ctx, "/glint.v1.GlintService/UploadNormalMap", &cq);
+    grpc::ByteBuffer frame = Bytes(chunk.SerializeAsString()), reply;
+    grpc::Status status;
+    int tag = 0;
+    auto step = [&](auto &&start) {
+      start(reinterpret_cast<void *>(intptr_t(++tag)));
+      void *got;
+      bool ok;
+      EXPECT_TRUE(cq.Next(&got, &ok));
+    };
+    step([&](void *t) { call->StartCall(t); });
+    step([&](void *t) { call->Write(frame, t); });
+    step([&](void *t) { call->WritesDone(t); });
+    step([&](void *t) { call->Read(&reply, t); });
+    step([&](void *t) { call->Finish(&status, t); });
+    cq.Shutdown();
+    void *got;
+    bool ok;
+    while (cq.Next(&got, &ok)) {
+    }
+    return status;
+  };
+  EXPECT_EQ(upload("evil\nglintd: FORGED line\n.png").error_code(),
+            grpc::StatusCode::INVALID_ARGUMENT);
+  // 6000 bytes: beyond the log's 4096 but within the client's 8 KiB metadata limit, which the
+  // refusal (it quotes the name) must fit to reach the client.
+  const grpc::Status long_name = upload(std::string(6000, 'a') + ".png");
+  EXPECT_EQ(long_name.error_code(), grpc::StatusCode::INVALID_ARGUMENT)
+      << long_name.error_message().substr(0, 300);
+  kill(pid, SIGTERM);
+  int wstatus = 0;
+  waitpid(pid, &wstatus, 0);
+  std::istringstream lines(glint::test::ReadFile(log));
+  int uploads = 0;
+  for (std::string line; std::getline(lines, line);) {
+    EXPECT_NE(line.rfind("glintd: FORGED", 0), 0u) << line;
+    EXPECT_LE(line.size(), 8 + 4096 + 40) << line.substr(0, 200);
+    if (line.rfind("glintd: UploadNormalMap ", 0) == 0) ++uploads;
+  }
+  EXPECT_EQ(uploads, 2) << glint::test::ReadFile(log).substr(0, 2000);
+  EXPECT_NE(glint::test::ReadFile(log).find("UploadNormalMap evil\\nglintd: FORGED line\\n.png"),
+            std::string::npos);
 }
 
 // A unary call that ends before one whole message arrived is refused naming the message that

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <utility>
 
+#include "server/bounded_status_message.h"
 #include "server/device_engine.h"
 #include "server/metrics_interceptor.h"
 #include "server/scheduler.h"
@@ -140,6 +141,7 @@ void Ops::Configure(grpc::ServerBuilder *builder, const Scheduler *scheduler,
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
   // First, so that the metrics interceptor after it counts the status the client gets.
   creators.push_back(std::make_unique<UnparsedBodyInterceptorFactory>(auth_.get()));
+  creators.push_back(std::make_unique<BoundedStatusMessageInterceptorFactory>());
   if (metrics_) creators.push_back(std::make_unique<MetricsInterceptorFactory>(metrics_.get()));
   builder->experimental().SetInterceptorCreators(std::move(creators));
   if (!metrics_) return;

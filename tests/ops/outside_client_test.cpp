@@ -24,6 +24,7 @@
 
 #include "glint/v1/glint.pb.h"
 #include "glintd_process.h"
+#include "inference/grpc_service.pb.h"
 
 namespace {
 
@@ -295,6 +296,22 @@ TEST(OutsideClientLog, ClientStringsCannotForgeOrFloodLogLines) {
   EXPECT_EQ(uploads, 2) << glint::test::ReadFile(log).substr(0, 2000);
   EXPECT_NE(glint::test::ReadFile(log).find("UploadNormalMap evil\\nglintd: FORGED line\\n.png"),
             std::string::npos);
+}
+
+// A refusal that quotes a long client-chosen string still reaches the client with its own code
+// and a message that names the problem (before: the message exceeded the client's 16 KiB
+// metadata limit, the client's transport dropped the call and reported RESOURCE_EXHAUSTED
+// "received metadata size exceeds hard limit", a code the glint client retries).
+TEST_F(OutsideClient, RefusalQuotingALongClientStringReachesTheClient) {
+  // KServe ModelInfer for a model named by 20000 'x': NOT_FOUND quotes the name.
+  inference::ModelInferRequest request;
+  request.set_model_name(std::string(20000, 'x'));
+  const std::string body = request.SerializeAsString();
+  grpc::Status s = RawUnary(channel(), "/inference.GRPCInferenceService/ModelInfer", Bytes(body));
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::NOT_FOUND) << s.error_message().substr(0, 200);
+  EXPECT_EQ(s.error_message().rfind("model 'xxxx", 0), 0u) << s.error_message().substr(0, 200);
+  EXPECT_NE(s.error_message().find("bytes in all)"), std::string::npos);
+  EXPECT_LE(s.error_message().size(), 2048u + 40u);
 }
 
 // A unary call that ends before one whole message arrived is refused naming the message that

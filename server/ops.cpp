@@ -6,9 +6,11 @@
 #include <sstream>
 #include <utility>
 
+#include "server/bounded_status_message.h"
 #include "server/device_engine.h"
 #include "server/metrics_interceptor.h"
 #include "server/scheduler.h"
+#include "server/unparsed_body_interceptor.h"
 
 namespace glint {
 
@@ -136,10 +138,13 @@ void Ops::WarnIfExposed(const std::string &listen) const {
 
 void Ops::Configure(grpc::ServerBuilder *builder, const Scheduler *scheduler,
                     DeviceEngine *engine) {
-  if (!metrics_) return;
   std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
-  creators.push_back(std::make_unique<MetricsInterceptorFactory>(metrics_.get()));
+  // First, so that the metrics interceptor after it counts the status the client gets.
+  creators.push_back(std::make_unique<UnparsedBodyInterceptorFactory>(auth_.get()));
+  creators.push_back(std::make_unique<BoundedStatusMessageInterceptorFactory>());
+  if (metrics_) creators.push_back(std::make_unique<MetricsInterceptorFactory>(metrics_.get()));
   builder->experimental().SetInterceptorCreators(std::move(creators));
+  if (!metrics_) return;
   metrics_->SetQueueDepthSource([scheduler] { return double(scheduler->pending()); },
                                 double(scheduler->max_pending()));
   if (engine) {

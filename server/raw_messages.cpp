@@ -12,6 +12,15 @@ namespace glint {
 Status ParseBody(const grpc::ByteBuffer *body, google::protobuf::Message *out,
                  const std::string &what) {
   auto *raw = const_cast<grpc::ByteBuffer *>(body);
+  // No buffer at all (not an empty one): the call ended before one whole message arrived, e.g.
+  // a length prefix promising more bytes than came before the client's END_STREAM, or no DATA
+  // frame. gRPC drops such a truncated message; parsing "nothing" would pass it off as an empty
+  // request and answer about its first unset field instead.
+  if (!raw->Valid())
+    return Status::InvalidArgument(
+        what + ": no complete " + out->GetTypeName() +
+        " arrived (the call ended before one whole length-prefixed message: truncated, or none "
+        "sent); expected exactly one message");
   const size_t bytes = raw->Length();
   bool ok = false;
   {

@@ -18,6 +18,7 @@
 #include "proto/wire/slice_pool.h"
 #include "server/chunk_pool.h"
 #include "server/eval_plan.h"
+#include "server/log_sanitize.h"
 #include "server/metadata_admission.h"
 #include "server/model_table.h"
 #include "server/normal_map_store.h"
@@ -141,7 +142,8 @@ std::string GlintServiceImpl::DeviceName() const {
 void GlintServiceImpl::LogLine(const std::string &line) {
   if (!options_.log_requests) return;
   std::lock_guard<std::mutex> lock(log_mutex_);
-  std::fprintf(stderr, "glintd: %s\n", line.c_str());
+  // Client-chosen strings in it may not forge lines or grow the log (server/log_sanitize.h).
+  std::fprintf(stderr, "glintd: %s\n", LogSafe(line).c_str());
 }
 
 Status GlintServiceImpl::Admit(const glint::v1::EvaluateRequest &settings,

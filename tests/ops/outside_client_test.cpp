@@ -29,8 +29,7 @@
 namespace {
 
 std::string GlintdPath() {
-  const char *path = std::getenv("GLINTD_UNDER_TEST");
-  return path ? path : GLINTD_PATH;
+  return glint::test::GlintdUnderTest(GLINTD_PATH);
 }
 
 grpc::ByteBuffer Bytes(const std::string &bytes) {

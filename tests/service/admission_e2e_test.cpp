@@ -23,18 +23,11 @@ namespace v1 = glint::v1;
 
 // GLINTD_UNDER_TEST runs the tests against another glintd binary (e.g. main's, to see them fail).
 std::string GlintdPath() {
-  const char *path = std::getenv("GLINTD_UNDER_TEST");
-  return path ? path : GLINTD_PATH;
+  return glint::test::GlintdUnderTest(GLINTD_PATH);
 }
 
 v1::Material Smooth() {
-  v1::Material m;
-  m.set_model(v1::SMOOTH);
-  m.set_ndf(v1::GGX);
-  m.set_alpha_x(0.3f);
-  m.set_alpha_y(0.2f);
-  for (float f : {0.9f, 0.6f, 0.3f}) m.mutable_schlick()->add_f0(f);
-  return m;
+  return glint::test::SmoothTestMaterial(0.2f);
 }
 
 v1::EvaluateRequest Probes(uint32_t n, uint32_t seed) {
@@ -48,19 +41,7 @@ v1::EvaluateRequest Probes(uint32_t n, uint32_t seed) {
 // query on the loaded 2-core PoCL device, 4000 queries): the test cancels it when done, so it
 // is still running however slow or fast the machine.
 v1::EvaluateRequest LongRequest() {
-  v1::EvaluateRequest r;
-  *r.mutable_material() = Smooth();
-  for (int k = 0; k < 4; ++k) {
-    auto *p = r.add_lights()->mutable_polygon();
-    for (float v : {-1.f, -1.f, 2.f, -1.f, 1.f, 2.f, 1.f, 1.f, 2.f, 1.f, -1.f, 2.f})
-      p->add_vertices(v);
-    for (float v : {1.f, 1.f, 1.f}) p->add_radiance(v);
-    p->set_two_sided(true);
-  }
-  r.set_area_method(v1::REFERENCE);
-  r.set_area_samples(512);
-  *r.mutable_queries() = glint::test::RandomQueries(4000, false, false, 5);
-  return r;
+  return glint::test::FourQuadReferenceRequest(Smooth(), 4000);
 }
 
 v1::SampleRequest SmallSample(uint32_t n, uint32_t k) {

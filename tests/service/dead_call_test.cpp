@@ -26,39 +26,15 @@ namespace v1 = glint::v1;
 using Clock = std::chrono::steady_clock;
 
 std::string GlintdPath() {
-  const char *path = std::getenv("GLINTD_UNDER_TEST");
-  return path ? path : GLINTD_PATH;
+  return glint::test::GlintdUnderTest(GLINTD_PATH);
 }
 
 v1::Material Smooth() {
-  v1::Material m;
-  m.set_model(v1::SMOOTH);
-  m.set_ndf(v1::GGX);
-  m.set_alpha_x(0.3f);
-  m.set_alpha_y(0.2f);
-  for (float f : {0.9f, 0.6f, 0.3f}) m.mutable_schlick()->add_f0(f);
-  return m;
+  return glint::test::SmoothTestMaterial(0.2f);
 }
 
-// ~50 ms of device work per query: 4 quads by REFERENCE with 512 nodes per dimension (as
-// robustness_test's LongRequest).
 v1::EvaluateRequest LongRequest(uint32_t n) {
-  v1::EvaluateRequest r;
-  *r.mutable_material() = Smooth();
-  for (int k = 0; k < 4; ++k) {
-    auto *p = r.add_lights()->mutable_polygon();
-    for (int v = 0; v < 4; ++v) {
-      const double t = -2.0 * 3.14159265358979 * v / 4;
-      for (double c : {0.5 * k + 2.0 * std::cos(t), 2.0 * std::sin(t), 3.0})
-        p->add_vertices(float(c));
-    }
-    for (float v : {1.0f, 1.0f, 1.0f}) p->add_radiance(v);
-    p->set_two_sided(true);
-  }
-  r.set_area_method(v1::REFERENCE);
-  r.set_area_samples(512);
-  *r.mutable_queries() = glint::test::RandomQueries(n, false, false, 5);
-  return r;
+  return glint::test::FourQuadReferenceRequest(Smooth(), n);
 }
 
 // glint_queue_depth (queued + running requests) from /metrics; -1 when unreadable.

@@ -33,8 +33,7 @@ using grpc::health::v1::HealthCheckResponse;
 // GLINTD_UNDER_TEST runs the tests against another glintd binary (e.g. an older build, to see
 // them fail there).
 std::string GlintdPath() {
-  const char *path = std::getenv("GLINTD_UNDER_TEST");
-  return path ? path : GLINTD_PATH;
+  return glint::test::GlintdUnderTest(GLINTD_PATH);
 }
 
 double SecondsSince(Clock::time_point t) {

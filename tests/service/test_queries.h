@@ -58,4 +58,37 @@ inline glint::v1::QueryBatch RandomQueries(uint32_t count, bool probe, bool fram
   return q;
 }
 
+// The GGX Schlick material of the service tests that need "some cheap material".
+inline glint::v1::Material SmoothTestMaterial(float alpha_y) {
+  glint::v1::Material m;
+  m.set_model(glint::v1::SMOOTH);
+  m.set_ndf(glint::v1::GGX);
+  m.set_alpha_x(0.3f);
+  m.set_alpha_y(alpha_y);
+  for (float f : {0.9f, 0.6f, 0.3f}) m.mutable_schlick()->add_f0(f);
+  return m;
+}
+
+// A request that holds one worker ~50 ms per query on the 2-core PoCL device: 4 two-sided quads
+// by REFERENCE with 512 nodes per dimension (~3e6 BRDF evaluations per query).
+inline glint::v1::EvaluateRequest FourQuadReferenceRequest(const glint::v1::Material &material,
+                                                           uint32_t n) {
+  glint::v1::EvaluateRequest r;
+  *r.mutable_material() = material;
+  for (int k = 0; k < 4; ++k) {
+    auto *p = r.add_lights()->mutable_polygon();
+    for (int v = 0; v < 4; ++v) {
+      const double t = -2.0 * 3.14159265358979 * v / 4;
+      for (double c : {0.5 * k + 2.0 * std::cos(t), 2.0 * std::sin(t), 3.0})
+        p->add_vertices(float(c));
+    }
+    for (float v : {1.0f, 1.0f, 1.0f}) p->add_radiance(v);
+    p->set_two_sided(true);
+  }
+  r.set_area_method(glint::v1::REFERENCE);
+  r.set_area_samples(512);
+  *r.mutable_queries() = RandomQueries(n, false, false, 5);
+  return r;
+}
+
 }  // namespace glint::test

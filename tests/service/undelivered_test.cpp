@@ -28,18 +28,11 @@ namespace v1 = glint::v1;
 using Clock = std::chrono::steady_clock;
 
 std::string GlintdPath() {
-  const char *path = std::getenv("GLINTD_UNDER_TEST");
-  return path ? path : GLINTD_PATH;
+  return glint::test::GlintdUnderTest(GLINTD_PATH);
 }
 
 v1::Material Smooth() {
-  v1::Material m;
-  m.set_model(v1::SMOOTH);
-  m.set_ndf(v1::GGX);
-  m.set_alpha_x(0.3f);
-  m.set_alpha_y(0.3f);
-  for (float f : {0.9f, 0.6f, 0.3f}) m.mutable_schlick()->add_f0(f);
-  return m;
+  return glint::test::SmoothTestMaterial(0.3f);
 }
 
 // `queries` x `k` samples: 28 bytes per sample in the reply.

@@ -29,6 +29,13 @@ namespace fs = std::filesystem;
 
 // How long glintd may take to compile and warm its kernels before it reports SERVING (PoCL
 // compiles on first use when the kernel cache is cold).
+// GLINTD_UNDER_TEST runs a test against another glintd binary (e.g. an older build, to see it
+// fail there); otherwise against `built`, the one built with the test.
+inline std::string GlintdUnderTest(const char *built) {
+  const char *path = std::getenv("GLINTD_UNDER_TEST");
+  return path ? path : built;
+}
+
 inline constexpr auto kServerStartTimeout = std::chrono::seconds(240);
 
 inline std::string ReadFile(const std::string &path) {

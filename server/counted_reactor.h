@@ -1,8 +1,8 @@
-// The reactor of a typed unary callback method that does scheduler work (KServe ModelInfer): as
-// OwningUnaryReactor (server/raw_messages.h) for the raw methods, its reply is counted in the
-// --max-undelivered-mb DeliveryBudget from Finish until OnDone (gRPC serialises the typed
-// response after Finish and keeps it until the bytes have left or the call died), and a
-// cancelled call's queued job is dropped at once through `on_cancel`.
+// Unary reactors whose answered replies count in the --max-undelivered-mb DeliveryBudget:
+// BudgetedUnaryReactor, the common part (also the base of OwningUnaryReactor in
+// server/raw_messages.h, the raw methods'), and CountedUnaryReactor for a typed unary callback
+// method that does scheduler work (KServe ModelInfer: gRPC serialises its typed response after
+// Finish and keeps it until the bytes have left or the call died).
 #pragma once
 
 #include <google/protobuf/message.h>
@@ -16,18 +16,15 @@
 
 namespace glint {
 
-class CountedUnaryReactor : public grpc::ServerUnaryReactor {
+// A unary reactor whose answered reply is held in the --max-undelivered-mb DeliveryBudget (if
+// given) from Finish until OnDone, i.e. until gRPC is done with the bytes (sent, or the call
+// died), and which runs `on_cancel` (if set) when gRPC reports the call cancelled (client
+// cancel, disconnect or deadline): the service drops the call's queued job there
+// (Scheduler::DropDeadJobs). Deletes itself in OnDone.
+class BudgetedUnaryReactor : public grpc::ServerUnaryReactor {
  public:
-  CountedUnaryReactor(const google::protobuf::Message *response, DeliveryBudget *budget,
-                      std::function<void()> on_cancel)
-      : response_(response), budget_(budget), on_cancel_(std::move(on_cancel)) {}
-  void Finish(grpc::Status s) {
-    if (s.ok() && budget_) {
-      held_ = response_->ByteSizeLong();
-      budget_->Hold(held_);
-    }
-    grpc::ServerUnaryReactor::Finish(std::move(s));
-  }
+  BudgetedUnaryReactor(DeliveryBudget *budget, std::function<void()> on_cancel)
+      : budget_(budget), on_cancel_(std::move(on_cancel)) {}
   void OnCancel() override {
     if (on_cancel_) on_cancel_();
   }
@@ -36,11 +33,34 @@ class CountedUnaryReactor : public grpc::ServerUnaryReactor {
     delete this;
   }
 
+ protected:
+  // Finishes the call; an OK answer of `reply_bytes` is held in the budget until OnDone.
+  void FinishHolding(grpc::Status s, uint64_t reply_bytes) {
+    if (s.ok() && budget_) {
+      held_ = reply_bytes;
+      budget_->Hold(held_);
+    }
+    grpc::ServerUnaryReactor::Finish(std::move(s));
+  }
+
  private:
-  const google::protobuf::Message *response_;
   DeliveryBudget *budget_;
   std::function<void()> on_cancel_;
   uint64_t held_ = 0;
+};
+
+class CountedUnaryReactor : public BudgetedUnaryReactor {
+ public:
+  CountedUnaryReactor(const google::protobuf::Message *response, DeliveryBudget *budget,
+                      std::function<void()> on_cancel)
+      : BudgetedUnaryReactor(budget, std::move(on_cancel)), response_(response) {}
+  void Finish(grpc::Status s) {
+    const uint64_t bytes = s.ok() ? response_->ByteSizeLong() : 0;
+    FinishHolding(std::move(s), bytes);
+  }
+
+ private:
+  const google::protobuf::Message *response_;
 };
 
 }  // namespace glint

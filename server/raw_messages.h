@@ -12,6 +12,7 @@
 #include <string>
 
 #include "server/auth.h"
+#include "server/counted_reactor.h"
 #include "server/delivery_budget.h"
 #include "server/status.h"
 
@@ -27,41 +28,26 @@ Status ParseBody(const grpc::ByteBuffer *body, google::protobuf::Message *out,
 grpc::Status SerializeReply(const google::protobuf::Message &message, grpc::ByteBuffer *out);
 
 // A unary call's reactor that owns its typed request and response (the methods are raw, see
-// service.h); Finish serialises the response into the reply buffer. With a DeliveryBudget, the
-// reply's bytes are held in it from Finish until OnDone. `on_cancel` (if set) runs when gRPC
-// reports the call cancelled (client cancel, disconnect or deadline): the service drops the
-// call's queued job there (Scheduler::DropDeadJobs).
+// service.h); Finish serialises the response into the reply buffer, whose bytes the budget then
+// holds (BudgetedUnaryReactor).
 template <class Request, class Response>
-class OwningUnaryReactor : public grpc::ServerUnaryReactor {
+class OwningUnaryReactor : public BudgetedUnaryReactor {
  public:
   explicit OwningUnaryReactor(grpc::ByteBuffer *reply, DeliveryBudget *budget = nullptr,
                               std::function<void()> on_cancel = {})
-      : reply_(reply), budget_(budget), on_cancel_(std::move(on_cancel)) {}
+      : BudgetedUnaryReactor(budget, std::move(on_cancel)), reply_(reply) {}
   Request request;
   Response response;
   void Finish(grpc::Status s) {
     if (s.ok()) s = SerializeReply(response, reply_);
     response.Clear();  // the serialised copy is what stays until the reply has left
     request.Clear();
-    if (s.ok() && budget_) {
-      held_ = reply_->Length();
-      budget_->Hold(held_);
-    }
-    grpc::ServerUnaryReactor::Finish(s);
-  }
-  void OnCancel() override {
-    if (on_cancel_) on_cancel_();
-  }
-  void OnDone() override {
-    if (budget_) budget_->Release(held_);
-    delete this;
+    const uint64_t bytes = s.ok() ? reply_->Length() : 0;
+    FinishHolding(std::move(s), bytes);
   }
 
  private:
   grpc::ByteBuffer *reply_;
-  DeliveryBudget *budget_;
-  std::function<void()> on_cancel_;
-  uint64_t held_ = 0;
 };
 
 // A raw unary method answered at once (no scheduler work): the token check, then the body

@@ -111,8 +111,9 @@ GLINT_FN real smith_visibility_correlated(int ndf, real3 wo, real3 wi, real alph
  * (r / z - 1) / 2 (Heitz 2014 Eq. 86), so 1 + Lambda_o + Lambda_i = (r_o / z_o + r_i / z_i) / 2,
  * a sum of positives (no cancellation),
  *   V zi = G2 / (4 zo) = 1 / (2 (r_o + zo (r_i / zi))).
- * Two divisions instead of four. r_i / zi overflows only for subnormal zi, where the result
- * correctly tends to 0, as in the general form below. */
+ * Two divisions instead of four. r_i / zi overflows only for subnormal zi; the result is then 0,
+ * right unless zo is as small (both cosines subnormal, far below the documented cos >= 1e-7
+ * range, where V zi is finite), as in the general form below. */
 GLINT_FN real smith_visibility_cos_i_ggx(real3 wo, real3 wi, real alpha_x, real alpha_y) {
   glint_mask dead = (wo.z <= GLINT_R(0.0)) | (wi.z <= GLINT_R(0.0));
   real xo = alpha_x * wo.x, yo = alpha_y * wo.y;
@@ -130,8 +131,8 @@ GLINT_FN real smith_visibility_cos_i_ggx(real3 wo, real3 wi, real alpha_x, real 
  * when both cosines are tiny (denominator < 1 / FLT_MAX: cos ~1e-36 at alpha 1e-4) although
  * V cos_i stays moderate, so divide V's denominator by zi first:
  *   V zi = 1 / (4 (zo + zo Lambda_o + zo Lambda_i)) = 1 / (4 (zo + zlo + zo (zli / zi))).
- * zli / zi overflows only for subnormal zi, where the result correctly tends to 0. GGX takes
- * the closed form above. */
+ * zli / zi overflows only for subnormal zi; the result is then 0, right unless zo is subnormal
+ * too (outside the documented cos >= 1e-7 range). GGX takes the closed form above. */
 GLINT_FN real smith_visibility_cos_i(int ndf, real3 wo, real3 wi, real alpha_x, real alpha_y) {
   if (ndf != GLINT_NDF_BECKMANN) return smith_visibility_cos_i_ggx(wo, wi, alpha_x, alpha_y);
   real zlo = ndf_z_lambda(ndf, wo, alpha_x, alpha_y);

@@ -49,17 +49,25 @@ class BudgetedUnaryReactor : public grpc::ServerUnaryReactor {
   uint64_t held_ = 0;
 };
 
+// A typed method's messages belong to gRPC and live until OnDone: the parsed request (for
+// ModelInfer, all input tensors: ~4x the output), the typed response and its serialised copy.
+// All three are charged, not only the reply's bytes, so the budget bounds what a client that
+// never reads holds on the server.
 class CountedUnaryReactor : public BudgetedUnaryReactor {
  public:
-  CountedUnaryReactor(const google::protobuf::Message *response, DeliveryBudget *budget,
+  CountedUnaryReactor(const google::protobuf::Message *request,
+                      const google::protobuf::Message *response, DeliveryBudget *budget,
                       std::function<void()> on_cancel)
-      : BudgetedUnaryReactor(budget, std::move(on_cancel)), response_(response) {}
+      : BudgetedUnaryReactor(budget, std::move(on_cancel)),
+        request_(request),
+        response_(response) {}
   void Finish(grpc::Status s) {
-    const uint64_t bytes = s.ok() ? response_->ByteSizeLong() : 0;
+    const uint64_t bytes = s.ok() ? request_->ByteSizeLong() + 2 * response_->ByteSizeLong() : 0;
     FinishHolding(std::move(s), bytes);
   }
 
  private:
+  const google::protobuf::Message *request_;
   const google::protobuf::Message *response_;
 };
 

@@ -251,7 +251,7 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
 
   // The reply counts in --max-undelivered-mb until it has left; a cancelled call leaves the
   // queue at once (server/counted_reactor.h).
-  auto *reactor = new CountedUnaryReactor(response, &glint_->undelivered(),
+  auto *reactor = new CountedUnaryReactor(request, response, &glint_->undelivered(),
                                           [this] { glint_->scheduler().DropDeadJobs(); });
   const bool queued = glint_->scheduler().TrySubmit(
       [this, reactor, request, response, settings, model, model_index,

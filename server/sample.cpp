@@ -70,8 +70,10 @@ Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleReques
   const size_t samples = size_t(q.count()) * k;
   EvalPlan plan = MakeEvalPlan(settings, q);
   // uv keys every model's samples when the queries carry it, also where the BRDF does not read
-  // it (README "Determinism"; models/smooth/smooth_sample.h).
-  plan.spec.sample_uv = q.uv_size() > 0;
+  // it (README "Determinism"; models/smooth/smooth_sample.h). The glint models key on uv through
+  // their own inputs already; only the smooth model's sampler reads the option, so only its
+  // programs get it (for the others it would compile a second, unwarmed copy of each program).
+  plan.spec.sample_uv = q.uv_size() > 0 && settings.material().model() == glint::v1::SMOOTH;
   // The normal map of a NORMAL_MAP material (NOT_FOUND naming the digest when it is gone).
   s = ResolveRequestTable(settings.material(), &plan);
   if (!s.ok()) return s;

@@ -18,6 +18,8 @@
 
 #include "glint/v1/glint.grpc.pb.h"
 #include "glintd_process.h"
+#include "inference/grpc_service.grpc.pb.h"
+#include "kserve_queries.h"
 #include "test_queries.h"
 
 namespace {
@@ -64,15 +66,17 @@ TEST(DeadCall, CancelledQueuedCallLeavesTheQueueAtOnce) {
   const int metrics_port = glint::test::FreeLoopbackPort();
   ASSERT_GT(metrics_port, 0);
   std::string error;
-  auto server =
-      glint::test::Glintd::Start(GlintdPath(), dir, "dead_call",
-                                 {"--workers", "1", "--max-pending", "8", "--slice-ms", "50",
-                                  "--metrics-listen", "127.0.0.1:" + std::to_string(metrics_port)},
-                                 &error);
+  auto server = glint::test::Glintd::Start(
+      GlintdPath(), dir, "dead_call",
+      {"--workers", "1", "--max-pending", "8", "--slice-ms", "50", "--metrics-listen",
+       "127.0.0.1:" + std::to_string(metrics_port), "--model",
+       "probe=" + std::string(GLINT_EXAMPLES_DIR) + "/materials/gold_aniso.json"},
+      &error);
   ASSERT_NE(server, nullptr) << error;
   httplib::Client http("127.0.0.1", metrics_port);
-  auto stub = v1::GlintService::NewStub(
-      grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials()));
+  auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
+  auto stub = v1::GlintService::NewStub(channel);
+  auto kserve = inference::GRPCInferenceService::NewStub(channel);
   ASSERT_EQ(QueueDepth(http), 0);
 
   grpc::ClientContext long_ctx;
@@ -87,13 +91,16 @@ TEST(DeadCall, CancelledQueuedCallLeavesTheQueueAtOnce) {
   auto long_ended = [&] { return long_done.load(); };
   ASSERT_EQ(WaitForDepth(http, 1, long_ended), 1);
 
+  enum Method { kEvaluate, kSample, kModelInfer };
   struct Case {
     const char *what;
-    bool sample, use_deadline;
+    Method method;
+    bool use_deadline;
   };
-  for (const Case &c :
-       {Case{"Evaluate cancelled", false, false}, Case{"Evaluate past its deadline", false, true},
-        Case{"Sample cancelled", true, false}}) {
+  for (const Case &c : {Case{"Evaluate cancelled", kEvaluate, false},
+                        Case{"Evaluate past its deadline", kEvaluate, true},
+                        Case{"Sample cancelled", kSample, false},
+                        Case{"ModelInfer cancelled", kModelInfer, false}}) {
     SCOPED_TRACE(c.what);
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() +
@@ -101,7 +108,10 @@ TEST(DeadCall, CancelledQueuedCallLeavesTheQueueAtOnce) {
     grpc::Status status;
     std::atomic<bool> answered{false};
     std::thread queued([&] {
-      if (c.sample) {
+      if (c.method == kModelInfer) {
+        inference::ModelInferResponse res;
+        status = kserve->ModelInfer(&ctx, glint::test::KServeProbeRequest(16, 7), &res);
+      } else if (c.method == kSample) {
         v1::SampleRequest req;
         *req.mutable_material() = Smooth();
         *req.mutable_queries() = glint::test::RandomQueries(16, false, false, 3);

@@ -20,6 +20,7 @@
 #include "glint/v1/glint.grpc.pb.h"
 #include "glintd_process.h"
 #include "inference/grpc_service.grpc.pb.h"
+#include "kserve_queries.h"
 #include "test_queries.h"
 
 namespace {
@@ -51,21 +52,8 @@ v1::EvaluateRequest EvaluateRequest(uint32_t queries) {
   return r;
 }
 
-// Probe queries of the `probe` preset as KServe tensors: 12 bytes per query in the reply.
 inference::ModelInferRequest InferRequest(uint32_t queries) {
-  const v1::QueryBatch q = glint::test::RandomQueries(queries, true, false, 7);
-  inference::ModelInferRequest r;
-  r.set_model_name("probe");
-  for (auto [name, values] : {std::pair{"wo", &q.wo()}, std::pair{"wi", &q.wi()}}) {
-    auto *in = r.add_inputs();
-    in->set_name(name);
-    in->set_datatype("FP32");
-    in->add_shape(queries);
-    in->add_shape(3);
-    r.add_raw_input_contents()->assign(reinterpret_cast<const char *>(values->data()),
-                                       size_t(values->size()) * sizeof(float));
-  }
-  return r;
+  return glint::test::KServeProbeRequest(queries, 7);
 }
 
 grpc::ByteBuffer Serialized(const google::protobuf::Message &m) {

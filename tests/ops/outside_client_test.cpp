@@ -25,6 +25,7 @@
 #include "glint/v1/glint.pb.h"
 #include "glintd_process.h"
 #include "inference/grpc_service.pb.h"
+#include "raw_call.h"
 
 namespace {
 
@@ -60,33 +61,11 @@ grpc::Status RawUnary(const std::shared_ptr<grpc::Channel> &channel, const std::
 // arrive before END_STREAM: gRPC drops the partial message).
 grpc::Status NoMessageCall(const std::shared_ptr<grpc::Channel> &channel,
                            const std::string &method) {
-  grpc::GenericStub stub(channel);
-  grpc::CompletionQueue cq;
-  grpc::ClientContext ctx;
-  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
-  auto call = stub.PrepareCall(&ctx, method, &cq);
-  int next_tag = 1;
-  auto step = [&](auto &&start) {
-    void *want = reinterpret_cast<void *>(intptr_t(next_tag++));
-    start(want);
-    void *tag = nullptr;
-    bool ok = false;
-    EXPECT_TRUE(cq.Next(&tag, &ok));
-    EXPECT_EQ(tag, want);
-    return ok;
-  };
-  step([&](void *t) { call->StartCall(t); });
-  step([&](void *t) { call->WritesDone(t); });
+  glint::test::RawCall call(channel, method);
+  call.WriteAllThenClose({});
   grpc::ByteBuffer reply;
-  EXPECT_FALSE(step([&](void *t) { call->Read(&reply, t); })) << method << " answered";
-  grpc::Status status;
-  step([&](void *t) { call->Finish(&status, t); });
-  cq.Shutdown();
-  void *tag;
-  bool ok;
-  while (cq.Next(&tag, &ok)) {
-  }
-  return status;
+  EXPECT_FALSE(call.Read(&reply)) << method << " answered";
+  return call.Finish();
 }
 
 // The value of the exposition line for `series` (exact name and labels), or -1 when absent.

@@ -21,6 +21,7 @@
 #include "glint/v1/glint.grpc.pb.h"
 #include "glintd_process.h"
 #include "grpc/health/v1/health.grpc.pb.h"
+#include "raw_call.h"
 #include "server/health_service.h"
 #include "test_queries.h"
 
@@ -121,31 +122,13 @@ struct RawStreamOutcome {
 // half-closes, reads every reply, returns the final status.
 RawStreamOutcome RawStream(const std::shared_ptr<grpc::Channel> &channel,
                            const std::vector<grpc::ByteBuffer> &frames) {
-  grpc::GenericStub stub(channel);
-  grpc::CompletionQueue cq;
-  grpc::ClientContext ctx;
-  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
-  auto call = stub.PrepareCall(&ctx, "/glint.v1.GlintService/EvaluateStream", &cq);
-  int next_tag = 1;
-  auto step = [&](auto &&start) {
-    void *want = reinterpret_cast<void *>(intptr_t(next_tag++));
-    start(want);
-    void *tag = nullptr;
-    bool ok = false;
-    EXPECT_TRUE(cq.Next(&tag, &ok));
-    EXPECT_EQ(tag, want);
-    return ok;
-  };
+  glint::test::RawCall call(channel, "/glint.v1.GlintService/EvaluateStream");
+  call.WriteAllThenClose(frames);
   RawStreamOutcome out;
-  step([&](void *t) { call->StartCall(t); });
-  for (const grpc::ByteBuffer &f : frames)
-    if (!step([&](void *t) { call->Write(f, t); })) break;
-  step([&](void *t) { call->WritesDone(t); });
   for (;;) {
     grpc::ByteBuffer reply;
-    if (!step([&](void *t) { call->Read(&reply, t); })) break;
+    if (!call.Read(&reply)) break;
     v1::EvaluateChunkResult r;
-    grpc::Slice slice;
     std::vector<grpc::Slice> slices;
     EXPECT_TRUE(reply.Dump(&slices).ok());
     std::string bytes;
@@ -153,12 +136,7 @@ RawStreamOutcome RawStream(const std::shared_ptr<grpc::Channel> &channel,
     EXPECT_TRUE(r.ParseFromString(bytes));
     out.results.push_back(r);
   }
-  step([&](void *t) { call->Finish(&out.status, t); });
-  cq.Shutdown();
-  void *tag;
-  bool ok;
-  while (cq.Next(&tag, &ok)) {
-  }
+  out.status = call.Finish();
   return out;
 }
 
@@ -878,34 +856,11 @@ TEST_F(Robustness, UnparseableUploadChunkGetsInvalidArgumentNamingTheChunk) {
   for (const std::vector<grpc::ByteBuffer> &frames :
        {std::vector<grpc::ByteBuffer>{Serialized(first), Bytes(BadBytes())},
         std::vector<grpc::ByteBuffer>{Serialized(first), Bytes(BadBytes()), Serialized(first)}}) {
-    grpc::GenericStub stub(channel());
-    grpc::CompletionQueue cq;
-    grpc::ClientContext ctx;
-    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
-    auto call = stub.PrepareCall(&ctx, "/glint.v1.GlintService/UploadNormalMap", &cq);
-    int next_tag = 1;
-    auto step = [&](auto &&start) {
-      void *want = reinterpret_cast<void *>(intptr_t(next_tag++));
-      start(want);
-      void *tag = nullptr;
-      bool ok = false;
-      EXPECT_TRUE(cq.Next(&tag, &ok));
-      EXPECT_EQ(tag, want);
-      return ok;
-    };
-    step([&](void *t) { call->StartCall(t); });
-    for (const grpc::ByteBuffer &f : frames)
-      if (!step([&](void *t) { call->Write(f, t); })) break;
-    step([&](void *t) { call->WritesDone(t); });
+    glint::test::RawCall call(channel(), "/glint.v1.GlintService/UploadNormalMap");
+    call.WriteAllThenClose(frames);
     grpc::ByteBuffer reply;
-    const bool answered = step([&](void *t) { call->Read(&reply, t); });
-    grpc::Status status;
-    step([&](void *t) { call->Finish(&status, t); });
-    cq.Shutdown();
-    void *tag;
-    bool ok;
-    while (cq.Next(&tag, &ok)) {
-    }
+    const bool answered = call.Read(&reply);
+    const grpc::Status status = call.Finish();
     EXPECT_FALSE(answered) << "a refused upload has no NormalMapInfo";
     EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
     EXPECT_NE(status.error_message().find("chunk 1: "), std::string::npos)

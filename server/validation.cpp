@@ -467,10 +467,9 @@ Status ValidateQueries(const glint::v1::QueryBatch &q, bool has_lights,
   return ValidateQueryView(QueryView::Of(q), has_lights, limits, first_query, streamed);
 }
 
-Status ValidateQueryView(const QueryView &q, bool has_lights, const ValidationLimits &limits,
-                         uint64_t first_query, bool streamed) {
-  const uint32_t n = q.count;
-  if (Status s = CheckQueryCount(n, limits, streamed); !s.ok()) return s;
+Status ValidateQueryViewShape(const QueryView &q, bool has_lights, const ValidationLimits &limits,
+                              bool streamed) {
+  if (Status s = CheckQueryCount(q.count, limits, streamed); !s.ok()) return s;
   if (!q.wo) return Status::InvalidArgument("queries.wo: absent; expected 3 x count values");
   const bool frame = q.normal != nullptr;
   if (frame != (q.position != nullptr) || frame != (q.tangent != nullptr)) {
@@ -486,6 +485,14 @@ Status ValidateQueryView(const QueryView &q, bool has_lights, const ValidationLi
     return Status::InvalidArgument(
         "lights: empty; a batch without queries.wi needs at least one light");
   }
+  return Status::Ok();
+}
+
+Status ValidateQueryView(const QueryView &q, bool has_lights, const ValidationLimits &limits,
+                         uint64_t first_query, bool streamed) {
+  if (Status s = ValidateQueryViewShape(q, has_lights, limits, streamed); !s.ok()) return s;
+  const uint32_t n = q.count;
+  const bool frame = q.normal != nullptr;
 
   const double tol = limits.unit_tolerance;
   struct Array {

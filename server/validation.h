@@ -38,6 +38,13 @@ Status ValidateQueries(const glint::v1::QueryBatch &queries, bool has_lights,
 Status ValidateQueryView(const QueryView &queries, bool has_lights, const ValidationLimits &limits,
                          uint64_t first_query = 0, bool streamed = false);
 
+// The part of ValidateQueryView that reads no query values: the count, which arrays are present
+// (wo; the frame's three arrays all or none) and whether they fit the lights (wi exactly when
+// there are none). Same messages. RunShared (server/shm_io.cpp) checks this before it starts
+// kernels that run while the values are still being checked.
+Status ValidateQueryViewShape(const QueryView &queries, bool has_lights,
+                              const ValidationLimits &limits, bool streamed = false);
+
 // Checks what the material's model needs from a batch that passed ValidateQueries (the model's
 // validate_queries, server/model.h; e.g. BINOMIAL needs uv and footprint and refuses probes).
 Status ValidateQueriesForModel(const glint::v1::QueryBatch &queries,

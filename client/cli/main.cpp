@@ -22,6 +22,7 @@
 #include "client/cli/sample_command.h"
 #include "client/lib/glint_client.h"
 #include "client/lib/query_io.h"
+#include "client/lib/rate_format.h"
 #include "client/preview/image_io.h"
 #include "client/preview/preview_scene.h"
 
@@ -225,9 +226,8 @@ int RunEval(const Options &options) {
     case glint::client::OutputFormat::kUnknown:
       break;  // rejected above
   }
-  const double rate = *seconds > 0.0 ? static_cast<double>(count) / *seconds : 0.0;
-  std::printf("glint eval: %u queries in %.3f s (%.0f queries/s) via %s -> %s\n", count, *seconds,
-              rate,
+  std::printf("glint eval: %u queries in %.3f s (%s queries/s) via %s -> %s\n", count, *seconds,
+              glint::client::FormatRate(count, *seconds).c_str(),
               used == "shm" ? ("shared memory (" + std::to_string(info.chunks) +
                                " calls of <= " + std::to_string(info.chunk_queries) + " queries)")
                                   .c_str()

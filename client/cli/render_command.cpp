@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "client/lib/query_io.h"
+#include "client/lib/rate_format.h"
 #include "client/preview/exr_layers.h"
 #include "client/preview/gbuffer.h"
 #include "client/preview/image_io.h"
@@ -140,9 +141,9 @@ int RunRender(const Options &options) {
     glint::client::WritePngToneMapped(png, gbuffer.width, gbuffer.height, image);
     std::printf("%s\n", png.c_str());
   }
-  const double rate = seconds > 0.0 ? count / seconds : 0.0;
-  std::printf("glint render: %dx%d, %u covered pixels in %.3f s (%.0f queries/s) via %s -> %s\n",
-              gbuffer.width, gbuffer.height, count, seconds, rate, Transport(info).c_str(),
+  std::printf("glint render: %dx%d, %u covered pixels in %.3f s (%s queries/s) via %s -> %s\n",
+              gbuffer.width, gbuffer.height, count, seconds,
+              glint::client::FormatRate(count, seconds).c_str(), Transport(info).c_str(),
               out.c_str());
   return kExitOk;
 }

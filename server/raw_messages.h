@@ -45,6 +45,14 @@ class OwningUnaryReactor : public BudgetedUnaryReactor {
     const uint64_t bytes = s.ok() ? reply_->Length() : 0;
     FinishHolding(std::move(s), bytes);
   }
+  // Finishes OK with `reply` already encoded (e.g. proto/wire's EncodeEvaluateResponse around a
+  // pooled radiance slice): no serialisation, no copy.
+  void FinishWithReply(grpc::ByteBuffer reply) {
+    *reply_ = std::move(reply);
+    response.Clear();
+    request.Clear();
+    FinishHolding(grpc::Status::OK, reply_->Length());
+  }
 
  private:
   grpc::ByteBuffer *reply_;

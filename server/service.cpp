@@ -243,10 +243,35 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   auto finish = [reactor](const Status &st) { reactor->Finish(ToGrpcStatus(st)); };
   auto member = MakeEvaluateMember(ctx, request, response, received, finish);
   bool queued = scheduler_->TrySubmit(
-      [this, ctx, reactor, request, response, received](int worker) {
+      [this, ctx, reactor, request, response, received](int worker) -> Scheduler::Respond {
         const double queue_ms = MsSince(received);
         if (options_.metrics) options_.metrics->ObserveQueueWait(queue_ms / 1e3);
         std::string kernel = "-";
+        const uint32_t count = request->queries().count();
+        if (!request->has_shared_memory() && count <= options_.limits.max_batch) {
+          // As the stream's chunks: the device writes the radiance straight into a pooled reply
+          // slice, which the reply wraps without a copy (proto/wire/chunk_result.h
+          // EncodeEvaluateResponse); no response array to zero-fill, no serialisation copy. A
+          // count over the limit is refused by the validation below without a buffer.
+          uint8_t *radiance = nullptr;
+          grpc_slice slice = ReplyPool().Take(size_t(count) * 3 * sizeof(float), &radiance);
+          glint::v1::EvaluateStats stats;
+          Status st = RunBatchInto(worker, *request, request->queries(), 0, false,
+                                   reinterpret_cast<float *>(radiance), &stats, &kernel, ctx);
+          stats.set_queue_ms(queue_ms);
+          std::ostringstream line;
+          line << "Evaluate n=" << count << " model=" << ModelName(*request) << " kernel=" << kernel
+               << " queue_ms=" << queue_ms << " compute_ms=" << stats.compute_ms()
+               << (st.ok() ? " ok" : " refused: " + st.message());
+          LogLine(line.str());
+          if (!st.ok()) {
+            grpc_slice_unref(slice);
+            return [reactor, st] { reactor->Finish(ToGrpcStatus(st)); };
+          }
+          auto encoded = std::make_shared<grpc::ByteBuffer>(
+              glint::wire::EncodeEvaluateResponse(count, slice, stats));
+          return [reactor, encoded] { reactor->FinishWithReply(std::move(*encoded)); };
+        }
         Status st =
             request->has_shared_memory()
                 ? RunShared(worker, *request, ShmOwner(options_.auth, *ctx), response, &kernel, ctx)

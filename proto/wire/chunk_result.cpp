@@ -151,8 +151,15 @@ std::string ParseResponse(CodedInputStream *in, Sink *sink, DecodedChunkResult *
 
 }  // namespace
 
-grpc::ByteBuffer EncodeChunkResult(uint64_t chunk_index, uint64_t first_query, uint32_t count,
-                                   grpc_slice radiance, const glint::v1::EvaluateStats &stats) {
+namespace {
+
+// An EvaluateResponse{count, radiance, stats} whose radiance bytes are `radiance` (referenced),
+// after `prefix` (the enclosing message's bytes before it, when nested): the head (prefix, count,
+// the radiance's tag and length), the radiance slice, then the stats as the tail. `prefix` gets
+// the response's length in bytes to write its length-delimited header, if any.
+template <class Prefix>
+grpc::ByteBuffer EncodeResponse(uint32_t count, grpc_slice radiance,
+                                const glint::v1::EvaluateStats &stats, Prefix &&prefix) {
   const size_t radiance_bytes = GRPC_SLICE_LENGTH(radiance);
   const std::string stats_bytes = stats.SerializeAsString();
   // Proto3 leaves out zero scalars, empty arrays and (here) nothing else: the stats always go.
@@ -162,17 +169,7 @@ grpc::ByteBuffer EncodeChunkResult(uint64_t chunk_index, uint64_t first_query, u
       VarintSize(stats_bytes.size()) + stats_bytes.size();
   // Head: everything before the radiance bytes; tail: the stats after them.
   uint8_t head[64];
-  uint8_t *p = head;
-  if (chunk_index) {
-    *p++ = uint8_t(Tag(Result::kChunkIndexFieldNumber, kVarint));
-    p = Varint(chunk_index, p);
-  }
-  if (first_query) {
-    *p++ = uint8_t(Tag(Result::kFirstQueryFieldNumber, kVarint));
-    p = Varint(first_query, p);
-  }
-  *p++ = uint8_t(Tag(Result::kResultFieldNumber, kLength));
-  p = Varint(response_bytes, p);
+  uint8_t *p = prefix(head, response_bytes);
   if (count) {
     *p++ = uint8_t(Tag(Response::kCountFieldNumber, kVarint));
     p = Varint(count, p);
@@ -195,6 +192,29 @@ grpc::ByteBuffer EncodeChunkResult(uint64_t chunk_index, uint64_t first_query, u
     grpc_slice_unref(radiance);
   slices.emplace_back(tail);
   return grpc::ByteBuffer(slices.data(), slices.size());
+}
+
+}  // namespace
+
+grpc::ByteBuffer EncodeChunkResult(uint64_t chunk_index, uint64_t first_query, uint32_t count,
+                                   grpc_slice radiance, const glint::v1::EvaluateStats &stats) {
+  return EncodeResponse(count, radiance, stats, [&](uint8_t *p, size_t response_bytes) {
+    if (chunk_index) {
+      *p++ = uint8_t(Tag(Result::kChunkIndexFieldNumber, kVarint));
+      p = Varint(chunk_index, p);
+    }
+    if (first_query) {
+      *p++ = uint8_t(Tag(Result::kFirstQueryFieldNumber, kVarint));
+      p = Varint(first_query, p);
+    }
+    *p++ = uint8_t(Tag(Result::kResultFieldNumber, kLength));
+    return Varint(response_bytes, p);
+  });
+}
+
+grpc::ByteBuffer EncodeEvaluateResponse(uint32_t count, grpc_slice radiance,
+                                        const glint::v1::EvaluateStats &stats) {
+  return EncodeResponse(count, radiance, stats, [](uint8_t *p, size_t) { return p; });
 }
 
 std::string DecodeChunkResult(grpc::ByteBuffer *body, float *out, uint64_t capacity_floats,

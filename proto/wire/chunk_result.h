@@ -25,6 +25,11 @@ namespace glint::wire {
 grpc::ByteBuffer EncodeChunkResult(uint64_t chunk_index, uint64_t first_query, uint32_t count,
                                    grpc_slice radiance, const glint::v1::EvaluateStats &stats);
 
+// The unary Evaluate's reply written the same way: EvaluateResponse{count, radiance, stats} as a
+// byte buffer referencing `radiance` (the bytes protobuf writes for that message).
+grpc::ByteBuffer EncodeEvaluateResponse(uint32_t count, grpc_slice radiance,
+                                        const glint::v1::EvaluateStats &stats);
+
 // A decoded EvaluateChunkResult: every field but the radiance, which went to the output array.
 struct DecodedChunkResult {
   uint64_t chunk_index = 0;

@@ -1,5 +1,6 @@
 // The hand-written wire forms of proto/wire (issue 12) against protobuf's own serialiser and
-// parser, which define the wire contract: EncodeChunkResult must write exactly protobuf's bytes;
+// parser, which define the wire contract: EncodeChunkResult and EncodeEvaluateResponse must write
+// exactly protobuf's bytes;
 // DecodeChunkResult must accept exactly what protobuf's parser accepts and decode it to the same
 // values, including bad bytes (every truncation, random corruptions), fields out of order,
 // unpacked radiance, repeated `result` fields and unknown fields; and never write past its
@@ -76,6 +77,30 @@ TEST(WireChunkResult, EncodesExactlyProtobufsBytes) {
         EXPECT_EQ(Bytes(Encode(r)), r.SerializeAsString())
             << "index " << index << " first " << first << " count " << count;
       }
+}
+
+// The unary Evaluate's reply (EncodeEvaluateResponse): exactly protobuf's bytes for the same
+// EvaluateResponse (count 0 and an empty radiance left out, as proto3 does; stats with and without
+// every field), and protobuf's parser reads back the same radiance bits and stats.
+TEST(WireEvaluateResponse, EncodesExactlyProtobufsBytes) {
+  for (uint32_t count : {0u, 1u, 5u, 1000u, 70000u}) {
+    const glint::v1::EvaluateResponse r = Result(0, 0, count, count + 3).result();
+    const auto &radiance = r.radiance();
+    grpc_slice slice = grpc_slice_malloc(size_t(radiance.size()) * sizeof(float));
+    if (!radiance.empty())
+      std::memcpy(GRPC_SLICE_START_PTR(slice), radiance.data(), GRPC_SLICE_LENGTH(slice));
+    const std::string bytes = Bytes(EncodeEvaluateResponse(r.count(), slice, r.stats()));
+    EXPECT_EQ(bytes, r.SerializeAsString()) << "count " << count;
+    glint::v1::EvaluateResponse parsed;
+    ASSERT_TRUE(parsed.ParseFromString(bytes)) << "count " << count;
+    EXPECT_EQ(parsed.count(), count);
+    ASSERT_EQ(parsed.radiance_size(), int(3 * count));
+    if (count) {
+      EXPECT_EQ(0, std::memcmp(parsed.radiance().data(), radiance.data(),
+                               size_t(radiance.size()) * sizeof(float)));
+    }
+    EXPECT_EQ(parsed.stats().SerializeAsString(), r.stats().SerializeAsString());
+  }
 }
 
 // What protobuf's parser makes of `bytes`, compared with DecodeChunkResult's result; `capacity`

@@ -101,6 +101,9 @@ Status ResolveSharedMemoryCall(const ShmRegistry &registry, const std::string &o
     s = Status::InvalidArgument(
         "shared_memory.output_offset: " + std::to_string(io.output_offset()) +
         " is not a multiple of 4 (float alignment)");
+  if (s.ok())
+    s = CheckDisjointWindows(*call->in, io.input_offset(), io.input_byte_size(), *call->out,
+                             io.output_offset(), out_bytes);
   if (!s.ok()) return s;
   call->input = call->in->data() + io.input_offset();
   call->output = reinterpret_cast<float *>(call->out->data() + io.output_offset());

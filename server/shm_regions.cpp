@@ -58,7 +58,12 @@ ShmRegion::~ShmRegion() {
 
 Status ShmRegion::CheckRange(uint64_t offset, uint64_t bytes, const std::string &field) const {
   const uint64_t size = info_.byte_size();
-  if (offset > size || bytes > size - offset)
+  // Said apart from the range below, whose end offset + bytes would wrap past 2^64.
+  if (offset > size)
+    return Status::InvalidArgument(field + ": " + std::to_string(offset) +
+                                   " lies beyond region \"" + info_.name() + "\" of " +
+                                   std::to_string(size) + " bytes");
+  if (bytes > size - offset)
     return Status::InvalidArgument(field + ": bytes [" + std::to_string(offset) + ", " +
                                    std::to_string(offset + bytes) + ") lie beyond region \"" +
                                    info_.name() + "\" of " + std::to_string(size) + " bytes");
@@ -78,6 +83,22 @@ Status ShmRegion::CheckRange(uint64_t offset, uint64_t bytes, const std::string 
                                    " bytes, truncated since registration; the call needs " +
                                    std::to_string(need));
   return Status::Ok();
+}
+
+Status CheckDisjointWindows(const ShmRegion &in, uint64_t in_offset, uint64_t in_bytes,
+                            const ShmRegion &out, uint64_t out_offset, uint64_t out_bytes) {
+  if (!in.SameObject(out) || in_bytes == 0 || out_bytes == 0) return Status::Ok();
+  // Byte ranges within the object; both windows passed CheckRange, so none of these wrap.
+  const uint64_t in_begin = in.info().offset() + in_offset, in_end = in_begin + in_bytes;
+  const uint64_t out_begin = out.info().offset() + out_offset, out_end = out_begin + out_bytes;
+  if (out_end <= in_begin || in_end <= out_begin) return Status::Ok();
+  return Status::InvalidArgument(
+      "shared_memory.output_offset: the radiance bytes [" + std::to_string(out_begin) + ", " +
+      std::to_string(out_end) + ") of object " + out.info().key() + " (region \"" +
+      out.info().name() + "\") overlap the query bytes [" + std::to_string(in_begin) + ", " +
+      std::to_string(in_end) + ") (region \"" + in.info().name() +
+      "\"); the kernels read the queries while writing the radiance, so expected disjoint "
+      "input and output windows");
 }
 
 Status ShmRegistry::Register(const std::string &owner,
@@ -116,6 +137,8 @@ Status ShmRegistry::Register(const std::string &owner,
   region->fd_ = fd;
   struct stat st {};
   if (fstat(fd, &st) != 0) return Status::Internal("fstat(" + r.key() + ") failed: " + Errno());
+  region->dev_ = uint64_t(st.st_dev);
+  region->ino_ = uint64_t(st.st_ino);
   const uint64_t size = uint64_t(st.st_size);
   if (r.offset() >= size)
     return Status::InvalidArgument("offset: " + std::to_string(r.offset()) + " is not inside " +

@@ -46,6 +46,9 @@ class ShmRegion {
   // handler replaced the mapping by zero pages (server/shm_guard.h): the region no longer shows
   // the client's object, and every later call on it is refused.
   bool lost() const { return lost_.load(std::memory_order_acquire); }
+  // Whether `other` maps the same shared-memory object (the file's device and inode, so two
+  // regions registered under different names or windows of one object are recognised).
+  bool SameObject(const ShmRegion &other) const { return dev_ == other.dev_ && ino_ == other.ino_; }
 
  private:
   friend class ShmRegistry;
@@ -56,7 +59,8 @@ class ShmRegion {
   size_t map_bytes_ = 0;
   uint8_t *window_ = nullptr;  // map_ + (offset % page size)
   mutable std::atomic<bool> lost_{false};
-  int watch_ = -1;  // WatchMapping handle
+  int watch_ = -1;              // WatchMapping handle
+  uint64_t dev_ = 0, ino_ = 0;  // fstat of the object at registration (SameObject)
 };
 
 class ShmRegistry {
@@ -88,6 +92,16 @@ class ShmRegistry {
 // Checks a region name ([A-Za-z0-9._-], 1-64 characters) and a key (shm_open: a leading '/', no
 // other '/', 2-255 characters, no NUL).
 Status ValidateRegionName(const std::string &name, const std::string &field);
+
+// OK unless the input window [in_offset, in_offset + in_bytes) of `in` and the output window
+// [out_offset, out_offset + out_bytes) of `out` (offsets within the registered windows) share a
+// byte of one object. The kernels read the queries in place while they write the radiance
+// (server/query_view.h), so a query whose input bytes another query's radiance overwrote would
+// be evaluated from those bytes: wrong, and different from run to run with the order of the
+// work-items (found by the session 9 outside-client probe). INVALID_ARGUMENT naming
+// shared_memory.output_offset.
+Status CheckDisjointWindows(const ShmRegion &in, uint64_t in_offset, uint64_t in_bytes,
+                            const ShmRegion &out, uint64_t out_offset, uint64_t out_bytes);
 Status ValidateShmKey(const std::string &key, const std::string &field);
 
 }  // namespace glint

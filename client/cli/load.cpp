@@ -1,8 +1,10 @@
 #include "client/cli/load.h"
 
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <fstream>
 #include <map>
@@ -173,6 +175,17 @@ int Run(const std::map<std::string, std::string> &args) {
   options.retry.max_attempts = 1;  // refusals are what a load test measures
   options.security = glint::client::LoadChannelSecurity(get("tls-ca", ""), get("tls-cert", ""),
                                                         get("tls-key", ""), get("token-file", ""));
+  // Opened before the run, not after it: an unwritable path is said at once instead of after
+  // every level has run (found by the session 9 outside-client probe).
+  std::ofstream csv_out;
+  if (args.count("csv")) {
+    csv_out.open(args.at("csv"), std::ios::binary);
+    if (!csv_out) {
+      std::fprintf(stderr, "glint load: cannot write %s: %s\n", args.at("csv").c_str(),
+                   std::strerror(errno));
+      return 1;
+    }
+  }
   glint::client::GlintClient client(server, options);
   std::string why;
   const auto wait = std::chrono::milliseconds(
@@ -225,7 +238,7 @@ int Run(const std::map<std::string, std::string> &args) {
   for (const auto &r : results) csv += glint::client::LoadCsvRow(r) + "\n";
   if (args.count("csv")) {
     const std::string path = args.at("csv");
-    std::ofstream out(path, std::ios::binary);
+    std::ofstream &out = csv_out;
     out << csv;
     out.close();
     if (!out) {

@@ -96,3 +96,21 @@ TEST(LoadEndToEnd, UnreachableServerFailsWithinTheBound) {
 }
 
 }  // namespace
+
+// An unwritable --csv is refused before any request is sent, naming the path: before, every
+// level ran to its end first (a TD lost the whole run to a typo in the directory). The server
+// address is closed, so a tool that still ran the levels would fail with UNAVAILABLE instead.
+TEST(LoadEndToEnd, UnwritableCsvIsRefusedBeforeTheRun) {
+  TempDir dir("glint_load");
+  const int port = glint::test::FreeLoopbackPort();
+  const std::string csv = dir.File("no-such-dir") + "/load.csv";
+  std::string out, err;
+  EXPECT_EQ(RunGlint(dir,
+                     {GLINT_CLI_PATH, "load", "--server", "127.0.0.1:" + std::to_string(port),
+                      "--duration", "0.2", "--wait-ms", "300", "--csv", csv},
+                     &out, &err),
+            1);
+  EXPECT_NE(err.find("cannot write " + csv), std::string::npos) << err;
+  EXPECT_EQ(err.find("UNAVAILABLE"), std::string::npos) << err;
+  EXPECT_EQ(out.find("Request concurrency"), std::string::npos) << out;
+}

@@ -164,18 +164,6 @@ bool EvaluatesInPlace(const SharedMemoryCall &call, const glint::v1::EvaluateReq
                       bool on_device) {
   if (!on_device) return false;  // the host path reads QueryBatch arrays
   if (reinterpret_cast<uintptr_t>(call.input) % alignof(float) != 0) return false;
-  // An output that overlaps the input in the same object (glint.proto allows the output in the
-  // input region) would be written by some work-items while others, and the value check, still
-  // read those bytes: copied first instead, so the results stay those of the queries sent.
-  const glint::v1::SharedMemoryIo &io = settings.shared_memory();
-  const glint::v1::SharedMemoryRegion &in = call.in->info(), &out = call.out->info();
-  if (in.key() == out.key()) {
-    const uint64_t in_begin = in.offset() + io.input_offset();
-    const uint64_t out_begin = out.offset() + io.output_offset();
-    const uint64_t in_end = in_begin + io.input_byte_size();
-    const uint64_t out_end = out_begin + uint64_t(call.count) * 3 * sizeof(float);
-    if (in_begin < out_end && out_begin < in_end) return false;
-  }
   // Kernels whose every step is arithmetic on the query's own floats: no table index, loop count
   // or branch into memory derived from query data, so bytes the client changes after validation
   // can only change its own results (tests/service/shm_view_test.cpp runs them on NaN, Inf,

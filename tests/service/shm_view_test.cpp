@@ -185,23 +185,6 @@ TEST(ShmInPlacePolicy, AlignedSmoothWithoutPolygonsOnTheDeviceOnly) {
         << "offset " << c.in_offset << " device " << c.on_device << " lights "
         << c.request.lights_size() << " model " << c.request.material().model();
   }
-  // The output over the input in the same region (glint.proto allows the output in the input
-  // region): copied, since the kernels would overwrite queries not yet read. Its first float on
-  // the input's first, on its last, and just past it (in place again).
-  const EvaluateRequest probe = Probe(64, 1);
-  auto buffer = Buffer(RegionBytes(probe, 0) + 64 * 12);
-  uint64_t out_offset = 0;
-  EvaluateRequest shared = SharedRequest(probe, *buffer, "io", 0, &out_offset);
-  const uint64_t in_bytes = shared.shared_memory().input_byte_size();
-  for (auto [at, want] : {std::pair<uint64_t, bool>{0, false},
-                          {in_bytes - 4, false},
-                          {in_bytes - 64 * 12 + 4, false},
-                          {in_bytes, true}}) {
-    shared.mutable_shared_memory()->set_output_offset(at);
-    Resolved r;
-    Resolve(*buffer, shared, &r);
-    EXPECT_EQ(glint::EvaluatesInPlace(r.call, shared, true), want) << "output at " << at;
-  }
 }
 
 // Any bytes in the in-place kernels' inputs change only their own query's result: each query's

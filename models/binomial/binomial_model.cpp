@@ -41,7 +41,7 @@ Status ValidateBinomialParams(const Material &m) {
       << "; expected a slope in (0, 1000] (0 = 0.05)";
   } else if (!glint::v1::FootprintInterpolation_IsValid(b.footprint_interpolation())) {
     o << "material.binomial.footprint_interpolation: unknown value " << b.footprint_interpolation()
-      << "; expected TRILINEAR or TETRAHEDRAL";
+      << "; expected TRILINEAR, TETRAHEDRAL or STOCHASTIC";
   } else {
     return Status::Ok();
   }
@@ -98,6 +98,7 @@ void PackBinomialParams(const Material &m, float *params) {
   params[4] = b.slope_cell() > 0.0f ? b.slope_cell() : GLINT_BINOMIAL_DEFAULT_SLOPE_CELL;
   params[5] = b.footprint_interpolation() == glint::v1::TETRAHEDRAL ? GLINT_BINOMIAL_TETRAHEDRAL
                                                                     : GLINT_BINOMIAL_TRILINEAR;
+  if (b.footprint_interpolation() == glint::v1::STOCHASTIC) params[5] = GLINT_BINOMIAL_STOCHASTIC;
 }
 
 void BinomialExample(Material *m, glint::v1::QueryBatch *one_query) {

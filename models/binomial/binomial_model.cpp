@@ -142,7 +142,12 @@ extern const Model kBinomialModel;
 // trilinear,tetrahedral, 2026-12-01, loaded), so 1 + 2 f = 3 x 37 gives f ~ 55. Its quad
 // (0.044-0.063 of SMOOTH directional + point) is cheaper than TRILINEAR's, under the same
 // polygon cap (request_cost.cpp kPolygonFactor).
+// STOCHASTIC (one grid, binomial_stochastic.h): directional + point at N_P = 1e6, again its
+// dearest case, measured 0.056 of SMOOTH (18x; binomial_breakdown --interpolation
+// trilinear,tetrahedral,stochastic, 2026-12-01, loaded), so 1 + 2 f = 3 x 18 gives f ~ 27; its
+// quad measured 0.063-0.088 of SMOOTH directional + point.
 double BinomialCostFactor(const glint::v1::Material &m) {
+  if (m.binomial().footprint_interpolation() == glint::v1::STOCHASTIC) return 27.0;
   return m.binomial().footprint_interpolation() == glint::v1::TETRAHEDRAL ? 55.0 : 90.0;
 }
 

@@ -697,6 +697,56 @@ TEST(StochasticGrids, CountFollowsTheBinomialPmfOfAllTrials) {
   }
 }
 
+TEST(StochasticGrids, CountChangesOnlyWhereTheChosenCellChanges) {
+  // The trade of STOCHASTIC: a turning footprint of constant area (so constant N_P) keeps its
+  // count while it keeps its chosen cell (the count is a function of that cell's key alone) and
+  // jumps to another cell's count when the choice changes, where TETRAHEDRAL moves facets
+  // between its grids a few at a time. Asserted: no change without a new cell; printed, for
+  // models/binomial/README.md: how often and how far the count moves per step, both schemes.
+  // N_P = 1000.5: the footprint area's rounding as it turns (~1e-16) cannot move the whole
+  // trials, and moves the partial trial's threshold by far less than a uniform's 2^-24 spacing.
+  const double n_p = 1000.5, p = 0.3, b = 1e-3, a = 8e-3;
+  const int steps = 4000;
+  std::mt19937_64 rng(13);
+  std::uniform_real_distribution<double> uni(0.0, 1000.0);
+  for (int interpolation : {GLINT_BINOMIAL_TETRAHEDRAL, GLINT_BINOMIAL_STOCHASTIC}) {
+    Scene s;
+    s.interpolation = interpolation;
+    s.density = n_p / (a * b);
+    int changes = 0, positions = 0;
+    double moved = 0;
+    for (int start = 0; start < 20; ++start, ++positions) {
+      const double u = uni(rng), v = uni(rng);
+      double last = -1;
+      unsigned last_key = 0;
+      for (int i = 0; i <= steps; ++i) {
+        const std::array<double, 4> f = Ellipse(a, b, M_PI * i / steps);
+        double n_facets = 0;
+        const double count = std::round(k64::Count(s, u, v, f.data(), p, 5u, &n_facets));
+        k64::real fp[4] = {f[0], f[1], f[2], f[3]};
+        const auto g = k64::binomial_footprint_grids_for(interpolation, s.density, u, v, fp,
+                                                         s.seed_lo, s.seed_hi);
+        if (i > 0 && count != last) {
+          ++changes;
+          moved += std::fabs(count - last);
+          if (interpolation == GLINT_BINOMIAL_STOCHASTIC) {
+            ASSERT_NE(g.cell_key[0], last_key) << "step " << i << ": the count moved in one cell";
+          }
+        }
+        last = count;
+        last_key = g.cell_key[0];
+      }
+    }
+    const double per_step = double(changes) / (positions * steps);
+    std::printf(
+        "interpolation %d: the count changes at %.4f of the steps, by %.2f facets on average "
+        "(N_P p = %g, standard deviation %.1f)\n",
+        interpolation, per_step, changes ? moved / changes : 0.0, n_p * p,
+        std::sqrt(n_p * p * (1 - p)));
+    EXPECT_GT(changes, 0) << "the sweep must cross grid boundaries";
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // The model.
 

@@ -9,7 +9,8 @@
 // bits compares results across builds.
 //
 //   binomial_breakdown [--n 262144] [--rounds 7] [--lights directional_point,quad]
-//                      [--np 1e2,1e4,1e6] [--threshold 9] [--interpolation trilinear,tetrahedral]
+//                      [--np 1e2,1e4,1e6] [--threshold 9]
+//                      [--interpolation trilinear,tetrahedral,stochastic]
 #include <time.h>
 
 #include <algorithm>
@@ -109,6 +110,7 @@ int main(int argc, char **argv) {
         b->set_density(std::stod(np) / stats.mean_footprint_area);
         b->set_normal_threshold(threshold);
         if (interp == "tetrahedral") b->set_footprint_interpolation(glint::v1::TETRAHEDRAL);
+        if (interp == "stochastic") b->set_footprint_interpolation(glint::v1::STOCHASTIC);
         cases.push_back(c);
       }
   }

@@ -46,6 +46,18 @@ ModelBenchCase MakeBinomialCase() {
                             b->set_footprint_interpolation(glint::v1::TETRAHEDRAL);
                           }});
   }
+  // One grid chosen per footprint by its weight (models/binomial/binomial_stochastic.h): one
+  // draw per light; the same bias reference (its count is exactly Binomial(N_P, p)).
+  for (double np : {1e2, 1e4, 1e6}) {
+    char name[64];
+    std::snprintf(name, sizeof name, "N_P=%.0e,threshold=9,STOCHASTIC", np);
+    c.variants.push_back({name, {}, true, [np](glint::v1::EvaluateRequest *r, const QueryStats &s) {
+                            auto *b = r->mutable_material()->mutable_binomial();
+                            b->set_density(np / s.mean_footprint_area);
+                            b->set_normal_threshold(9.0f);
+                            b->set_footprint_interpolation(glint::v1::STOCHASTIC);
+                          }});
+  }
   return c;
 }
 

@@ -42,7 +42,7 @@
 #include "kernels/query.h"
 #include "kernels/smooth_brdf.h"
 #include "models/binomial/binomial_count.h"
-#include "models/binomial/binomial_tetrahedral.h"
+#include "models/binomial/binomial_stochastic.h"
 #if !defined(__OPENCL_VERSION__) || GLINT_LANES == 1
 #include "kernels/area/area_lights.h"
 #include "kernels/area/polygon_lights.h"

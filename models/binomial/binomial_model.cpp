@@ -41,7 +41,7 @@ Status ValidateBinomialParams(const Material &m) {
       << "; expected a slope in (0, 1000] (0 = 0.05)";
   } else if (!glint::v1::FootprintInterpolation_IsValid(b.footprint_interpolation())) {
     o << "material.binomial.footprint_interpolation: unknown value " << b.footprint_interpolation()
-      << "; expected TRILINEAR or TETRAHEDRAL";
+      << "; expected TRILINEAR, TETRAHEDRAL or STOCHASTIC";
   } else {
     return Status::Ok();
   }
@@ -98,6 +98,7 @@ void PackBinomialParams(const Material &m, float *params) {
   params[4] = b.slope_cell() > 0.0f ? b.slope_cell() : GLINT_BINOMIAL_DEFAULT_SLOPE_CELL;
   params[5] = b.footprint_interpolation() == glint::v1::TETRAHEDRAL ? GLINT_BINOMIAL_TETRAHEDRAL
                                                                     : GLINT_BINOMIAL_TRILINEAR;
+  if (b.footprint_interpolation() == glint::v1::STOCHASTIC) params[5] = GLINT_BINOMIAL_STOCHASTIC;
 }
 
 void BinomialExample(Material *m, glint::v1::QueryBatch *one_query) {
@@ -141,7 +142,12 @@ extern const Model kBinomialModel;
 // trilinear,tetrahedral, 2026-12-01, loaded), so 1 + 2 f = 3 x 37 gives f ~ 55. Its quad
 // (0.044-0.063 of SMOOTH directional + point) is cheaper than TRILINEAR's, under the same
 // polygon cap (request_cost.cpp kPolygonFactor).
+// STOCHASTIC (one grid, binomial_stochastic.h): directional + point at N_P = 1e6, again its
+// dearest case, measured 0.056 of SMOOTH (18x; binomial_breakdown --interpolation
+// trilinear,tetrahedral,stochastic, 2026-12-01, loaded), so 1 + 2 f = 3 x 18 gives f ~ 27; its
+// quad measured 0.063-0.088 of SMOOTH directional + point.
 double BinomialCostFactor(const glint::v1::Material &m) {
+  if (m.binomial().footprint_interpolation() == glint::v1::STOCHASTIC) return 27.0;
   return m.binomial().footprint_interpolation() == glint::v1::TETRAHEDRAL ? 55.0 : 90.0;
 }
 

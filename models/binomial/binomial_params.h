@@ -9,9 +9,10 @@
 /* p_mode (= glint.v1.ReflectionProbability). */
 #define GLINT_P_MODE_AREA 1
 #define GLINT_P_MODE_HEURISTIC_R 2
-/* footprint interpolation (glint.v1.FootprintInterpolation, packed as 0 / 1). */
+/* footprint interpolation (glint.v1.FootprintInterpolation, packed as 0 / 1 / 2). */
 #define GLINT_BINOMIAL_TRILINEAR 0
 #define GLINT_BINOMIAL_TETRAHEDRAL 1
+#define GLINT_BINOMIAL_STOCHASTIC 2
 
 /* What 0 (unset) means for the optional fields. */
 #define GLINT_BINOMIAL_DEFAULT_NORMAL_THRESHOLD 9.0f

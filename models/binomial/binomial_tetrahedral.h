@@ -92,14 +92,20 @@ GLINT_FN glint_key binomial_tetrahedral_key(glint_key seed_key, real level, real
   return rng_absorb_key(key, binomial_cell_key(floor(rot_v / side)));
 }
 
-/* Steps 1 and 2 above. `footprint` = (du/dx, dv/dx, du/dy, dv/dy). Grids 4..7 hold no
- * facets (binomial_fraction_lanes skips them). */
-GLINT_FN FootprintGrids binomial_footprint_grids_tetrahedral(real density, real u, real v,
-                                                             const GLINT_PRIVATE real *footprint,
-                                                             uint seed_lo, uint seed_hi) {
-  FootprintGrids g;
-  FootprintShape f = binomial_footprint_shape(density, footprint);
-  g.n_facets = f.n_facets;
+/* Steps 1 and 2 above without the cell keys: the 4 grids' weights and lattice coordinates. */
+typedef struct {
+  real w[GLINT_BINOMIAL_TETRAHEDRAL_GRIDS];
+  real level[GLINT_BINOMIAL_TETRAHEDRAL_GRIDS]; /* l0 or l0 + 1 */
+  real side[GLINT_BINOMIAL_TETRAHEDRAL_GRIDS];  /* 2^level */
+  /* The triangle's vertices: anisotropy level, 2^that, rotation bin at that level. */
+  real vert_aniso[3], vert_ratio[3], vert_bin[3];
+  /* Grid 0 is at vertex 0, grid 3 at vertex 2; grid 1 at vertex 0 where `early`, else 1; grid 2
+   * at vertex 2 where `late`, else 1. */
+  glint_mask early, late;
+} TetrahedralSplit;
+
+GLINT_FN TetrahedralSplit binomial_tetrahedral_split(FootprintShape f) {
+  TetrahedralSplit q;
   real lod0 = floor(f.lod);
   real t = f.lod - lod0;
   real a0 = floor(f.aniso);
@@ -121,59 +127,77 @@ GLINT_FN FootprintGrids binomial_footprint_grids_tetrahedral(real density, real 
   beta0 = fmax(beta0, GLINT_R(0.0));
   beta1 = fmax(beta1, GLINT_R(0.0));
   real a1 = a0 + GLINT_R(1.0);
-  real vert_aniso[3], vert_bin[3], rot_u[3], rot_v[3];
-  vert_aniso[0] = a0;
-  vert_bin[0] = glint_select(b0, b0 + GLINT_R(1.0), tri_c);
-  vert_aniso[1] = glint_select(a0, a1, tri_a | tri_c);
-  vert_bin[1] = glint_select(b0 + GLINT_R(1.0), GLINT_R(2.0) * b0, tri_a);
-  vert_bin[1] = glint_select(vert_bin[1], GLINT_R(2.0) * b0 + GLINT_R(1.0), tri_c);
-  vert_aniso[2] = a1;
-  vert_bin[2] = GLINT_R(2.0) * b0 + glint_select(GLINT_R(1.0), GLINT_R(2.0), tri_c);
-  for (int i = 0; i < 3; ++i) {
-    /* the angle bin pi / bins, as binomial_footprint_grids has it (bin <= bins) */
-    real c, sn;
-    binomial_cos_sin_pi(vert_bin[i] / glint_select(bins0, GLINT_R(2.0) * bins0, vert_aniso[i] > a0),
-                        &c, &sn);
-    rot_u[i] = c * u + sn * v;
-    rot_v[i] = -sn * u + c * v;
-  }
+  q.vert_aniso[0] = a0;
+  q.vert_bin[0] = glint_select(b0, b0 + GLINT_R(1.0), tri_c);
+  q.vert_aniso[1] = glint_select(a0, a1, tri_a | tri_c);
+  q.vert_bin[1] = glint_select(b0 + GLINT_R(1.0), GLINT_R(2.0) * b0, tri_a);
+  q.vert_bin[1] = glint_select(q.vert_bin[1], GLINT_R(2.0) * b0 + GLINT_R(1.0), tri_c);
+  q.vert_aniso[2] = a1;
+  q.vert_bin[2] = GLINT_R(2.0) * b0 + glint_select(GLINT_R(1.0), GLINT_R(2.0), tri_c);
+  for (int i = 0; i < 3; ++i)
+    q.vert_ratio[i] = glint_select(ratio0, GLINT_R(2.0) * ratio0, q.vert_aniso[i] > a0);
 
   /* Step 2: the overlaps of [0, C1), [C1, C2), [C2, 1) (vertices) with [0, T), [T, 1)
    * (levels l0, l0 + 1). Grid 0 is (vertex 0, l0), grid 3 (vertex 2, l0 + 1); grid 1 is
    * (vertex 0, l0 + 1) if T <= C1 else (vertex 1, l0); grid 2 (vertex 2, l0) if T > C2 else
    * (vertex 1, l0 + 1). */
   real c1 = beta0, c2 = beta0 + beta1, T = GLINT_R(1.0) - t;
-  glint_mask early = T <= c1, late = T > c2;
-  real w[GLINT_BINOMIAL_TETRAHEDRAL_GRIDS];
-  w[0] = fmin(c1, T);
-  w[1] = glint_select(fmin(T, c2) - c1, c1 - T, early);
-  w[2] = glint_select(c2 - fmax(T, c1), T - c2, late);
-  w[3] = GLINT_R(1.0) - fmax(c2, T);
+  q.early = T <= c1;
+  q.late = T > c2;
+  q.w[0] = fmin(c1, T);
+  q.w[1] = glint_select(fmin(T, c2) - c1, c1 - T, q.early);
+  q.w[2] = glint_select(c2 - fmax(T, c1), T - c2, q.late);
+  q.w[3] = GLINT_R(1.0) - fmax(c2, T);
+  for (int k = 0; k < GLINT_BINOMIAL_TETRAHEDRAL_GRIDS; ++k) q.w[k] = fmax(q.w[k], GLINT_R(0.0));
   real l1 = lod0 + GLINT_R(1.0);
-  real level[GLINT_BINOMIAL_TETRAHEDRAL_GRIDS] = {lod0, glint_select(lod0, l1, early),
-                                                  glint_select(l1, lod0, late), l1};
-  real side[GLINT_BINOMIAL_TETRAHEDRAL_GRIDS] = {
-      side0, glint_select(side0, GLINT_R(2.0) * side0, early),
-      glint_select(GLINT_R(2.0) * side0, side0, late), GLINT_R(2.0) * side0};
-  real vert_ratio[3];
+  q.level[0] = lod0;
+  q.level[1] = glint_select(lod0, l1, q.early);
+  q.level[2] = glint_select(l1, lod0, q.late);
+  q.level[3] = l1;
+  q.side[0] = side0;
+  q.side[1] = glint_select(side0, GLINT_R(2.0) * side0, q.early);
+  q.side[2] = glint_select(GLINT_R(2.0) * side0, side0, q.late);
+  q.side[3] = GLINT_R(2.0) * side0;
+  return q;
+}
+
+/* uv rotated to the rotation bin `bin` of an anisotropy level with ratio 2^a (pi / (4 ratio)
+ * bins): the angle bin pi / bins, as binomial_footprint_grids has it (bin <= bins). */
+GLINT_FN void binomial_tetrahedral_rotate(real bin, real ratio, real u, real v,
+                                          GLINT_PRIVATE real *rot_u, GLINT_PRIVATE real *rot_v) {
+  real c, sn;
+  binomial_cos_sin_pi(bin / (GLINT_R(4.0) * ratio), &c, &sn);
+  *rot_u = c * u + sn * v;
+  *rot_v = -sn * u + c * v;
+}
+
+/* Steps 1 and 2 above for the footprint's shape f (binomial_footprint_shape). Grids 4..7 hold
+ * no facets (binomial_fraction_lanes skips them). */
+GLINT_FN FootprintGrids binomial_tetrahedral_grids_of_shape(FootprintShape f, real u, real v,
+                                                            uint seed_lo, uint seed_hi) {
+  FootprintGrids g;
+  g.n_facets = f.n_facets;
+  TetrahedralSplit q = binomial_tetrahedral_split(f);
+  real rot_u[3], rot_v[3];
   for (int i = 0; i < 3; ++i)
-    vert_ratio[i] = glint_select(ratio0, GLINT_R(2.0) * ratio0, vert_aniso[i] > a0);
+    binomial_tetrahedral_rotate(q.vert_bin[i], q.vert_ratio[i], u, v, &rot_u[i], &rot_v[i]);
+  glint_mask early = q.early, late = q.late;
   glint_key seed_key = rng_hash2(seed_lo, seed_hi);
-  g.cell_key[0] = binomial_tetrahedral_key(seed_key, level[0], side[0], vert_aniso[0],
-                                           vert_ratio[0], vert_bin[0], rot_u[0], rot_v[0]);
+  g.cell_key[0] = binomial_tetrahedral_key(seed_key, q.level[0], q.side[0], q.vert_aniso[0],
+                                           q.vert_ratio[0], q.vert_bin[0], rot_u[0], rot_v[0]);
   g.cell_key[1] = binomial_tetrahedral_key(
-      seed_key, level[1], side[1], glint_select(vert_aniso[0], vert_aniso[1], !early),
-      glint_select(vert_ratio[0], vert_ratio[1], !early),
-      glint_select(vert_bin[0], vert_bin[1], !early), glint_select(rot_u[0], rot_u[1], !early),
+      seed_key, q.level[1], q.side[1], glint_select(q.vert_aniso[0], q.vert_aniso[1], !early),
+      glint_select(q.vert_ratio[0], q.vert_ratio[1], !early),
+      glint_select(q.vert_bin[0], q.vert_bin[1], !early), glint_select(rot_u[0], rot_u[1], !early),
       glint_select(rot_v[0], rot_v[1], !early));
   g.cell_key[2] = binomial_tetrahedral_key(
-      seed_key, level[2], side[2], glint_select(vert_aniso[1], vert_aniso[2], late),
-      glint_select(vert_ratio[1], vert_ratio[2], late),
-      glint_select(vert_bin[1], vert_bin[2], late), glint_select(rot_u[1], rot_u[2], late),
+      seed_key, q.level[2], q.side[2], glint_select(q.vert_aniso[1], q.vert_aniso[2], late),
+      glint_select(q.vert_ratio[1], q.vert_ratio[2], late),
+      glint_select(q.vert_bin[1], q.vert_bin[2], late), glint_select(rot_u[1], rot_u[2], late),
       glint_select(rot_v[1], rot_v[2], late));
-  g.cell_key[3] = binomial_tetrahedral_key(seed_key, level[3], side[3], vert_aniso[2],
-                                           vert_ratio[2], vert_bin[2], rot_u[2], rot_v[2]);
-  for (int k = 0; k < GLINT_BINOMIAL_TETRAHEDRAL_GRIDS; ++k) g.share[k] = fmax(w[k], GLINT_R(0.0));
+  g.cell_key[3] = binomial_tetrahedral_key(seed_key, q.level[3], q.side[3], q.vert_aniso[2],
+                                           q.vert_ratio[2], q.vert_bin[2], rot_u[2], rot_v[2]);
+  for (int k = 0; k < GLINT_BINOMIAL_TETRAHEDRAL_GRIDS; ++k) g.share[k] = q.w[k];
   for (int k = GLINT_BINOMIAL_TETRAHEDRAL_GRIDS; k < GLINT_BINOMIAL_GRIDS; ++k) {
     g.share[k] = GLINT_R(0.0);
     g.cell_key[k] = rng_hash2(0u, 0u);
@@ -181,14 +205,12 @@ GLINT_FN FootprintGrids binomial_footprint_grids_tetrahedral(real density, real 
   return g;
 }
 
-/* The footprint's grids by the material's interpolation (a uniform branch: one material per
- * request). */
-GLINT_FN FootprintGrids binomial_footprint_grids_for(int interpolation, real density, real u,
-                                                     real v, const GLINT_PRIVATE real *footprint,
-                                                     uint seed_lo, uint seed_hi) {
-  if (interpolation == GLINT_BINOMIAL_TETRAHEDRAL)
-    return binomial_footprint_grids_tetrahedral(density, u, v, footprint, seed_lo, seed_hi);
-  return binomial_footprint_grids(density, u, v, footprint, seed_lo, seed_hi);
+/* `footprint` = (du/dx, dv/dx, du/dy, dv/dy). */
+GLINT_FN FootprintGrids binomial_footprint_grids_tetrahedral(real density, real u, real v,
+                                                             const GLINT_PRIVATE real *footprint,
+                                                             uint seed_lo, uint seed_hi) {
+  return binomial_tetrahedral_grids_of_shape(binomial_footprint_shape(density, footprint), u, v,
+                                             seed_lo, seed_hi);
 }
 
 #endif /* GLINT_BINOMIAL_TETRAHEDRAL_H */

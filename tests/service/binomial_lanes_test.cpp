@@ -145,7 +145,7 @@ v1::QueryBatch Slice(const v1::QueryBatch &q, int pad, int pad_from, int first, 
 }
 
 TEST_F(BinomialLanes, ResultDoesNotDependOnLaneNeighboursOrBatchSize) {
-  for (auto interpolation : {v1::TRILINEAR, v1::TETRAHEDRAL})
+  for (auto interpolation : {v1::TRILINEAR, v1::TETRAHEDRAL, v1::STOCHASTIC})
     for (bool fp64 : {false, true}) {
       const EvaluateRequest settings = Settings(0.2f, 0.05f, 1e8, fp64, interpolation);
       const v1::QueryBatch q = Queries(403, 23);
@@ -200,7 +200,7 @@ TEST_F(BinomialLanes, ResultDoesNotDependOnLaneNeighboursOrBatchSize) {
 TEST_F(BinomialLanes, MatchesHostPathAtExtremes) {
   const float alphas[][2] = {{1e-4f, 1e-4f}, {1.0f, 1.0f}, {0.3f, 1e-4f}};
   int lit_total = 0, values_total = 0;
-  for (auto interpolation : {v1::TRILINEAR, v1::TETRAHEDRAL})
+  for (auto interpolation : {v1::TRILINEAR, v1::TETRAHEDRAL, v1::STOCHASTIC})
     for (const auto &alpha : alphas)
       for (double density : {1e5, 1e8, 1e12})
         for (bool fp64 : {false, true}) {

@@ -573,7 +573,8 @@ TEST(TetrahedralGrids, CountMeanIsNpTimesPWithinTheBinomialStandardError) {
   // and (distinct cells) positions.
   std::mt19937_64 rng(6);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
-  for (int interpolation : {GLINT_BINOMIAL_TRILINEAR, GLINT_BINOMIAL_TETRAHEDRAL})
+  for (int interpolation :
+       {GLINT_BINOMIAL_TRILINEAR, GLINT_BINOMIAL_TETRAHEDRAL, GLINT_BINOMIAL_STOCHASTIC})
     for (double n_p : {0.3, 30.0, 3e4})
       for (double p : {0.01, 0.3, 0.9}) {
         Scene s;
@@ -604,6 +605,146 @@ TEST(TetrahedralGrids, CountMeanIsNpTimesPWithinTheBinomialStandardError) {
         EXPECT_NEAR(mean, 1.0, 4 * se)
             << "interpolation " << interpolation << " N_P " << n_p << " p " << p;
       }
+}
+
+TEST(StochasticGrids, ChoosesOneTetrahedralGridWithProbabilityItsWeight) {
+  // STOCHASTIC (binomial_stochastic.h) puts all N_P facets in ONE of TETRAHEDRAL's grids (its
+  // cell key, bit for bit), grid k with probability w_k. For a fixed footprint shape (fixed
+  // weights) at M positions in distinct selection cells, grid k's frequency is Binomial(M, w_k)
+  // / M: within 4 standard errors sqrt(w_k (1 - w_k) / M) of w_k. Random stretched, turned
+  // shapes, so that 2, 3 and 4 grids hold facets.
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  const int m = 20000;
+  int grids_seen[5] = {0, 0, 0, 0, 0};
+  for (int shape = 0; shape < 16; ++shape) {
+    const double b = 1e-3 * std::exp2(uni(rng)), a = b * std::exp2(5 * uni(rng));
+    const std::array<double, 4> f = Ellipse(a, b, M_PI * uni(rng));
+    k64::real fp[4] = {f[0], f[1], f[2], f[3]};
+    const double density = 1e6;
+    std::array<double, 4> w{};
+    std::array<int, 4> hits{};
+    for (int i = 0; i < m; ++i) {
+      const double u = 1000 * uni(rng), v = 1000 * uni(rng);
+      const auto t = k64::binomial_footprint_grids_tetrahedral(density, u, v, fp, 7u, 0u);
+      const auto g = k64::binomial_footprint_grids_stochastic(density, u, v, fp, 7u, 0u);
+      ASSERT_EQ(g.n_facets, t.n_facets);
+      ASSERT_EQ(g.share[0], 1.0) << "all N_P trials in the chosen grid";
+      for (int k = 1; k < GLINT_BINOMIAL_GRIDS; ++k) ASSERT_EQ(g.share[k], 0.0);
+      int chosen = -1;
+      for (int k = 0; k < GLINT_BINOMIAL_TETRAHEDRAL_GRIDS; ++k)
+        if (t.share[k] > 0 && t.cell_key[k] == g.cell_key[0]) chosen = k;
+      ASSERT_GE(chosen, 0) << "shape " << shape << " position " << i
+                           << ": the cell is not one of the tetrahedral grids holding facets";
+      ++hits[size_t(chosen)];
+      for (int k = 0; k < GLINT_BINOMIAL_TETRAHEDRAL_GRIDS; ++k) w[size_t(k)] = t.share[k];
+    }
+    int holding = 0;
+    for (int k = 0; k < GLINT_BINOMIAL_TETRAHEDRAL_GRIDS; ++k) {
+      const double wk = w[size_t(k)], freq = double(hits[size_t(k)]) / m;
+      holding += wk > 0;
+      const double se = std::sqrt(wk * (1 - wk) / m);
+      EXPECT_NEAR(freq, wk, 4 * se + 1e-12) << "shape " << shape << " grid " << k;
+      if (wk == 0) {
+        EXPECT_EQ(hits[size_t(k)], 0) << "a grid without facets is never chosen";
+      }
+    }
+    std::printf("shape %2d: weights %.3f %.3f %.3f %.3f chosen %.3f %.3f %.3f %.3f\n", shape, w[0],
+                w[1], w[2], w[3], double(hits[0]) / m, double(hits[1]) / m, double(hits[2]) / m,
+                double(hits[3]) / m);
+    ++grids_seen[holding];
+  }
+  EXPECT_GT(grids_seen[3] + grids_seen[4], 0) << "the shapes must spread facets over 3-4 grids";
+}
+
+TEST(StochasticGrids, CountFollowsTheBinomialPmfOfAllTrials) {
+  // Given the chosen grid, STOCHASTIC's count is one draw of all N_P trials from uniforms that
+  // the choice does not use, so its law is Binomial(N_P, p) for every footprint. N_P = 40 (exact
+  // inversion at every p), random stretched, turned footprints at M positions: the histogram
+  // against the pmf by explicit sums (BinomialPmf). E[TV] <= 0.5 sum_k sqrt(pmf_k (1 - pmf_k) /
+  // M) (Jensen), and one position moves TV by at most 1/M, so P(TV > E[TV] + t) <= exp(-2 M t^2)
+  // (McDiarmid): t = sqrt(ln(1e6) / (2 M)). Giving the chosen grid only its weight's share of the
+  // trials, or counting two grids, moves the mean by ~N_P p / 4 and fails.
+  std::mt19937_64 rng(12);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  const int m = 100000, n = 40;
+  for (double p : {0.05, 0.3, 0.7}) {
+    Scene s;
+    s.interpolation = GLINT_BINOMIAL_STOCHASTIC;
+    std::vector<double> hist(size_t(n) + 1, 0.0);
+    for (int i = 0; i < m; ++i) {
+      const double b = 1e-3, a = b * std::exp2(4 * uni(rng));
+      const std::array<double, 4> f = Ellipse(a, b, M_PI * uni(rng));
+      s.density = n / std::fabs(f[0] * f[3] - f[2] * f[1]);
+      double n_facets = 0;
+      // Count returns fraction x N_P: a whole count up to the rounding of that product.
+      const double count =
+          std::round(k64::Count(s, 1000 * uni(rng), 1000 * uni(rng), f.data(), p, 91u, &n_facets));
+      ASSERT_NEAR(n_facets, n, 1e-9);
+      ASSERT_TRUE(count >= 0 && count <= n) << count;
+      hist[size_t(count)] += 1.0 / m;
+    }
+    double tv = 0, bound = 0;
+    for (int k = 0; k <= n; ++k) {
+      const double pmf = BinomialPmf(n, k, p);
+      tv += 0.5 * std::fabs(hist[size_t(k)] - pmf);
+      bound += 0.5 * std::sqrt(pmf * (1 - pmf) / m);
+    }
+    bound += std::sqrt(std::log(1e6) / (2.0 * m));
+    std::printf("STOCHASTIC N_P %d p %.2f: TV to Binomial(N_P, p) %.4f, bound %.4f\n", n, p, tv,
+                bound);
+    EXPECT_LE(tv, bound) << "p " << p;
+  }
+}
+
+TEST(StochasticGrids, CountChangesOnlyWhereTheChosenCellChanges) {
+  // The trade of STOCHASTIC: a turning footprint of constant area (so constant N_P) keeps its
+  // count while it keeps its chosen cell (the count is a function of that cell's key alone) and
+  // jumps to another cell's count when the choice changes, where TETRAHEDRAL moves facets
+  // between its grids a few at a time. Asserted: no change without a new cell; printed, for
+  // models/binomial/README.md: how often and how far the count moves per step, both schemes.
+  // N_P = 1000.5: the footprint area's rounding as it turns (~1e-16) cannot move the whole
+  // trials, and moves the partial trial's threshold by far less than a uniform's 2^-24 spacing.
+  const double n_p = 1000.5, p = 0.3, b = 1e-3, a = 8e-3;
+  const int steps = 4000;
+  std::mt19937_64 rng(13);
+  std::uniform_real_distribution<double> uni(0.0, 1000.0);
+  for (int interpolation : {GLINT_BINOMIAL_TETRAHEDRAL, GLINT_BINOMIAL_STOCHASTIC}) {
+    Scene s;
+    s.interpolation = interpolation;
+    s.density = n_p / (a * b);
+    int changes = 0, positions = 0;
+    double moved = 0;
+    for (int start = 0; start < 20; ++start, ++positions) {
+      const double u = uni(rng), v = uni(rng);
+      double last = -1;
+      unsigned last_key = 0;
+      for (int i = 0; i <= steps; ++i) {
+        const std::array<double, 4> f = Ellipse(a, b, M_PI * i / steps);
+        double n_facets = 0;
+        const double count = std::round(k64::Count(s, u, v, f.data(), p, 5u, &n_facets));
+        k64::real fp[4] = {f[0], f[1], f[2], f[3]};
+        const auto g = k64::binomial_footprint_grids_for(interpolation, s.density, u, v, fp,
+                                                         s.seed_lo, s.seed_hi);
+        if (i > 0 && count != last) {
+          ++changes;
+          moved += std::fabs(count - last);
+          if (interpolation == GLINT_BINOMIAL_STOCHASTIC) {
+            ASSERT_NE(g.cell_key[0], last_key) << "step " << i << ": the count moved in one cell";
+          }
+        }
+        last = count;
+        last_key = g.cell_key[0];
+      }
+    }
+    const double per_step = double(changes) / (positions * steps);
+    std::printf(
+        "interpolation %d: the count changes at %.4f of the steps, by %.2f facets on average "
+        "(N_P p = %g, standard deviation %.1f)\n",
+        interpolation, per_step, changes ? moved / changes : 0.0, n_p * p,
+        std::sqrt(n_p * p * (1 - p)));
+    EXPECT_GT(changes, 0) << "the sweep must cross grid boundaries";
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -643,9 +784,11 @@ TEST(BinomialModel, UnbiasedForEveryLightKind) {
                         {"polygon below horizon", below},
                         {"beckmann aniso polygon", beck},
                         {"heuristic r", heuristic}};
-  // Both footprint interpolations (TRILINEAR, TETRAHEDRAL: binomial_tetrahedral.h).
-  // Square footprints (levels only) and anisotropic rotated ones (every grid weight).
-  for (int interpolation : {GLINT_BINOMIAL_TRILINEAR, GLINT_BINOMIAL_TETRAHEDRAL})
+  // Every footprint interpolation (TRILINEAR, TETRAHEDRAL: binomial_tetrahedral.h, STOCHASTIC:
+  // binomial_stochastic.h). Square footprints (levels only) and anisotropic rotated ones (every
+  // grid weight).
+  for (int interpolation :
+       {GLINT_BINOMIAL_TRILINEAR, GLINT_BINOMIAL_TETRAHEDRAL, GLINT_BINOMIAL_STOCHASTIC})
     for (bool anisotropic : {false, true})
       for (const Case &c : cases) {
         Scene s = c.scene;
@@ -674,16 +817,17 @@ TEST(BinomialModel, ConvergesToTheSmoothModelAtTheBinomialRate) {
   ASSERT_GT(p, 0.0);
   ASSERT_LT(p, 1.0);
   std::printf("p = %.4g\n  N_P        rel. RMS error   predicted\n", p);
-  // Both footprint interpolations: either splits the N_P trials between independent binomials
-  // of the same p, so the law is the same.
-  for (int interpolation : {GLINT_BINOMIAL_TRILINEAR, GLINT_BINOMIAL_TETRAHEDRAL}) {
+  // Every footprint interpolation: the split ones divide the N_P trials between independent
+  // binomials of the same p, STOCHASTIC draws all N_P in one grid, so the law is the same.
+  for (int interpolation :
+       {GLINT_BINOMIAL_TRILINEAR, GLINT_BINOMIAL_TETRAHEDRAL, GLINT_BINOMIAL_STOCHASTIC}) {
     s.interpolation = interpolation;
     double last = 1e30;
     for (int decade = 2; decade <= 12; ++decade) {
       double n_p = std::pow(10.0, decade);
       s.density = n_p / (1e-3 * 1e-3);
       std::vector<double> x =
-          GlintSamples(s, kWo, 1e-3, 3000, interpolation == GLINT_BINOMIAL_TETRAHEDRAL);
+          GlintSamples(s, kWo, 1e-3, 3000, interpolation != GLINT_BINOMIAL_TRILINEAR);
       double sq = 0;
       for (double v : x) sq += (v / smooth - 1) * (v / smooth - 1);
       double rms = std::sqrt(sq / double(x.size()));
@@ -1043,7 +1187,8 @@ TEST(BinomialModel, StableAtTheExtremesInFp32AndFp64) {
       {"huge footprint", 0.3, 1e2, 1e3, 1.0, 0.5, kWo, {}},
       {"tiny footprint", 0.3, 1e20, 1e-15, 1.0, 0.5, kWo, {}},
   };
-  for (int interpolation : {GLINT_BINOMIAL_TRILINEAR, GLINT_BINOMIAL_TETRAHEDRAL})
+  for (int interpolation :
+       {GLINT_BINOMIAL_TRILINEAR, GLINT_BINOMIAL_TETRAHEDRAL, GLINT_BINOMIAL_STOCHASTIC})
     for (const Case &c : cases) {
       Scene s = DirectionalScene(c.cone_deg);
       s.interpolation = interpolation;
@@ -1052,8 +1197,9 @@ TEST(BinomialModel, StableAtTheExtremesInFp32AndFp64) {
       s.AddPolygon(Quad(0.9, -0.1, 2.0, 0.3, 0.2), 1.0);
       s.density = c.density;
       std::array<double, 4> fp = c.side > 0 ? Footprint(c.side) : c.fp;
-      // TETRAHEDRAL on a square footprint uses the trilinear grids: stretch and turn it.
-      if (interpolation == GLINT_BINOMIAL_TETRAHEDRAL && c.side > 0)
+      // TETRAHEDRAL (and STOCHASTIC, its grids) on a square footprint uses the trilinear grids:
+      // stretch and turn it.
+      if (interpolation != GLINT_BINOMIAL_TRILINEAR && c.side > 0)
         fp = Ellipse(3 * c.side, c.side / 3, 0.3);
       for (int i = 0; i < 64; ++i) {
         double u = c.u + i * 0.013, v = 0.25 + i * 0.007;

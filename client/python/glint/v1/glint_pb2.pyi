@@ -33,6 +33,7 @@ class FootprintInterpolation(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
     FOOTPRINT_INTERPOLATION_UNSPECIFIED: _ClassVar[FootprintInterpolation]
     TRILINEAR: _ClassVar[FootprintInterpolation]
     TETRAHEDRAL: _ClassVar[FootprintInterpolation]
+    STOCHASTIC: _ClassVar[FootprintInterpolation]
 
 class AreaMethod(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
     __slots__ = ()
@@ -64,6 +65,7 @@ HEURISTIC_R: ReflectionProbability
 FOOTPRINT_INTERPOLATION_UNSPECIFIED: FootprintInterpolation
 TRILINEAR: FootprintInterpolation
 TETRAHEDRAL: FootprintInterpolation
+STOCHASTIC: FootprintInterpolation
 AREA_METHOD_UNSPECIFIED: AreaMethod
 LTC: AreaMethod
 LECOCQ: AreaMethod

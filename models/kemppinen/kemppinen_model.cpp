@@ -60,6 +60,10 @@ Status ValidateKemppinenParams(const Material &m) {
   } else if (!std::all_of(k.colors().begin(), k.colors().end(),
                           [](float c) { return c >= 0.0f && c <= 1.0f; })) {
     o << "material.kemppinen.colors: a channel outside [0, 1]; expected RGB in [0, 1]";
+  } else if (!glint::v1::KemppinenNeighborhood_IsValid(k.neighborhood())) {
+    o << "material.kemppinen.neighborhood: " << k.neighborhood()
+      << "; expected KEMPPINEN_PAPER, KEMPPINEN_ONE_LEVEL or KEMPPINEN_ONE_CELL (unset = "
+         "KEMPPINEN_PAPER)";
   } else {
     return Status::Ok();
   }
@@ -100,6 +104,19 @@ Status ValidateKemppinenQueries(const glint::v1::EvaluateRequest &, const glint:
   return Status::Ok();
 }
 
+// glint.v1.KemppinenNeighborhood as the kernels' GLINT_KEMPPINEN_NEIGHBORHOOD_* (unset = the
+// paper's, so a material without the field packs the same block as before it existed).
+int KemppinenNeighborhoodCode(glint::v1::KemppinenNeighborhood n) {
+  switch (n) {
+    case glint::v1::KEMPPINEN_ONE_LEVEL:
+      return GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL;
+    case glint::v1::KEMPPINEN_ONE_CELL:
+      return GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL;
+    default:
+      return GLINT_KEMPPINEN_NEIGHBORHOOD_PAPER;
+  }
+}
+
 void PackKemppinenParams(const Material &m, float *params) {
   static_assert(GLINT_KEMPPINEN_FLOATS <= GLINT_MODEL_PARAM_FLOATS);
   const auto &k = m.kemppinen();
@@ -115,6 +132,7 @@ void PackKemppinenParams(const Material &m, float *params) {
   // Colours as given (validated: flat RGB triples in [0, 1], at most GLINT_KEMPPINEN_MAX_COLORS).
   params[GLINT_KEMPPINEN_N_COLORS] = static_cast<float>(k.colors_size() / 3);
   for (int i = 0; i < k.colors_size(); ++i) params[GLINT_KEMPPINEN_COLORS + i] = k.colors(i);
+  params[GLINT_KEMPPINEN_NEIGHBORHOOD] = float(KemppinenNeighborhoodCode(k.neighborhood()));
 }
 
 void KemppinenExample(Material *m, glint::v1::QueryBatch *one_query) {

@@ -159,9 +159,22 @@ extern const Model kKemppinenModel;
 // 4 point lights 875 ns per query at k = 4 and 2969 ns at k = 16, i.e. 7.2 and 24 units per
 // light: 1.5 + 1.4 k (k = 1: 2.9; bench_models' k = 1 directional + point runs 2.5x the k = 4
 // rate, 2.9 units). The former 6 k (22 / 63 units at k = 4 / 16) predates the 16-lane pass.
+// The cheaper neighbourhoods (glint.v1.KemppinenNeighborhood) from their rates relative to the
+// paper's in one interleaved run (kemppinen_throughput --lights directional_point --ks 1,4,9,16
+// --neighborhoods paper,one_level,one_cell, loaded 2-core machine, 2026-12-01; README
+// "Neighbourhood"): ONE_LEVEL evaluates half the facets and runs 1.9-2.0x the paper's rate, so
+// half its factor; ONE_CELL runs 2.9x at k = 1 and 4.6x at k = 4 (its cost is mostly the
+// query's fixed part: T, the smooth BRDF, the compensation), 0.8 + 0.2 k units per light.
 double KemppinenCostFactor(const glint::v1::Material &m) {
   const uint32_t k = m.kemppinen().neighbors() ? m.kemppinen().neighbors() : 4;
-  return 1.5 + 1.4 * double(k);
+  switch (m.kemppinen().neighborhood()) {
+    case glint::v1::KEMPPINEN_ONE_LEVEL:
+      return 0.75 + 0.7 * double(k);
+    case glint::v1::KEMPPINEN_ONE_CELL:
+      return 0.8 + 0.2 * double(k);
+    default:
+      return 1.5 + 1.4 * double(k);
+  }
 }
 
 // A polygon light's glints beyond its smooth area integral (kemppinen_polygons.h: per level up

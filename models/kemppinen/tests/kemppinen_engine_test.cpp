@@ -15,6 +15,7 @@
 #include "server/device_engine.h"
 #include "server/eval_plan.h"
 #include "server/host_path.h"
+#include "server/request_cost.h"
 #include "server/validation.h"
 #include "test_queries.h"
 
@@ -323,6 +324,35 @@ TEST_F(KemppinenEngineTest, ExtremesAreFiniteAndNonNegativeOnTheDevice) {
         EXPECT_TRUE(std::isfinite(dev[i]) && dev[i] >= 0.0f)
             << "query " << i / 3 << " density " << density << " fp64 " << fp64 << " = " << dev[i];
     }
+}
+
+// Admission cost per punctual light (KemppinenCostFactor) follows the measured rates of the
+// neighbourhoods relative to the paper's (README "Neighbourhood": ONE_LEVEL 1.9-2.0x, ONE_CELL
+// 2.9x at k = 1 and 4.6x at k = 4): within 25% of factor / rate ratio, at every k cheaper
+// than the paper's, and ONE_CELL cheaper than ONE_LEVEL.
+TEST(KemppinenCost, FollowsTheMeasuredRateOfEachNeighborhood) {
+  EvaluateRequest r = MakeSettings(v1::GGX, false, false, false, 1);
+  r.add_lights()->mutable_point();
+  auto per_light = [&](int k, v1::KemppinenNeighborhood hood) {
+    r.mutable_material()->mutable_kemppinen()->set_neighbors(uint32_t(k));
+    r.mutable_material()->mutable_kemppinen()->set_neighborhood(hood);
+    return EstimateRequestCost(r, 1).per_query - 1.0;  // 1: the query itself
+  };
+  const struct {
+    int k;
+    double one_level, one_cell;  // measured rate relative to the paper's
+  } measured[] = {{1, 1.86, 2.87}, {4, 2.03, 4.6}};
+  for (const auto &m : measured) {
+    const double paper = per_light(m.k, v1::KEMPPINEN_PAPER);
+    EXPECT_DOUBLE_EQ(paper, per_light(m.k, v1::KEMPPINEN_NEIGHBORHOOD_UNSPECIFIED));
+    EXPECT_NEAR(paper / per_light(m.k, v1::KEMPPINEN_ONE_LEVEL), m.one_level, 0.25 * m.one_level);
+    EXPECT_NEAR(paper / per_light(m.k, v1::KEMPPINEN_ONE_CELL), m.one_cell, 0.25 * m.one_cell);
+  }
+  for (int k : {1, 4, 9, 16}) {
+    EXPECT_LT(per_light(k, v1::KEMPPINEN_ONE_LEVEL), per_light(k, v1::KEMPPINEN_PAPER)) << k;
+    EXPECT_LT(per_light(k, v1::KEMPPINEN_ONE_CELL), per_light(k, v1::KEMPPINEN_ONE_LEVEL)) << k;
+    EXPECT_GE(per_light(k, v1::KEMPPINEN_ONE_CELL), 1.0) << k;  // Model::cost_factor >= 1
+  }
 }
 
 // The cheaper neighbourhoods (glint.v1.KemppinenNeighborhood) on the device: KEMPPINEN_PAPER set

@@ -9,9 +9,12 @@
 //
 //   kemppinen_throughput [--lights directional_point|probe|quad|four_quads] [--ks 1,4,9,16]
 //                        [--density D] [--queries N] [--rounds R] [--min-time S]
+//                        [--neighborhoods paper,one_level,one_cell]
 //                        [--cache-dir DIR] [--json PATH] [--out PREFIX]
+// --neighborhoods: glint.v1.KemppinenNeighborhood settings to run at each k (default paper).
 // --out writes each configuration's output (RGB float32 per query) to PREFIX.<k or smooth>.f32,
 // to check that a change of the kernels keeps the output (cmp, or a tolerance).
+#include <algorithm>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
@@ -42,6 +45,7 @@ struct Config {
 
 static int Run(int argc, char **argv) {
   std::string lights_name = "directional_point", ks = "1,4,9,16", json, out_prefix;
+  std::string hoods = "paper";
   std::string cache_dir = glint::bench::DefaultCacheDir();
   double density = 1e5, min_time = 0.3;
   uint32_t queries = 65536;
@@ -53,6 +57,8 @@ static int Run(int argc, char **argv) {
         lights_name = v;
       else if (a == "--ks")
         ks = v;
+      else if (a == "--neighborhoods")
+        hoods = v;
       else if (a == "--density")
         density = std::stod(v);
       else if (a == "--queries")
@@ -99,21 +105,35 @@ static int Run(int argc, char **argv) {
 
   std::vector<Config> configs;
   configs.push_back({"SMOOTH", base, {}, {}, {}, {}});
-  std::stringstream list(ks);
-  for (std::string k; std::getline(list, k, ',');) {
-    Config c{"KEMPPINEN k=" + k, base, {}, {}, {}, {}};
-    auto *km = c.request.mutable_material();
-    km->set_model(glint::v1::KEMPPINEN);
-    km->mutable_kemppinen()->set_density(float(density));
-    uint32_t neighbors = 0;
-    try {
-      neighbors = uint32_t(std::stoul(k));
-    } catch (const std::exception &) {
-      return Fail("--ks: expected numbers separated by commas, got '" + ks + "'");
-    }
-    km->mutable_kemppinen()->set_neighbors(neighbors);
-    configs.push_back(std::move(c));
+  std::vector<std::pair<std::string, glint::v1::KemppinenNeighborhood>> hood_list;
+  std::stringstream hood_names(hoods);
+  for (std::string h; std::getline(hood_names, h, ',');) {
+    if (h == "paper")
+      hood_list.push_back({"", glint::v1::KEMPPINEN_NEIGHBORHOOD_UNSPECIFIED});
+    else if (h == "one_level")
+      hood_list.push_back({" one_level", glint::v1::KEMPPINEN_ONE_LEVEL});
+    else if (h == "one_cell")
+      hood_list.push_back({" one_cell", glint::v1::KEMPPINEN_ONE_CELL});
+    else
+      return Fail("--neighborhoods: expected paper, one_level or one_cell, got '" + h + "'");
   }
+  std::stringstream list(ks);
+  for (std::string k; std::getline(list, k, ',');)
+    for (const auto &[hood_name, hood] : hood_list) {
+      Config c{"KEMPPINEN k=" + k + hood_name, base, {}, {}, {}, {}};
+      auto *km = c.request.mutable_material();
+      km->set_model(glint::v1::KEMPPINEN);
+      km->mutable_kemppinen()->set_density(float(density));
+      uint32_t neighbors = 0;
+      try {
+        neighbors = uint32_t(std::stoul(k));
+      } catch (const std::exception &) {
+        return Fail("--ks: expected numbers separated by commas, got '" + ks + "'");
+      }
+      km->mutable_kemppinen()->set_neighbors(neighbors);
+      km->mutable_kemppinen()->set_neighborhood(hood);
+      configs.push_back(std::move(c));
+    }
   for (Config &c : configs)
     if (glint::Status s = glint::bench::Validate(c.request, engine->info().fp64); !s.ok())
       return Fail(c.name + ": " + s.message());
@@ -127,7 +147,8 @@ static int Run(int argc, char **argv) {
   for (const Config &c : configs) {  // compile and warm
     run(c);
     if (out_prefix.empty()) continue;
-    const std::string tag = c.name == "SMOOTH" ? "smooth" : c.name.substr(c.name.find("k="));
+    std::string tag = c.name == "SMOOTH" ? "smooth" : c.name.substr(c.name.find("k="));
+    std::replace(tag.begin(), tag.end(), ' ', '.');
     std::ofstream f(out_prefix + "." + tag + ".f32", std::ios::binary);
     f.write(reinterpret_cast<const char *>(out.data()),
             std::streamsize(out.size() * sizeof(float)));

@@ -2,6 +2,7 @@
 // explicitly evaluated angular neighbours k. Error: the bias of the mean radiance against the
 // smooth model (Kemppinen et al. 2025 Eq. 2: D_star averages to D away from the disk rim).
 #include <cstdio>
+#include <utility>
 
 #include "bench/lib/bench_case.h"
 
@@ -29,6 +30,24 @@ ModelBenchCase MakeKemppinenCase() {
                               auto *p = r->mutable_material()->mutable_kemppinen();
                               p->set_density(density);
                               p->set_neighbors(k);
+                            }});
+    }
+  // The cheaper neighbourhoods (glint.v1.KemppinenNeighborhood, README "Neighbourhood") at
+  // density 1e5: their rate and bias next to the paper's rows above.
+  for (auto [hood, hood_name] : {std::pair{glint::v1::KEMPPINEN_ONE_LEVEL, "one_level"},
+                                 std::pair{glint::v1::KEMPPINEN_ONE_CELL, "one_cell"}})
+    for (uint32_t k : {1u, 4u}) {
+      char name[64];
+      std::snprintf(name, sizeof name, "density=1e+05,k=%u,%s", k, hood_name);
+      // Probes and punctual lights only: polygon lights take the paper's neighbourhood.
+      c.variants.push_back({name,
+                            {Lights::kProbe, Lights::kDirectionalPoint},
+                            true,
+                            [k, hood](glint::v1::EvaluateRequest *r, const QueryStats &) {
+                              auto *p = r->mutable_material()->mutable_kemppinen();
+                              p->set_density(1e5);
+                              p->set_neighbors(k);
+                              p->set_neighborhood(hood);
                             }});
     }
   return c;

@@ -60,6 +60,10 @@ Status ValidateKemppinenParams(const Material &m) {
   } else if (!std::all_of(k.colors().begin(), k.colors().end(),
                           [](float c) { return c >= 0.0f && c <= 1.0f; })) {
     o << "material.kemppinen.colors: a channel outside [0, 1]; expected RGB in [0, 1]";
+  } else if (!glint::v1::KemppinenNeighborhood_IsValid(k.neighborhood())) {
+    o << "material.kemppinen.neighborhood: " << k.neighborhood()
+      << "; expected KEMPPINEN_PAPER, KEMPPINEN_ONE_LEVEL or KEMPPINEN_ONE_CELL (unset = "
+         "KEMPPINEN_PAPER)";
   } else {
     return Status::Ok();
   }
@@ -100,6 +104,19 @@ Status ValidateKemppinenQueries(const glint::v1::EvaluateRequest &, const glint:
   return Status::Ok();
 }
 
+// glint.v1.KemppinenNeighborhood as the kernels' GLINT_KEMPPINEN_NEIGHBORHOOD_* (unset = the
+// paper's, so a material without the field packs the same block as before it existed).
+int KemppinenNeighborhoodCode(glint::v1::KemppinenNeighborhood n) {
+  switch (n) {
+    case glint::v1::KEMPPINEN_ONE_LEVEL:
+      return GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL;
+    case glint::v1::KEMPPINEN_ONE_CELL:
+      return GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL;
+    default:
+      return GLINT_KEMPPINEN_NEIGHBORHOOD_PAPER;
+  }
+}
+
 void PackKemppinenParams(const Material &m, float *params) {
   static_assert(GLINT_KEMPPINEN_FLOATS <= GLINT_MODEL_PARAM_FLOATS);
   const auto &k = m.kemppinen();
@@ -115,6 +132,7 @@ void PackKemppinenParams(const Material &m, float *params) {
   // Colours as given (validated: flat RGB triples in [0, 1], at most GLINT_KEMPPINEN_MAX_COLORS).
   params[GLINT_KEMPPINEN_N_COLORS] = static_cast<float>(k.colors_size() / 3);
   for (int i = 0; i < k.colors_size(); ++i) params[GLINT_KEMPPINEN_COLORS + i] = k.colors(i);
+  params[GLINT_KEMPPINEN_NEIGHBORHOOD] = float(KemppinenNeighborhoodCode(k.neighborhood()));
 }
 
 void KemppinenExample(Material *m, glint::v1::QueryBatch *one_query) {
@@ -141,9 +159,22 @@ extern const Model kKemppinenModel;
 // 4 point lights 875 ns per query at k = 4 and 2969 ns at k = 16, i.e. 7.2 and 24 units per
 // light: 1.5 + 1.4 k (k = 1: 2.9; bench_models' k = 1 directional + point runs 2.5x the k = 4
 // rate, 2.9 units). The former 6 k (22 / 63 units at k = 4 / 16) predates the 16-lane pass.
+// The cheaper neighbourhoods (glint.v1.KemppinenNeighborhood) from their rates relative to the
+// paper's in one interleaved run (kemppinen_throughput --lights directional_point --ks 1,4,9,16
+// --neighborhoods paper,one_level,one_cell, loaded 2-core machine, 2026-12-01; README
+// "Neighbourhood"): ONE_LEVEL evaluates half the facets and runs 1.9-2.0x the paper's rate, so
+// half its factor; ONE_CELL runs 2.9x at k = 1 and 4.6x at k = 4 (its cost is mostly the
+// query's fixed part: T, the smooth BRDF, the compensation), 0.8 + 0.2 k units per light.
 double KemppinenCostFactor(const glint::v1::Material &m) {
   const uint32_t k = m.kemppinen().neighbors() ? m.kemppinen().neighbors() : 4;
-  return 1.5 + 1.4 * double(k);
+  switch (m.kemppinen().neighborhood()) {
+    case glint::v1::KEMPPINEN_ONE_LEVEL:
+      return 0.75 + 0.7 * double(k);
+    case glint::v1::KEMPPINEN_ONE_CELL:
+      return 0.8 + 0.2 * double(k);
+    default:
+      return 1.5 + 1.4 * double(k);
+  }
 }
 
 // A polygon light's glints beyond its smooth area integral (kemppinen_polygons.h: per level up

@@ -116,6 +116,12 @@ typedef struct {
   int n_colors;
   float colors[3 * GLINT_KEMPPINEN_MAX_COLORS];
   real3 mean_color;
+  /* The neighbourhood (GLINT_KEMPPINEN_NEIGHBORHOOD_*, uniform per request):
+   * one dithered MIP level instead of two, and the one spatial cell holding
+   * the query instead of the 2x2 block (kemppinen_query_levels says why both
+   * keep E[S] = 1). */
+  int one_level;
+  int one_cell;
 } KemppinenParams;
 
 GLINT_FN KemppinenParams kemppinen_params_unpack(const GLINT_GLOBAL float *packed) {
@@ -136,6 +142,9 @@ GLINT_FN KemppinenParams kemppinen_params_unpack(const GLINT_GLOBAL float *packe
   }
   real inv_n = GLINT_R(1.0) / (real)p.n_colors;
   p.mean_color = make_real3((real)sum[0] * inv_n, (real)sum[1] * inv_n, (real)sum[2] * inv_n);
+  int hood = (int)packed[GLINT_KEMPPINEN_NEIGHBORHOOD];
+  p.one_level = hood >= GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL;
+  p.one_cell = hood >= GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL;
   return p;
 }
 
@@ -245,6 +254,22 @@ GLINT_FN real kemppinen_erfc_abs(real x) {
   return kemppinen_erfc_abs_poly(x) * exp(-y * y);
 }
 
+/* The same by Abramowitz & Stegun 7.1.27: erfc(y) = (1 + a1 y + a2 y^2 +
+ * a3 y^3 + a4 y^4)^-4, |absolute error| <= 5e-4 for y >= 0 (their bound;
+ * measured against libm in the tests), no exp: the erfc of the cheaper
+ * neighbourhoods (GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL / ONE_CELL), where
+ * the compensation's 4 erfc per light and level and P_s's 4 per level would
+ * otherwise cost more than their explicit facets (an exp each on the PoCL
+ * CPU device; models/kemppinen/README.md "Neighbourhood"). */
+GLINT_FN real kemppinen_erfc_abs_cheap(real x) {
+  real y = fabs(x) * GLINT_R(0.70710678118654752440);
+  real d = GLINT_R(1.0) +
+           y * (GLINT_R(0.278393) +
+                y * (GLINT_R(0.230389) + y * (GLINT_R(0.000972) + y * GLINT_R(0.078108))));
+  real d2 = d * d;
+  return GLINT_R(1.0) / (d2 * d2);
+}
+
 /* Phi(b) - Phi(a) for a <= b (standard normal) from ea = erfc(|a| / sqrt 2)
  * and eb = erfc(|b| / sqrt 2), i.e. from erfc on the side away from 0, so
  * neither tail cancels (the compensation subtracts masses ~1): right of 0
@@ -264,6 +289,7 @@ GLINT_FN real kemppinen_mass(real a, real b) {
 /* What one query needs whatever the half-vector: the pixel filter in the
  * stretched uv space x_s = A_star uv and the MIP levels. */
 typedef struct {
+  real u, v;          /* uv as given (the one-level dither's key) */
   real xs, ys;        /* x_s */
   real sxx, sxy, syy; /* Sigma_s, regularised (uv^2 units) */
   real dj;            /* det J_s (f included): det Sigma_s = dj^2 before regularising */
@@ -281,6 +307,8 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
   real a = p.aniso;
   /* Algorithm 1 line 2: x_s = A_star uv. det A_star = 1, so K_P is unchanged
    * (line 1: res = sqrt(N) det(A^-1) = sqrt(N)). */
+  fp.u = u;
+  fp.v = v;
   fp.xs = a * u;
   fp.ys = v / a;
   /* Columns of J_s = A_star J: (a du/dx, dv/dx / a) and (a du/dy, dv/dy / a). */
@@ -456,7 +484,7 @@ typedef struct {
   real a, b, c, d;
 } KemppinenErfc4;
 
-GLINT_FN KemppinenErfc4 kemppinen_erfc4(real a, real b, real c, real d) {
+GLINT_FN KemppinenErfc4 kemppinen_erfc4_with(real a, real b, real c, real d, int cheap) {
   real zero = GLINT_R(0.0), cut = GLINT_R(GLINT_KEMPPINEN_ERFC_CUT);
   KemppinenErfc4 e;
   e.a = zero;
@@ -464,7 +492,14 @@ GLINT_FN KemppinenErfc4 kemppinen_erfc4(real a, real b, real c, real d) {
   e.c = zero;
   e.d = zero;
   glint_mask na = fabs(a) < cut, nb = fabs(b) < cut, nc = fabs(c) < cut, nd = fabs(d) < cut;
-  if (glint_any(na | nb | nc | nd)) {
+  if (cheap) {
+    if (glint_any(na | nb | nc | nd)) {
+      e.a = glint_select(zero, kemppinen_erfc_abs_cheap(a), na);
+      e.b = glint_select(zero, kemppinen_erfc_abs_cheap(b), nb);
+      e.c = glint_select(zero, kemppinen_erfc_abs_cheap(c), nc);
+      e.d = glint_select(zero, kemppinen_erfc_abs_cheap(d), nd);
+    }
+  } else if (glint_any(na | nb | nc | nd)) {
     e.a = glint_select(zero, kemppinen_erfc_abs(a), na);
     e.b = glint_select(zero, kemppinen_erfc_abs(b), nb);
     e.c = glint_select(zero, kemppinen_erfc_abs(c), nc);
@@ -473,18 +508,27 @@ GLINT_FN KemppinenErfc4 kemppinen_erfc4(real a, real b, real c, real d) {
   return e;
 }
 
+GLINT_FN KemppinenErfc4 kemppinen_erfc4(real a, real b, real c, real d) {
+  return kemppinen_erfc4_with(a, b, c, d, 0);
+}
+
 /* 1 - P_s: the pixel filter's mass outside the explicit 2x2 spatial block
  * (first cell bs, query ts, in cells of res_s per unit), per axis from the
  * diagonal of Sigma_s; the query lies inside the block, so 1 - mass is the
  * two tails. */
-GLINT_FN real kemppinen_outside_at(KemppinenFootprint fp, real res_s, real ts_x, real ts_y,
-                                   real bs_x, real bs_y) {
+GLINT_FN real kemppinen_outside_width(KemppinenFootprint fp, real res_s, real ts_x, real ts_y,
+                                      real bs_x, real bs_y, real width, int cheap) {
   real isx = GLINT_R(1.0) / (sqrt(fp.sxx) * res_s), isy = GLINT_R(1.0) / (sqrt(fp.syy) * res_s);
-  KemppinenErfc4 e = kemppinen_erfc4((bs_x - ts_x) * isx, (bs_x + GLINT_R(2.0) - ts_x) * isx,
-                                     (bs_y - ts_y) * isy, (bs_y + GLINT_R(2.0) - ts_y) * isy);
+  KemppinenErfc4 e = kemppinen_erfc4_with((bs_x - ts_x) * isx, (bs_x + width - ts_x) * isx,
+                                          (bs_y - ts_y) * isy, (bs_y + width - ts_y) * isy, cheap);
   real tx = GLINT_R(0.5) * (e.a + e.b);
   real ty = GLINT_R(0.5) * (e.c + e.d);
   return tx + (GLINT_R(1.0) - tx) * ty;
+}
+
+GLINT_FN real kemppinen_outside_at(KemppinenFootprint fp, real res_s, real ts_x, real ts_y,
+                                   real bs_x, real bs_y) {
+  return kemppinen_outside_width(fp, res_s, ts_x, ts_y, bs_x, bs_y, GLINT_R(2.0), 0);
 }
 
 /* Everything of level l that every light of the query shares: the spatial
@@ -502,6 +546,19 @@ GLINT_FN KemppinenLevelQuery kemppinen_level_query(KemppinenParams p, KemppinenF
   KemppinenLevelQuery q;
   q.s = kemppinen_spatial(p, fp, level);
   q.level = level;
+  if (p.one_cell) {
+    /* GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL: the cell holding the query, the
+     * same facet (the same hash) as that cell of the 2x2 block. */
+    q.s.bs_x = floor(q.s.ts_x);
+    q.s.bs_y = floor(q.s.ts_y);
+    q.key[0] = kemppinen_spatial_key(fp.seed_key, level, q.s.bs_x, q.s.bs_y);
+    q.key[1] = q.key[0];
+    q.key[2] = q.key[0];
+    q.key[3] = q.key[0];
+    q.outside = kemppinen_outside_width(fp, q.s.res_s, q.s.ts_x, q.s.ts_y, q.s.bs_x, q.s.bs_y,
+                                        GLINT_R(1.0), 1);
+    return q;
+  }
   /* kemppinen_spatial_key of the 2x2 block: 7 absorbs instead of 12. */
   kemp_uint lk = kemppinen_level_key(fp.seed_key, level);
   kemp_uint col0 = kemppinen_absorb(lk, kemppinen_cell_key(q.s.bs_x));
@@ -509,7 +566,8 @@ GLINT_FN KemppinenLevelQuery kemppinen_level_query(KemppinenParams p, KemppinenF
   for (int j = 0; j < 4; ++j)
     q.key[j] =
         kemppinen_absorb((j & 1) ? col1 : col0, kemppinen_cell_key(q.s.bs_y + (real)(j >> 1)));
-  q.outside = kemppinen_outside_at(fp, q.s.res_s, q.s.ts_x, q.s.ts_y, q.s.bs_x, q.s.bs_y);
+  q.outside = kemppinen_outside_width(fp, q.s.res_s, q.s.ts_x, q.s.ts_y, q.s.bs_x, q.s.bs_y,
+                                      GLINT_R(2.0), p.one_level);
   return q;
 }
 
@@ -606,23 +664,30 @@ GLINT_FN real kemppinen_spatial_outside(KemppinenFootprint fp, KemppinenBlocks b
  * both brackets from tails (no difference of two numbers near 1). Angular
  * edges in cells (square [0, res_a], block [ba, ea]) about ta, scaled by
  * 1 / sigma_a in cells. */
-GLINT_FN real kemppinen_compensation_at(real ta_x, real ta_y, real ba_x, real ba_y, real ea_x,
-                                        real ea_y, real res_a, real inv_sax, real inv_say,
-                                        real outside) {
+GLINT_FN real kemppinen_compensation_with(real ta_x, real ta_y, real ba_x, real ba_y, real ea_x,
+                                          real ea_y, real res_a, real inv_sax, real inv_say,
+                                          real outside, int cheap) {
   real x0 = -ta_x * inv_sax, x1 = (ba_x - ta_x) * inv_sax;
   real x2 = (ea_x - ta_x) * inv_sax, x3 = (res_a - ta_x) * inv_sax;
   real y0 = -ta_y * inv_say, y1 = (ba_y - ta_y) * inv_say;
   real y2 = (ea_y - ta_y) * inv_say, y3 = (res_a - ta_y) * inv_say;
   /* erfc at the 4 edges per axis, each used by two masses; the square's
    * edges are many standard deviations away except near the disk's rim. */
-  KemppinenErfc4 eb = kemppinen_erfc4(x1, x2, y1, y2);
-  KemppinenErfc4 es = kemppinen_erfc4(x0, x3, y0, y3);
+  KemppinenErfc4 eb = kemppinen_erfc4_with(x1, x2, y1, y2, cheap);
+  KemppinenErfc4 es = kemppinen_erfc4_with(x0, x3, y0, y3, cheap);
   real xb = kemppinen_mass_e(x1, x2, eb.a, eb.b), yb = kemppinen_mass_e(y1, y2, eb.c, eb.d);
   real xsq = kemppinen_mass_e(x0, x3, es.a, es.b);
   real xout = kemppinen_mass_e(x0, x1, es.a, eb.a) + kemppinen_mass_e(x2, x3, eb.b, es.b);
   real yout = kemppinen_mass_e(y0, y1, es.c, eb.c) + kemppinen_mass_e(y2, y3, eb.d, es.d);
   real square_minus_block = xsq * yout + yb * xout; /* = P_a(square) - P_a(B) */
   return fmax(square_minus_block + outside * xb * yb, GLINT_R(0.0));
+}
+
+GLINT_FN real kemppinen_compensation_at(real ta_x, real ta_y, real ba_x, real ba_y, real ea_x,
+                                        real ea_y, real res_a, real inv_sax, real inv_say,
+                                        real outside) {
+  return kemppinen_compensation_with(ta_x, ta_y, ba_x, ba_y, ea_x, ea_y, res_a, inv_sax, inv_say,
+                                     outside, 0);
 }
 
 /* K25 3.3.6: facet g's colour, number floor(pick n) of the n colours (each
@@ -683,7 +748,8 @@ GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
   real inv_sax = a.inv_sx * inv_res_a, inv_say = a.inv_sy * inv_res_a;
   real norm = q->s.norm_s * (a.norm * (inv_res_a * inv_res_a));
   real3 sum = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-  for (int j = 0; j < 4; ++j) {
+  int n_cells = p->one_cell ? 1 : 4;
+  for (int j = 0; j < n_cells; ++j) {
     real dxc = q->s.ts_x - (q->s.bs_x + (real)(j & 1));
     real dyc = q->s.ts_y - (q->s.bs_y + (real)(j >> 1));
     /* The n columns' absorbs once per spatial cell, not per facet (the
@@ -698,7 +764,8 @@ GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
         /* Cells past the grid's end (res_a < n at the coarsest levels) drop. */
         glint_mask valid = (ix < ea_x) & (iy < ea_y);
         KemppinenFacet g = kemppinen_facet_in_column(column[mx], iy);
-        real keep = kemppinen_roulette(g.r, w);
+        /* One level (w = 1): R(r, 1) = 1 for every r, no roulette. */
+        real keep = p->one_level ? GLINT_R(1.0) : kemppinen_roulette(g.r, w);
         /* No branch on the roulette: with 16 lanes some lane almost always
          * keeps the facet, and the branch cost 10% (measured at k = 1, 4). */
         real lobe = kemppinen_facet_lobe_at(inv_res_a, ta_x, ta_y, inv_sax, inv_say, dxc, dyc,
@@ -710,8 +777,8 @@ GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
     }
   }
   /* The compensation in the mean colour (each colour has probability 1/n). */
-  real c = kemppinen_compensation_at(ta_x, ta_y, ba_x, ba_y, ea_x, ea_y, res_a, inv_sax, inv_say,
-                                     q->outside);
+  real c = kemppinen_compensation_with(ta_x, ta_y, ba_x, ba_y, ea_x, ea_y, res_a, inv_sax, inv_say,
+                                       q->outside, p->one_level);
   return r3_add(sum, r3_scale(p->mean_color, w * c));
 }
 
@@ -745,6 +812,30 @@ GLINT_FN KemppinenQueryLevels kemppinen_query_levels(KemppinenParams p, Kemppine
   KemppinenQueryLevels L;
   real lf = floor(fp.lambda);
   real w1 = fp.lambda - lf;
+  if (p.one_level) {
+    /* GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL / ONE_CELL (not in K25): one
+     * level per query, the finer with probability w0 = 1 - w1 and the
+     * coarser with w1, from a uniform t of the query's uv (and the seed), all
+     * its facets at weight 1. Over t this is the tent blend of Algorithm 1
+     * lines 7-8 in expectation: E_t[S] = w0 S_0 + w1 S_1, where K25's roulette
+     * gives E_r[R(r, w) lobe] = w lobe per facet (Eq. 8), the same value; so
+     * E[D_star] = D (Eq. 2) still holds, each level alone being a point
+     * process of density K_P. What changes is the variance: a query near
+     * w1 = 1/2 sees one level's glints at full strength or the other's, not
+     * both at half (dithering between the levels across pixels), and half the
+     * facets. t is a 24-bit uniform, so P(coarser) = w1 within 2^-24. */
+    kemp_uint key = kemppinen_absorb(
+        kemppinen_absorb((kemp_uint)(fp.seed_key ^ 0x6c6f6431u), rng_real_key(fp.u)),
+        rng_real_key(fp.v));
+    real t = KEMP_TO_REAL(kemppinen_mix(key) >> 8) * GLINT_R(5.9604644775390625e-8);
+    real level = glint_select(lf, lf + GLINT_R(1.0), t < w1);
+    L.w[0] = GLINT_R(1.0);
+    L.w[1] = GLINT_R(0.0);
+    L.n = 1;
+    L.l[0] = kemppinen_level_query(p, fp, fmin(level, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)));
+    L.l[1] = L.l[0];
+    return L;
+  }
   L.w[0] = GLINT_R(1.0) - w1;
   L.w[1] = w1;
   L.n = glint_any(w1 > GLINT_R(0.0)) ? 2 : 1;

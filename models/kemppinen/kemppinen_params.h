@@ -4,7 +4,8 @@
  * and C++. Offsets (floats):
  *   0 density K_P, 1 microroughness alpha_star, 2 filter_size f,
  *   3 neighbors k, 4 anisotropy a, 5 number of colours n (0 = white),
- *   6-7 unused (0), 8 + 3 c .. 10 + 3 c colour c's r, g, b (c < n <= 8). */
+ *   6 neighbourhood (GLINT_KEMPPINEN_NEIGHBORHOOD_*), 7 unused (0),
+ *   8 + 3 c .. 10 + 3 c colour c's r, g, b (c < n <= 8). */
 #ifndef GLINT_KEMPPINEN_PARAMS_H
 #define GLINT_KEMPPINEN_PARAMS_H
 
@@ -14,10 +15,19 @@
 #define GLINT_KEMPPINEN_NEIGHBORS 3
 #define GLINT_KEMPPINEN_ANISO 4
 #define GLINT_KEMPPINEN_N_COLORS 5
+#define GLINT_KEMPPINEN_NEIGHBORHOOD 6
 #define GLINT_KEMPPINEN_COLORS 8
 /* Per-glint colours (K25 3.3.6): up to 8 RGB triples. */
 #define GLINT_KEMPPINEN_MAX_COLORS 8
 #define GLINT_KEMPPINEN_FLOATS (GLINT_KEMPPINEN_COLORS + 3 * GLINT_KEMPPINEN_MAX_COLORS)
+
+/* The neighbourhood of facets a query evaluates (glint.v1.KemppinenNeighborhood;
+ * models/kemppinen/kemppinen_ndf.h kemppinen_query_levels): the paper's (two MIP levels blended by
+ * the roulette, 2x2 spatial cells), one dithered MIP level with 2x2 spatial
+ * cells, or one dithered level and the one spatial cell holding the query. */
+#define GLINT_KEMPPINEN_NEIGHBORHOOD_PAPER 0
+#define GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL 1
+#define GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL 2
 
 /* What 0 (unset) means for the optional fields (glint.v1.KemppinenParams). */
 #define GLINT_KEMPPINEN_DEFAULT_MICROROUGHNESS 0.02f

@@ -15,6 +15,7 @@
 #include "server/device_engine.h"
 #include "server/eval_plan.h"
 #include "server/host_path.h"
+#include "server/request_cost.h"
 #include "server/validation.h"
 #include "test_queries.h"
 
@@ -122,6 +123,15 @@ TEST(KemppinenValidation, RefusalsNameTheField) {
   one.mutable_material()->mutable_kemppinen()->clear_colors();
   for (float c : {1.0f, 0.2f, 0.1f}) one.mutable_material()->mutable_kemppinen()->add_colors(c);
   EXPECT_TRUE(ValidateSettings(one, {}).ok());
+  bad = r;
+  bad.mutable_material()->mutable_kemppinen()->set_neighborhood(
+      static_cast<v1::KemppinenNeighborhood>(7));  // an enum value this server does not know
+  refused(bad, "material.kemppinen.neighborhood");
+  for (auto hood : {v1::KEMPPINEN_PAPER, v1::KEMPPINEN_ONE_LEVEL, v1::KEMPPINEN_ONE_CELL}) {
+    EvaluateRequest ok = r;
+    ok.mutable_material()->mutable_kemppinen()->set_neighborhood(hood);
+    EXPECT_TRUE(ValidateSettings(ok, {}).ok()) << hood;
+  }
   bad = r;
   bad.mutable_material()->clear_kemppinen();
   refused(bad, "material.kemppinen");
@@ -314,6 +324,103 @@ TEST_F(KemppinenEngineTest, ExtremesAreFiniteAndNonNegativeOnTheDevice) {
         EXPECT_TRUE(std::isfinite(dev[i]) && dev[i] >= 0.0f)
             << "query " << i / 3 << " density " << density << " fp64 " << fp64 << " = " << dev[i];
     }
+}
+
+// Admission cost per punctual light (KemppinenCostFactor) follows the measured rates of the
+// neighbourhoods relative to the paper's (README "Neighbourhood": ONE_LEVEL 1.9-2.0x, ONE_CELL
+// 2.9x at k = 1 and 4.6x at k = 4): within 25% of factor / rate ratio, at every k cheaper
+// than the paper's, and ONE_CELL cheaper than ONE_LEVEL.
+TEST(KemppinenCost, FollowsTheMeasuredRateOfEachNeighborhood) {
+  EvaluateRequest r = MakeSettings(v1::GGX, false, false, false, 1);
+  r.add_lights()->mutable_point();
+  auto per_light = [&](int k, v1::KemppinenNeighborhood hood) {
+    r.mutable_material()->mutable_kemppinen()->set_neighbors(uint32_t(k));
+    r.mutable_material()->mutable_kemppinen()->set_neighborhood(hood);
+    return EstimateRequestCost(r, 1).per_query - 1.0;  // 1: the query itself
+  };
+  const struct {
+    int k;
+    double one_level, one_cell;  // measured rate relative to the paper's
+  } measured[] = {{1, 1.86, 2.87}, {4, 2.03, 4.6}};
+  for (const auto &m : measured) {
+    const double paper = per_light(m.k, v1::KEMPPINEN_PAPER);
+    EXPECT_DOUBLE_EQ(paper, per_light(m.k, v1::KEMPPINEN_NEIGHBORHOOD_UNSPECIFIED));
+    EXPECT_NEAR(paper / per_light(m.k, v1::KEMPPINEN_ONE_LEVEL), m.one_level, 0.25 * m.one_level);
+    EXPECT_NEAR(paper / per_light(m.k, v1::KEMPPINEN_ONE_CELL), m.one_cell, 0.25 * m.one_cell);
+  }
+  for (int k : {1, 4, 9, 16}) {
+    EXPECT_LT(per_light(k, v1::KEMPPINEN_ONE_LEVEL), per_light(k, v1::KEMPPINEN_PAPER)) << k;
+    EXPECT_LT(per_light(k, v1::KEMPPINEN_ONE_CELL), per_light(k, v1::KEMPPINEN_ONE_LEVEL)) << k;
+    EXPECT_GE(per_light(k, v1::KEMPPINEN_ONE_CELL), 1.0) << k;  // Model::cost_factor >= 1
+  }
+}
+
+// The cheaper neighbourhoods (glint.v1.KemppinenNeighborhood) on the device: KEMPPINEN_PAPER set
+// explicitly gives the bits of the unset field (the default is the paper's model, unchanged);
+// ONE_LEVEL and ONE_CELL are bit-identical in one batch, repeated and in chunks (their level
+// dither is keyed by uv, not by the query's index), agree with the host path as the paper's
+// pass does (LanePassMatchesHostPathAtEveryTripCount: fp32, 1e-4 relative for 99% of values),
+// and are finite and non-negative at the extreme footprints, uv and views.
+TEST_F(KemppinenEngineTest, CheaperNeighborhoodsDeterministicAndMatchTheHost) {
+  EvaluateRequest paper = MakeSettings(v1::GGX, true, false, false, 1);
+  v1::QueryBatch q = test::RandomQueries(1000, false, true, 41);
+  auto unset = Device(MakeEvalPlan(paper, q), q);
+  paper.mutable_material()->mutable_kemppinen()->set_neighborhood(v1::KEMPPINEN_PAPER);
+  auto set = Device(MakeEvalPlan(paper, q), q);
+  EXPECT_EQ(0, std::memcmp(set.data(), unset.data(), unset.size() * sizeof(float)));
+  for (auto hood : {v1::KEMPPINEN_ONE_LEVEL, v1::KEMPPINEN_ONE_CELL}) {
+    EvaluateRequest settings = paper;
+    settings.mutable_material()->mutable_kemppinen()->set_neighborhood(hood);
+    EvalPlan plan = MakeEvalPlan(settings, q);
+    auto whole = Device(plan, q);
+    auto again = Device(plan, q, 1);
+    EXPECT_EQ(0, std::memcmp(again.data(), whole.data(), whole.size() * sizeof(float))) << hood;
+    for (uint32_t chunk : {7u, 333u}) {
+      std::vector<float> pieces;
+      for (uint32_t first = 0; first < q.count(); first += chunk) {
+        v1::QueryBatch part =
+            client::SliceQueries(q, first, first + std::min(chunk, q.count() - first));
+        auto out = Device(MakeEvalPlan(settings, part), part, int(first / chunk) % 2);
+        pieces.insert(pieces.end(), out.begin(), out.end());
+      }
+      ASSERT_EQ(pieces.size(), whole.size());
+      EXPECT_EQ(0, std::memcmp(pieces.data(), whole.data(), whole.size() * sizeof(float)))
+          << hood << " chunks of " << chunk;
+    }
+    auto host = Host(plan, q);
+    int agree = 0, lit = 0, differs_from_paper = 0;
+    for (size_t i = 0; i < whole.size(); ++i) {
+      ASSERT_TRUE(std::isfinite(whole[i]) && whole[i] >= 0.0f) << hood << " " << i;
+      agree += std::fabs(whole[i] - host[i]) <= 1e-4 * std::fabs(host[i]) + 1e-30;
+      lit += host[i] > 0.0f;
+      differs_from_paper += whole[i] != unset[i];
+    }
+    EXPECT_GE(agree, int(whole.size()) * 990 / 1000) << hood;
+    EXPECT_GT(lit, int(whole.size()) / 20) << hood;
+    EXPECT_GT(differs_from_paper, lit / 2) << hood << ": not the paper's estimate";
+
+    v1::QueryBatch extremes;
+    const float uvs[][2] = {{0.3f, 0.7f}, {1e7f, -1e7f}};
+    const float fps[][4] = {
+        {0, 0, 0, 0}, {1e-3f, 1e-3f, 1e-3f, 1e-3f}, {3e38f, -3e38f, 3e38f, 3e38f}};
+    const float wos[][3] = {{0, 0, 1}, {1, 0, 0}, {0.8f, 0, -0.6f}, {0.99999f, 0, 0.0044721f}};
+    for (auto &uv : uvs)
+      for (auto &fp : fps)
+        for (auto &wo : wos) {
+          extremes.add_uv(uv[0]);
+          extremes.add_uv(uv[1]);
+          for (float f : fp) extremes.add_footprint(f);
+          for (float w : wo) extremes.add_wo(w);
+        }
+    extremes.set_count(uint32_t(extremes.uv_size() / 2));
+    for (double density : {1e-3, 1e30}) {
+      settings.mutable_material()->mutable_kemppinen()->set_density(density);
+      auto dev = Device(MakeEvalPlan(settings, extremes), extremes);
+      for (size_t i = 0; i < dev.size(); ++i)
+        EXPECT_TRUE(std::isfinite(dev[i]) && dev[i] >= 0.0f)
+            << hood << " query " << i / 3 << " density " << density << " = " << dev[i];
+    }
+  }
 }
 
 }  // namespace

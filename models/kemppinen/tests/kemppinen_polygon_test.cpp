@@ -34,6 +34,7 @@ struct Glinty {
   int neighbors = 4;
   unsigned seed_lo = 11, seed_hi = 0;
   std::vector<double> colors;  // flat RGB triples, 0 to 8 colours
+  int neighborhood = 0;        // GLINT_KEMPPINEN_NEIGHBORHOOD_*
 };
 }  // namespace glint::test
 

@@ -34,6 +34,7 @@ struct Glinty {
   int neighbors = 4;
   unsigned seed_lo = 11, seed_hi = 0;
   std::vector<double> colors;  // flat RGB triples, 0, 1 or 2 colours
+  int neighborhood = 0;        // GLINT_KEMPPINEN_NEIGHBORHOOD_*
 };
 }  // namespace glint::test
 
@@ -532,20 +533,23 @@ TEST(KemppinenModel, StableAndDeterministicAtTheExtremesInFp32) {
     cases.push_back(c);
   }
   for (const Case &c : cases)
-    for (int k : {1, 4, 9, 16}) {
-      for (bool probe : {false, true}) {
-        Glinty g = c.g;
-        g.neighbors = k;
-        auto a = k32::Query(g, c.u, c.v, c.fp.data(), c.wo, c.wi, probe);
-        auto b = k32::Query(g, c.u, c.v, c.fp.data(), c.wo, c.wi, probe);
-        for (int ch = 0; ch < 3; ++ch) {
-          EXPECT_TRUE(std::isfinite(a[size_t(ch)]) && a[size_t(ch)] >= 0.0)
-              << c.what << " " << NdfName(g.ndf) << " k " << k << " probe " << probe << " = "
-              << a[size_t(ch)];
-          EXPECT_EQ(a[size_t(ch)], b[size_t(ch)]) << c.what;
+    for (int k : {1, 4, 9, 16})
+      for (int hood : {GLINT_KEMPPINEN_NEIGHBORHOOD_PAPER, GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL,
+                       GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL}) {
+        for (bool probe : {false, true}) {
+          Glinty g = c.g;
+          g.neighbors = k;
+          g.neighborhood = hood;
+          auto a = k32::Query(g, c.u, c.v, c.fp.data(), c.wo, c.wi, probe);
+          auto b = k32::Query(g, c.u, c.v, c.fp.data(), c.wo, c.wi, probe);
+          for (int ch = 0; ch < 3; ++ch) {
+            EXPECT_TRUE(std::isfinite(a[size_t(ch)]) && a[size_t(ch)] >= 0.0)
+                << c.what << " " << NdfName(g.ndf) << " k " << k << " neighbourhood " << hood
+                << " probe " << probe << " = " << a[size_t(ch)];
+            EXPECT_EQ(a[size_t(ch)], b[size_t(ch)]) << c.what;
+          }
         }
       }
-    }
 }
 
 // The parameter ranges the validation accepts, crossed (a stability sweep for this model):
@@ -580,6 +584,7 @@ TEST(KemppinenModel, StableOverTheCrossedParameterRangesInFp32) {
                 g.aniso = aniso;
                 g.filter = filter;
                 g.neighbors = 1 + int(checked % 4) * (int(checked % 4) + 2);  // 1, 4, 9, 16
+                g.neighborhood = int((checked / 4) % 3);  // GLINT_KEMPPINEN_NEIGHBORHOOD_*
                 for (double u : {0.3, 1e7})
                   for (const V3 &wo : wos)
                     for (bool probe : {false, true}) {
@@ -603,26 +608,29 @@ TEST(KemppinenModel, StableOverTheCrossedParameterRangesInFp32) {
 // with sigma >= 0.25 cells; allowed: 2e-3 relative for 99% of queries. The rest may see floor()
 // pick another block (an x_s res_s within rounding of a cell boundary).
 TEST(KemppinenModel, Fp32AgreesWithFp64WhereWellConditioned) {
-  for (int ndf : {GLINT_NDF_GGX, GLINT_NDF_BECKMANN}) {
-    Glinty g;
-    g.ndf = ndf;
-    g.micro = 0.05;
-    std::mt19937_64 rng(21);
-    std::uniform_real_distribution<double> uni(0.0, 10.0), tilt(-0.3, 0.3);
-    const std::array<double, 4> fp = {4e-3, 1e-3, -5e-4, 3e-3};
-    int agree = 0, lit = 0;
-    const int count = 2000;
-    for (int i = 0; i < count; ++i) {
-      double u = uni(rng), v = uni(rng);
-      V3 wo = Normalize({tilt(rng), tilt(rng), 1}), wi = Normalize({tilt(rng), tilt(rng), 1});
-      double a = k32::Query(g, u, v, fp.data(), wo, wi, true)[0];
-      double b = k64::Query(g, u, v, fp.data(), wo, wi, true)[0];
-      agree += std::fabs(a - b) <= 2e-3 * std::fabs(b) + 1e-30;
-      lit += b > 0;
+  for (int hood : {GLINT_KEMPPINEN_NEIGHBORHOOD_PAPER, GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL,
+                   GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL})
+    for (int ndf : {GLINT_NDF_GGX, GLINT_NDF_BECKMANN}) {
+      Glinty g;
+      g.ndf = ndf;
+      g.neighborhood = hood;
+      g.micro = 0.05;
+      std::mt19937_64 rng(21);
+      std::uniform_real_distribution<double> uni(0.0, 10.0), tilt(-0.3, 0.3);
+      const std::array<double, 4> fp = {4e-3, 1e-3, -5e-4, 3e-3};
+      int agree = 0, lit = 0;
+      const int count = 2000;
+      for (int i = 0; i < count; ++i) {
+        double u = uni(rng), v = uni(rng);
+        V3 wo = Normalize({tilt(rng), tilt(rng), 1}), wi = Normalize({tilt(rng), tilt(rng), 1});
+        double a = k32::Query(g, u, v, fp.data(), wo, wi, true)[0];
+        double b = k64::Query(g, u, v, fp.data(), wo, wi, true)[0];
+        agree += std::fabs(a - b) <= 2e-3 * std::fabs(b) + 1e-30;
+        lit += b > 0;
+      }
+      EXPECT_GT(lit, count / 2) << NdfName(ndf) << " neighbourhood " << hood;
+      EXPECT_GE(agree, count * 99 / 100) << NdfName(ndf) << " neighbourhood " << hood;
     }
-    EXPECT_GT(lit, count / 2) << NdfName(ndf);
-    EXPECT_GE(agree, count * 99 / 100) << NdfName(ndf);
-  }
 }
 
 }  // namespace

@@ -35,6 +35,13 @@ class FootprintInterpolation(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
     TETRAHEDRAL: _ClassVar[FootprintInterpolation]
     STOCHASTIC: _ClassVar[FootprintInterpolation]
 
+class KemppinenNeighborhood(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+    __slots__ = ()
+    KEMPPINEN_NEIGHBORHOOD_UNSPECIFIED: _ClassVar[KemppinenNeighborhood]
+    KEMPPINEN_PAPER: _ClassVar[KemppinenNeighborhood]
+    KEMPPINEN_ONE_LEVEL: _ClassVar[KemppinenNeighborhood]
+    KEMPPINEN_ONE_CELL: _ClassVar[KemppinenNeighborhood]
+
 class AreaMethod(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
     __slots__ = ()
     AREA_METHOD_UNSPECIFIED: _ClassVar[AreaMethod]
@@ -66,6 +73,10 @@ FOOTPRINT_INTERPOLATION_UNSPECIFIED: FootprintInterpolation
 TRILINEAR: FootprintInterpolation
 TETRAHEDRAL: FootprintInterpolation
 STOCHASTIC: FootprintInterpolation
+KEMPPINEN_NEIGHBORHOOD_UNSPECIFIED: KemppinenNeighborhood
+KEMPPINEN_PAPER: KemppinenNeighborhood
+KEMPPINEN_ONE_LEVEL: KemppinenNeighborhood
+KEMPPINEN_ONE_CELL: KemppinenNeighborhood
 AREA_METHOD_UNSPECIFIED: AreaMethod
 LTC: AreaMethod
 LECOCQ: AreaMethod
@@ -130,20 +141,22 @@ class ChermainParams(_message.Message):
     def __init__(self, log_density: _Optional[float] = ..., relative_area: _Optional[float] = ..., density_randomisation: _Optional[float] = ..., max_anisotropy: _Optional[float] = ..., dictionary_size: _Optional[int] = ..., colors: _Optional[_Iterable[float]] = ...) -> None: ...
 
 class KemppinenParams(_message.Message):
-    __slots__ = ("density", "microroughness", "filter_size", "neighbors", "anisotropy", "colors")
+    __slots__ = ("density", "microroughness", "filter_size", "neighbors", "anisotropy", "colors", "neighborhood")
     DENSITY_FIELD_NUMBER: _ClassVar[int]
     MICROROUGHNESS_FIELD_NUMBER: _ClassVar[int]
     FILTER_SIZE_FIELD_NUMBER: _ClassVar[int]
     NEIGHBORS_FIELD_NUMBER: _ClassVar[int]
     ANISOTROPY_FIELD_NUMBER: _ClassVar[int]
     COLORS_FIELD_NUMBER: _ClassVar[int]
+    NEIGHBORHOOD_FIELD_NUMBER: _ClassVar[int]
     density: float
     microroughness: float
     filter_size: float
     neighbors: int
     anisotropy: float
     colors: _containers.RepeatedScalarFieldContainer[float]
-    def __init__(self, density: _Optional[float] = ..., microroughness: _Optional[float] = ..., filter_size: _Optional[float] = ..., neighbors: _Optional[int] = ..., anisotropy: _Optional[float] = ..., colors: _Optional[_Iterable[float]] = ...) -> None: ...
+    neighborhood: KemppinenNeighborhood
+    def __init__(self, density: _Optional[float] = ..., microroughness: _Optional[float] = ..., filter_size: _Optional[float] = ..., neighbors: _Optional[int] = ..., anisotropy: _Optional[float] = ..., colors: _Optional[_Iterable[float]] = ..., neighborhood: _Optional[_Union[KemppinenNeighborhood, str]] = ...) -> None: ...
 
 class NormalMapParams(_message.Message):
     __slots__ = ("digest", "intrinsic_roughness", "cutoff_sigma", "subdivision")

@@ -1,0 +1,274 @@
+// The cheaper neighbourhoods of the Kemppinen model (glint.v1.KemppinenNeighborhood,
+// models/kemppinen/README.md "Neighbourhood"): one dithered MIP level (ONE_LEVEL) and, in
+// addition, only the spatial cell holding the query (ONE_CELL), both with the A&S 7.1.27 erfc.
+// Against independent references:
+//   - the cheap erfc against libm, within A&S's published bound,
+//   - the dither: the coarser level is picked with probability w1 (binomial statistics),
+//   - Eq. 2: averaged over uv, D_star = D within k standard errors plus the cheap erfc's bound,
+//   - against the explicit sum over every facet (one level; and two levels, where the reference
+//     is the expectation over the roulette w0 Full(l0) + w1 Full(l1)): unbiased, RMS reported.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
+
+#include "data/ltc/ltc_table.h"
+
+namespace glint::test {
+struct V3 {
+  double x, y, z;
+};
+V3 Normalize(V3 a) {
+  double l = std::sqrt(a.x * a.x + a.y * a.y + a.z * a.z);
+  return {a.x / l, a.y / l, a.z / l};
+}
+// A material and its kemppinen block (as in kemppinen_test.cpp).
+struct Glinty {
+  int ndf = 1;  // GLINT_NDF_GGX
+  double ax = 0.3, ay = 0.3;
+  double density = 1e6, micro = 0.02, filter = 0.7, aniso = 1.0;
+  int neighbors = 4;
+  unsigned seed_lo = 11, seed_hi = 0;
+  std::vector<double> colors;
+  int neighborhood = 0;  // GLINT_KEMPPINEN_NEIGHBORHOOD_*
+};
+}  // namespace glint::test
+
+#define GLINT_TEST_KERNEL_EXTRA "models/kemppinen/tests/kemppinen_api.inc"
+#include "tests/support/kernels_both_precisions.h"
+
+namespace {
+
+using glint::test::Glinty;
+using glint::test::Normalize;
+using glint::test::V3;
+
+struct Stats {
+  double mean = 0, var = 0;
+  size_t n = 0;
+  double se() const { return std::sqrt(var / double(n)); }
+  double spread() const { return std::sqrt(var) / mean; }
+};
+Stats Summarise(const std::vector<double> &x) {
+  Stats s;
+  s.n = x.size();
+  for (double v : x) s.mean += v;
+  s.mean /= double(x.size());
+  for (double v : x) s.var += (v - s.mean) * (v - s.mean);
+  s.var /= double(x.size() - 1);
+  return s;
+}
+
+const char *NdfName(int ndf) {
+  return ndf == GLINT_NDF_BECKMANN ? "Beckmann" : "GGX";
+}
+
+const char *HoodName(int hood) {
+  return hood == GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL    ? "ONE_CELL"
+         : hood == GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL ? "ONE_LEVEL"
+                                                          : "PAPER";
+}
+
+// Footprint diag(j, j) (axis aligned) such that lambda = log2(8 sigma_max sqrt(K_P))
+// (kemppinen_ndf.h) is `lambda`.
+std::array<double, 4> FootprintForLevel(const Glinty &g, double lambda) {
+  double sigma = std::exp2(lambda) / (8.0 * std::sqrt(g.density));
+  double j = sigma / (g.filter * std::max(g.aniso, 1.0 / g.aniso));
+  return {j, 0.0, 0.0, j};
+}
+
+// A&S 7.1.27's bound on |erf error|, so on erfc's.
+const double kCheapErfcBound = 5e-4;
+
+// The bias the cheap erfc can give one level's S (weight 1): the compensation (Eq. 9-10) and
+// 1 - P_s are sums of products of per-axis masses, each factor in [0, 1] and each mass a half
+// sum or difference of two erfc (error <= eps), the two-sided ones (x_out, y_out, 1 - P_s per
+// axis) two masses: kemppinen_compensation_with's terms x_sq y_out + y_b x_out + (1 - P_s) x_b
+// y_b change by at most eps + 2 eps + eps + 2 eps + 2 eps + 2 eps = 10 eps (first order; eps^2
+// terms are below 1e-6).
+const double kCheapErfcBiasBound = 10 * kCheapErfcBound;
+
+// ---------------------------------------------------------------------------------------------
+// The cheap erfc (Abramowitz & Stegun 7.1.27) against libm on [0, 12] standard scores: within
+// their published 5e-4; fp32 adds the rounding of ~10 operations on values <= 1 near the
+// maximum error (<= 10 * 6e-8).
+TEST(CheapErfc, WithinItsPublishedBoundOfLibm) {
+  double worst64 = 0, worst32 = 0;
+  for (int i = 0; i <= 120000; ++i) {
+    double x = i * 1e-4 * std::sqrt(2.0);
+    double ref = std::erfc(x / std::sqrt(2.0));
+    worst64 = std::max(worst64, std::fabs(double(k64::kemppinen_erfc_abs_cheap(x)) - ref));
+    worst32 = std::max(worst32, std::fabs(double(k32::kemppinen_erfc_abs_cheap(float(x))) - ref));
+  }
+  std::printf("erfc (A&S 7.1.27) vs libm on [0, 12]: max absolute error %.3g (fp64), %.3g (fp32)\n",
+              worst64, worst32);
+  EXPECT_LE(worst64, kCheapErfcBound);
+  EXPECT_LE(worst32, kCheapErfcBound + 10 * 5.96e-8);
+}
+
+// The dither of the one-level neighbourhoods: at lambda = l + w1 a query takes level l + 1
+// with probability w1 (kemppinen_query_levels), else l, from a hash of its uv. Over n random uv
+// the fraction taking l + 1 is binomial: within 4.5 standard errors sqrt(w1 (1 - w1) / n) of
+// w1. A query keeps its level (the same uv, the same pick), and another seed picks anew.
+TEST(OneLevel, PicksTheCoarserLevelWithTheTentWeight) {
+  for (int hood : {GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL, GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL})
+    for (double w : {0.1, 0.5, 0.85}) {
+      Glinty g;
+      g.neighborhood = hood;
+      auto fp = FootprintForLevel(g, 5.0 + w);
+      // The kernel's lambda (its regularisation of Sigma_s moves it by ~1e-4).
+      const double w1 = k64::Lambda(g, fp.data()) - 5.0;
+      ASSERT_NEAR(w1, w, 1e-3);
+      const int n = 20000;
+      std::mt19937_64 rng(5);
+      std::uniform_real_distribution<double> uni(0.0, 100.0);
+      int coarser = 0, other_seed_differs = 0;
+      for (int i = 0; i < n; ++i) {
+        double u = uni(rng), v = uni(rng);
+        double l = k64::PickedLevel(g, u, v, fp.data());
+        ASSERT_TRUE(l == 5.0 || l == 6.0) << l;
+        coarser += l == 6.0;
+        EXPECT_EQ(l, k64::PickedLevel(g, u, v, fp.data()));
+        // fp32 keys the dither by the same float bits of uv.
+        EXPECT_EQ(l, double(k32::PickedLevel(g, float(u), float(v), fp.data())))
+            << "u " << u << " v " << v;
+        Glinty g2 = g;
+        g2.seed_lo = 12;
+        other_seed_differs += k64::PickedLevel(g2, u, v, fp.data()) != l;
+      }
+      double p = double(coarser) / n, se = std::sqrt(w1 * (1 - w1) / n);
+      std::printf("%-9s w1 %.2f: coarser level picked by %.4f of %d queries (SE %.4f)\n",
+                  HoodName(hood), w1, p, n, se);
+      EXPECT_NEAR(p, w1, 4.5 * se);
+      // Two independent picks differ with probability 2 w1 (1 - w1).
+      double q = 2 * w1 * (1 - w1);
+      EXPECT_NEAR(double(other_seed_differs) / n, q, 4.5 * std::sqrt(q * (1 - q) / n));
+    }
+}
+
+// K25 Eq. 2 for the cheap neighbourhoods: averaged over uv, D_star / D = 1 (away from the
+// rim). Each level alone is a point process of density K_P and the dither picks a level, so
+// the mean stays 1; ONE_CELL's compensation adds the filter's mass outside the one cell
+// (1 - P_s of that cell), which a 2x2 block's P_s would undercount by 20-35% at these levels.
+// Tolerance: 4.5 standard errors plus the cheap erfc's bias bound (kCheapErfcBiasBound).
+TEST(Neighborhood, AveragedOverUvEqualsTheSmoothNdf) {
+  struct Case {
+    int ndf;
+    double ax, ay, aniso, micro, lambda;
+  };
+  const Case cases[] = {
+      {GLINT_NDF_GGX, 0.3, 0.3, 1.0, 0.02, 3.5},
+      {GLINT_NDF_BECKMANN, 0.3, 0.3, 1.0, 0.02, 4.3},
+      {GLINT_NDF_GGX, 0.4, 0.1, 3.0, 0.005, 7.0},  // anisotropic glints and NDF
+      {GLINT_NDF_BECKMANN, 0.4, 0.2, 0.4, 0.005, 6.7},
+  };
+  const V3 hs[] = {{0, 0, 1}, {0.15, -0.1, 1}};
+  for (int hood : {GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL, GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL})
+    for (const Case &c : cases) {
+      Glinty g;
+      g.ndf = c.ndf;
+      g.ax = c.ax;
+      g.ay = c.ay;
+      g.aniso = c.aniso;
+      g.micro = c.micro;
+      g.neighbors = 1;
+      g.neighborhood = hood;
+      auto fp = FootprintForLevel(g, c.lambda);
+      for (V3 h0 : hs) {
+        V3 h = Normalize(h0);
+        auto disk = k64::ToDisk(g, h);
+        auto ang = k64::Angular(g, h);
+        double edge = 0.5 - std::hypot(disk.x - 0.5, disk.y - 0.5);
+        ASSERT_GT(edge, 6 * std::max(ang.sx, ang.sy)) << "h too close to the rim";
+        const int count = 40000;
+        std::mt19937_64 rng(17);
+        std::uniform_real_distribution<double> uni(0.0, 100.0);
+        std::vector<double> s(count);
+        for (int i = 0; i < count; ++i)
+          s[size_t(i)] = k64::GlintFactor(g, uni(rng), uni(rng), fp.data(), h);
+        Stats st = Summarise(s);
+        std::printf(
+            "Eq. 2 %-9s %-8s alpha %.2f,%.2f a %.1f lambda %.1f h (%.2f,%.2f): mean D*/D %.4f "
+            "+- %.4f (spread %.2f)\n",
+            HoodName(hood), NdfName(c.ndf), c.ax, c.ay, c.aniso, c.lambda, h.x, h.y, st.mean,
+            st.se(), st.spread());
+        EXPECT_NEAR(st.mean, 1.0, 4.5 * st.se() + kCheapErfcBiasBound)
+            << HoodName(hood) << " " << NdfName(c.ndf) << " lambda " << c.lambda;
+      }
+    }
+}
+
+// Against the explicit sum over every facet whose lobe reaches the query (LevelFullSum, the
+// slow test-only path of kemppinen_test.cpp), per neighbourhood and k:
+//  - one level (lambda = 6): S of each neighbourhood (its compensation included) against the
+//    level's full sum: unbiased within 4.5 SE plus the cheap erfc's bound;
+//  - two levels (lambda = 5.5, w0 = w1 = 1/2): S against w0 Full(5) + w1 Full(6), the
+//    expectation over the roulette numbers (E_r R(r, 1/2) = 1/2, Eq. 8) and over the dither.
+// The RMS error per query relative to the mean is printed (the cost of the cheaper estimate;
+// the README's table).
+TEST(Neighborhood, AgainstTheSumOverEveryFacet) {
+  for (int ndf : {GLINT_NDF_GGX, GLINT_NDF_BECKMANN})
+    for (double micro : {0.05, 0.01}) {
+      Glinty g;
+      g.ndf = ndf;
+      g.micro = micro;
+      const int count = 200;
+      for (double target : {6.0, 5.5}) {
+        auto fp = FootprintForLevel(g, target);
+        // The kernel's lambda (its regularisation of Sigma_s adds ~1e-4; at 6 + 1e-4 the coarser
+        // level's weight is ~1e-4, so that level is included too).
+        const double lambda = k64::Lambda(g, fp.data());
+        const int l0 = int(std::floor(lambda));
+        const double w1 = lambda - l0;
+        std::mt19937_64 rng(8);
+        std::uniform_real_distribution<double> uni(0.0, 100.0), tilt(-0.25, 0.25);
+        std::vector<double> u(count), v(count), full(count);
+        std::vector<V3> hs(count);
+        for (int i = 0; i < count; ++i) {
+          u[size_t(i)] = uni(rng);
+          v[size_t(i)] = uni(rng);
+          hs[size_t(i)] = Normalize({tilt(rng), tilt(rng), 1});
+          full[size_t(i)] = (1 - w1) * k64::LevelFullSum(g, u[size_t(i)], v[size_t(i)], fp.data(),
+                                                         hs[size_t(i)], l0, 7.0, 7.0);
+          if (w1 > 0)
+            full[size_t(i)] += w1 * k64::LevelFullSum(g, u[size_t(i)], v[size_t(i)], fp.data(),
+                                                      hs[size_t(i)], l0 + 1, 7.0, 7.0);
+        }
+        Stats sf = Summarise(full);
+        for (int k : {1, 4})
+          for (int hood :
+               {GLINT_KEMPPINEN_NEIGHBORHOOD_PAPER, GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL,
+                GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL}) {
+            g.neighbors = k;
+            g.neighborhood = hood;
+            std::vector<double> diff(count);
+            double sq = 0;
+            for (int i = 0; i < count; ++i) {
+              double est =
+                  k64::GlintFactor(g, u[size_t(i)], v[size_t(i)], fp.data(), hs[size_t(i)]);
+              diff[size_t(i)] = est - full[size_t(i)];
+              sq += diff[size_t(i)] * diff[size_t(i)];
+            }
+            Stats sd = Summarise(diff);
+            double rms = std::sqrt(sq / count) / sf.mean;
+            std::printf(
+                "%-8s micro %.2f lambda %.1f k = %d %-9s: RMS error vs every facet %.4f of the "
+                "mean "
+                "(mean %.3f), bias %.4f +- %.4f\n",
+                NdfName(ndf), micro, lambda, k, HoodName(hood), rms, sf.mean, sd.mean / sf.mean,
+                sd.se() / sf.mean);
+            const double erfc_bias =
+                hood == GLINT_KEMPPINEN_NEIGHBORHOOD_PAPER ? 10 * 1.5e-7 : kCheapErfcBiasBound;
+            EXPECT_NEAR(sd.mean, 0.0, 4.5 * sd.se() + erfc_bias * sf.mean + 1e-12)
+                << NdfName(ndf) << " micro " << micro << " lambda " << lambda << " k " << k << " "
+                << HoodName(hood);
+          }
+      }
+    }
+}
+
+}  // namespace

@@ -14,6 +14,7 @@
 #include "kernels/area/ltc_lookup.h"
 #include "kernels/area/polygon.h"
 #include "kernels/area/polygon_wedge.h"
+#include "kernels/area/unroll.h"
 #include "kernels/compat.h"
 #include "kernels/frame.h"
 #include "kernels/layout.h"
@@ -28,7 +29,7 @@
  * count is the light's, the same in every lane. */
 GLINT_FN void area_polygon_load_n(const GLINT_GLOBAL float *rec, int n, int has_frame,
                                   ShadingFrame frame, real3 p, GLINT_PRIVATE real3 *v) {
-  for (int i = 0; i < n; ++i) {
+  GLINT_UNROLL for (int i = 0; i < n; ++i) {
     const GLINT_GLOBAL float *q = rec + GLINT_POLYGON_VERTEX_OFFSET + 3 * i;
     real3 w = r3_sub(make_real3((real)q[0], (real)q[1], (real)q[2]), p);
     v[i] = has_frame ? frame_to_local(frame, w) : w;
@@ -49,7 +50,7 @@ GLINT_FN int area_polygon_load(const GLINT_GLOBAL float *rec, int has_frame, Sha
  * plane sees zero solid angle either way. */
 GLINT_FN glint_mask area_polygon_facing(const GLINT_PRIVATE real3 *v, int n, int two_sided) {
   real3 nn = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-  for (int i = 0; i < n; ++i) nn = r3_add(nn, r3_cross(v[i], v[(i + 1) % n]));
+  GLINT_UNROLL for (int i = 0; i < n; ++i) nn = r3_add(nn, r3_cross(v[i], v[(i + 1) % n]));
   /* nn . v0 = 2 * area * (signed distance of the plane along nn): negative
    * when nn points from the plane towards the origin. */
   glint_mask front = r3_dot(nn, v[0]) < GLINT_R(0.0);
@@ -124,7 +125,7 @@ GLINT_FN real area_ltc_form_factor_entry(real3 wo, real tx, real ty, const GLINT
    * (polygon_form_factor_lanes skips such a vertex to the same end). */
   glint_count nc = 0;
   glint_mask at_p = v[0].z != v[0].z;
-  for (int i = 0; i < n; ++i) {
+  GLINT_UNROLL for (int i = 0; i < n; ++i) {
     o[i] = area_ltc_transform(e, tx, ty, v[i]);
     d1[i] = v[i].z;
     glint_mask in = v[i].z >= GLINT_R(0.0);

@@ -34,6 +34,7 @@
 
 #include "kernels/area/atan_poly.h"
 #include "kernels/area/polygon.h"
+#include "kernels/area/unroll.h"
 #include "kernels/compat.h"
 
 /* polygon_edge_integral(a, b) (polygon.h) with theta by atan2_nonneg
@@ -117,18 +118,19 @@ GLINT_FN real polygon_wedge_form_factor(const GLINT_PRIVATE real3 *o, const GLIN
    * over the surface, seen away from grazing) takes the second; adding +0
    * to the sum (never -0: it starts at +0) changes no bit. */
   glint_mask out1 = none, out2 = none;
-  for (int i = 0; i < n; ++i) {
+  GLINT_UNROLL for (int i = 0; i < n; ++i) {
     out1 = out1 | (d1[i] < GLINT_R(0.0));
     out2 = out2 | (o[i].z < GLINT_R(0.0));
   }
   if (!glint_any(out1 | out2)) {
-    for (int i = 0; i < n; ++i) sum += wedge_edge_term(o[i + 1 < n ? i + 1 : 0], o[i]);
+    GLINT_UNROLL for (int i = 0; i < n; ++i) sum += wedge_edge_term(o[i + 1 < n ? i + 1 : 0], o[i]);
     return wedge_finish(sum, none);
   }
   if (!glint_any(out1)) {
-    for (int i = 0; i < n; ++i) wedge_clip_piece(o[i], o[i + 1 < n ? i + 1 : 0], !out1, &sum, &c2);
+    GLINT_UNROLL for (int i = 0; i < n; ++i)
+        wedge_clip_piece(o[i], o[i + 1 < n ? i + 1 : 0], !out1, &sum, &c2);
   } else {
-    for (int i = 0; i < n; ++i) {
+    GLINT_UNROLL for (int i = 0; i < n; ++i) {
       int j = i + 1 < n ? i + 1 : 0;
       real3 a = o[i], b = o[j];
       glint_mask a_in = d1[i] >= GLINT_R(0.0), b_in = d1[j] >= GLINT_R(0.0);

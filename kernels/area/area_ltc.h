@@ -13,6 +13,7 @@
 
 #include "kernels/area/ltc_lookup.h"
 #include "kernels/area/polygon.h"
+#include "kernels/area/polygon_scale.h"
 #include "kernels/area/polygon_wedge.h"
 #include "kernels/area/unroll.h"
 #include "kernels/compat.h"
@@ -119,6 +120,11 @@ GLINT_FN real area_ltc_form_factor_entry(real3 wo, real tx, real ty, const GLINT
                                          int n, GLINT_PRIVATE real *e) {
   real3 o[GLINT_POLYGON_MAX_VERTICES];
   real d1[GLINT_POLYGON_MAX_VERTICES];
+  /* Overwritten by the loop (n >= 3, validated); set first so that GCC, which
+   * cannot see n >= 1 where it does not inline polygon_wedge_form_factor,
+   * does not warn that the arrays may be passed unset. */
+  o[0] = v[0];
+  d1[0] = v[0].z;
   /* The horizon clip's vertex count (>= 3: something is above the horizon)
    * and whether a vertex is at the shading point: then the polygon's plane
    * contains it, the light is seen edge-on and the exact integral is 0
@@ -183,6 +189,9 @@ GLINT_FN real3 area_ltc_shade_light(real3 radiance, const GLINT_PRIVATE AreaLtcV
                                     const GLINT_GLOBAL float *rec, int n) {
   real3 v[GLINT_POLYGON_MAX_VERTICES];
   area_polygon_load_n(rec, n, has_frame, frame, p, v);
+  /* Far (or very near) lights: into the range of the products below,
+   * exactly (polygon_scale.h). */
+  polygon_rescale(v, n);
   glint_mask facing = area_polygon_facing(v, n, rec[1] != 0.0f);
   if (!glint_any(facing)) return radiance;
   real3 L = make_real3((real)rec[2], (real)rec[3], (real)rec[4]);

@@ -87,8 +87,9 @@ GLINT_FN void wedge_clip_piece(real3 s, real3 e, glint_mask valid, GLINT_PRIVATE
 GLINT_FN real wedge_finish(real sum, glint_mask at_origin) {
   /* Overflow: the terms multiply coordinates (a x b), so points beyond
    * ~1e19 (fp32) from the shading point give Inf / NaN; such a lane gets 0,
-   * as the sequential form factor's overflowing normalisation gave. (Exact
-   * power-of-two prescaling per lane would keep them: not done.) */
+   * as the sequential form factor's overflowing normalisation gave. The
+   * smooth model's LTC pass never gets there: area_ltc_shade_light rescales
+   * such polygons by a power of two first (polygon_scale.h). */
   real ff = sum * GLINT_R(0.5) * GLINT_INV_PI;
   return glint_select(GLINT_R(0.0), ff, (fabs(ff) <= GLINT_R(1e30)) & (!at_origin));
 }

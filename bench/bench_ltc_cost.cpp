@@ -6,12 +6,14 @@
 // with other work the CPU time per evaluation is the load-independent cost, the wall time is not.
 // Prints, per light set, the median wall and CPU rates and their ratio to directional_point.
 //
-// `--framed 1` gives the queries random world frames and positions (lights partly below some
-// shading horizons: the clip paths); `--dump PREFIX` writes each light set's radiance once more
-// after the rounds, raw float32 RGB, to PREFIX.<lights>.f32 (to check that a change of the kernel
-// is bit-identical: `cmp` two dumps).
+// `--precision fp64` times all three in fp64 (default fp32). `--framed 1` gives the queries
+// random world frames and positions (lights partly below some shading horizons: the clip paths);
+// `--dump PREFIX` writes each light set's radiance once more after the rounds, raw float32 RGB,
+// to PREFIX.<lights>.f32 (to check that a change of the kernel is bit-identical: `cmp` two
+// dumps).
 //
-//   bench_ltc_cost [--rounds R] [--queries N] [--cache-dir DIR] [--framed 0|1] [--dump PREFIX]
+//   bench_ltc_cost [--rounds R] [--queries N] [--cache-dir DIR]
+//                  [--precision fp32|fp64] [--framed 0|1] [--dump PREFIX]
 #include <algorithm>
 #include <cstdio>
 #include <ctime>
@@ -36,7 +38,7 @@ int main(int argc, char **argv) {
   int rounds = 15;
   uint32_t queries = 16384;
   std::string cache_dir = glint::bench::DefaultCacheDir(), dump;
-  bool framed = false;
+  bool framed = false, fp64 = false;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
     if (a == "--rounds")
@@ -47,6 +49,8 @@ int main(int argc, char **argv) {
       cache_dir = v;
     else if (a == "--framed")
       framed = v != "0";
+    else if (a == "--precision")
+      fp64 = v == "fp64";
     else if (a == "--dump")
       dump = v;
     else {
@@ -69,7 +73,7 @@ int main(int argc, char **argv) {
     m->set_alpha_x(0.3f);
     m->set_alpha_y(0.1f);
     for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
-    c.request.set_precision(glint::v1::FP32);
+    c.request.set_precision(fp64 ? glint::v1::FP64 : glint::v1::FP32);
     *c.request.mutable_queries() = framed ? glint::test::RandomQueries(queries, false, true, 42)
                                           : glint::bench::SharedQueries(queries, false);
     glint::bench::AddLights(l, &c.request);

@@ -6,11 +6,19 @@
  * sqrt, division and a polynomial) are not interleaved. Measured on the LTC
  * lane pass (issue 13): the table lookup's share of the pass fell from ~22%
  * to ~10% (perf annotate, loaded machine). Unrolling changes no arithmetic.
- * On the host the compiler decides (the macro is empty). */
+ * On the host and in one-query kernels the compiler decides (the macro is
+ * empty). */
 #ifndef GLINT_UNROLL_H
 #define GLINT_UNROLL_H
 
-#ifdef __OPENCL_VERSION__
+#include "kernels/compat.h"
+
+/* Lane kernels only: unrolling lengthens PoCL's kernel builds (bench_ltc_cost
+ * on a fresh cache, loaded machine: 32.6 s instead of 20.6 s with it in every
+ * kernel), and the one-query kernels (GLINT_LANES == 1: the other area
+ * methods, the glint models' per-query passes) were not measured to gain
+ * from it. */
+#if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
 #define GLINT_UNROLL _Pragma("unroll")
 /* A loop over a polygon's vertex count is unrolled where the count is a
  * constant after inlining (quads: area_ltc_shade calls with n = 4) and stays

@@ -6,7 +6,14 @@
 // with other work the CPU time per evaluation is the load-independent cost, the wall time is not.
 // Prints, per light set, the median wall and CPU rates and their ratio to directional_point.
 //
+// `--precision fp64` times all three in fp64 (default fp32). `--framed 1` gives the queries
+// random world frames and positions (lights partly below some shading horizons: the clip paths);
+// `--dump PREFIX` writes each light set's radiance once more after the rounds, raw float32 RGB,
+// to PREFIX.<lights>.f32 (to check that a change of the kernel is bit-identical: `cmp` two
+// dumps).
+//
 //   bench_ltc_cost [--rounds R] [--queries N] [--cache-dir DIR]
+//                  [--precision fp32|fp64] [--framed 0|1] [--dump PREFIX]
 #include <algorithm>
 #include <cstdio>
 #include <ctime>
@@ -15,6 +22,7 @@
 
 #include "bench/lib/bench_lib.h"
 #include "server/eval_plan.h"
+#include "test_queries.h"
 
 namespace {
 
@@ -29,7 +37,8 @@ struct Case {
 int main(int argc, char **argv) {
   int rounds = 15;
   uint32_t queries = 16384;
-  std::string cache_dir = glint::bench::DefaultCacheDir();
+  std::string cache_dir = glint::bench::DefaultCacheDir(), dump;
+  bool framed = false, fp64 = false;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
     if (a == "--rounds")
@@ -38,6 +47,12 @@ int main(int argc, char **argv) {
       queries = uint32_t(std::max(8, std::stoi(v)));
     else if (a == "--cache-dir")
       cache_dir = v;
+    else if (a == "--framed")
+      framed = v != "0";
+    else if (a == "--precision")
+      fp64 = v == "fp64";
+    else if (a == "--dump")
+      dump = v;
     else {
       std::fprintf(stderr, "bench_ltc_cost: unknown option %s\n", a.c_str());
       return 2;
@@ -58,8 +73,9 @@ int main(int argc, char **argv) {
     m->set_alpha_x(0.3f);
     m->set_alpha_y(0.1f);
     for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
-    c.request.set_precision(glint::v1::FP32);
-    *c.request.mutable_queries() = glint::bench::SharedQueries(queries, false);
+    c.request.set_precision(fp64 ? glint::v1::FP64 : glint::v1::FP32);
+    *c.request.mutable_queries() = framed ? glint::test::RandomQueries(queries, false, true, 42)
+                                          : glint::bench::SharedQueries(queries, false);
     glint::bench::AddLights(l, &c.request);
     if (glint::Status s = glint::bench::Validate(c.request, true); !s.ok()) {
       std::fprintf(stderr, "bench_ltc_cost: %s\n", s.message().c_str());
@@ -107,6 +123,22 @@ int main(int argc, char **argv) {
     std::printf("| %s | %.4g | %.3f | %.4g | %.3f |\n", glint::bench::LightsName(c.lights),
                 glint::bench::Median(c.wall), glint::bench::Median(c.wall) / wall0,
                 glint::bench::Median(c.cpu), glint::bench::Median(c.cpu) / cpu0);
+  }
+  for (const Case &c : cases) {
+    if (dump.empty()) break;
+    const glint::EvalPlan plan = glint::MakeEvalPlan(c.request, c.request.queries());
+    if (glint::Status s = engine->Evaluate(0, plan, c.request.queries(), out.data()); !s.ok()) {
+      std::fprintf(stderr, "bench_ltc_cost: %s\n", s.message().c_str());
+      return 1;
+    }
+    const std::string path = dump + "." + glint::bench::LightsName(c.lights) + ".f32";
+    FILE *f = std::fopen(path.c_str(), "wb");
+    if (!f || std::fwrite(out.data(), sizeof(float), out.size(), f) != out.size()) {
+      std::fprintf(stderr, "bench_ltc_cost: cannot write %s\n", path.c_str());
+      if (f) std::fclose(f);
+      return 1;
+    }
+    std::fclose(f);
   }
   return 0;
 }

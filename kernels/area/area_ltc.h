@@ -13,7 +13,9 @@
 
 #include "kernels/area/ltc_lookup.h"
 #include "kernels/area/polygon.h"
+#include "kernels/area/polygon_scale.h"
 #include "kernels/area/polygon_wedge.h"
+#include "kernels/area/unroll.h"
 #include "kernels/compat.h"
 #include "kernels/frame.h"
 #include "kernels/layout.h"
@@ -28,7 +30,7 @@
  * count is the light's, the same in every lane. */
 GLINT_FN void area_polygon_load_n(const GLINT_GLOBAL float *rec, int n, int has_frame,
                                   ShadingFrame frame, real3 p, GLINT_PRIVATE real3 *v) {
-  for (int i = 0; i < n; ++i) {
+  GLINT_UNROLL for (int i = 0; i < n; ++i) {
     const GLINT_GLOBAL float *q = rec + GLINT_POLYGON_VERTEX_OFFSET + 3 * i;
     real3 w = r3_sub(make_real3((real)q[0], (real)q[1], (real)q[2]), p);
     v[i] = has_frame ? frame_to_local(frame, w) : w;
@@ -49,7 +51,7 @@ GLINT_FN int area_polygon_load(const GLINT_GLOBAL float *rec, int has_frame, Sha
  * plane sees zero solid angle either way. */
 GLINT_FN glint_mask area_polygon_facing(const GLINT_PRIVATE real3 *v, int n, int two_sided) {
   real3 nn = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-  for (int i = 0; i < n; ++i) nn = r3_add(nn, r3_cross(v[i], v[(i + 1) % n]));
+  GLINT_UNROLL for (int i = 0; i < n; ++i) nn = r3_add(nn, r3_cross(v[i], v[(i + 1) % n]));
   /* nn . v0 = 2 * area * (signed distance of the plane along nn): negative
    * when nn points from the plane towards the origin. */
   glint_mask front = r3_dot(nn, v[0]) < GLINT_R(0.0);
@@ -118,13 +120,18 @@ GLINT_FN real area_ltc_form_factor_entry(real3 wo, real tx, real ty, const GLINT
                                          int n, GLINT_PRIVATE real *e) {
   real3 o[GLINT_POLYGON_MAX_VERTICES];
   real d1[GLINT_POLYGON_MAX_VERTICES];
+  /* Overwritten by the loop (n >= 3, validated); set first so that GCC, which
+   * cannot see n >= 1 where it does not inline polygon_wedge_form_factor,
+   * does not warn that the arrays may be passed unset. */
+  o[0] = v[0];
+  d1[0] = v[0].z;
   /* The horizon clip's vertex count (>= 3: something is above the horizon)
    * and whether a vertex is at the shading point: then the polygon's plane
    * contains it, the light is seen edge-on and the exact integral is 0
    * (polygon_form_factor_lanes skips such a vertex to the same end). */
   glint_count nc = 0;
   glint_mask at_p = v[0].z != v[0].z;
-  for (int i = 0; i < n; ++i) {
+  GLINT_UNROLL for (int i = 0; i < n; ++i) {
     o[i] = area_ltc_transform(e, tx, ty, v[i]);
     d1[i] = v[i].z;
     glint_mask in = v[i].z >= GLINT_R(0.0);
@@ -182,6 +189,9 @@ GLINT_FN real3 area_ltc_shade_light(real3 radiance, const GLINT_PRIVATE AreaLtcV
                                     const GLINT_GLOBAL float *rec, int n) {
   real3 v[GLINT_POLYGON_MAX_VERTICES];
   area_polygon_load_n(rec, n, has_frame, frame, p, v);
+  /* Far (or very near) lights: into the range of the products below,
+   * exactly (polygon_scale.h). */
+  polygon_rescale(v, n);
   glint_mask facing = area_polygon_facing(v, n, rec[1] != 0.0f);
   if (!glint_any(facing)) return radiance;
   real3 L = make_real3((real)rec[2], (real)rec[3], (real)rec[4]);

@@ -7,6 +7,7 @@
 #ifndef GLINT_LTC_LOOKUP_H
 #define GLINT_LTC_LOOKUP_H
 
+#include "kernels/area/unroll.h"
 #include "kernels/compat.h"
 #include "kernels/layout.h"
 #include "kernels/smooth_brdf.h"
@@ -68,7 +69,7 @@ GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real 
   real fxv = x - GLINT_LANE_FROM_INT(a0v), fyv = y - GLINT_LANE_FROM_INT(t0v);
   glint_mask off = (t0v * GLINT_LTC_GRID + a0v) * GLINT_LTC_ENTRY;
   GLINT_ENTRY_VEC r[GLINT_LANES];
-  for (int j = 0; j < GLINT_LANES; ++j) {
+  GLINT_UNROLL for (int j = 0; j < GLINT_LANES; ++j) {
     GLINT_LANE_SCALAR fx = fxv[j], fy = fyv[j];
     const GLINT_GLOBAL float *e00 = table + off[j];
     const GLINT_GLOBAL float *e01 = e00 + GLINT_LTC_GRID * GLINT_LTC_ENTRY;
@@ -83,20 +84,20 @@ GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real 
    * quadruples, then halves) instead of scalar stores to a private array
    * read back as vectors, whose store-to-load forwarding stalls. */
   GLINT_ENTRY_VEC p[8], q[8];
-  for (int j = 0; j < 8; j += 2) {
+  GLINT_UNROLL for (int j = 0; j < 8; j += 2) {
     p[j] = shuffle2(r[j], r[j + 1], (GLINT_SHUFFLE_MASK)(0, 8, 2, 10, 4, 12, 6, 14));
     p[j + 1] = shuffle2(r[j], r[j + 1], (GLINT_SHUFFLE_MASK)(1, 9, 3, 11, 5, 13, 7, 15));
   }
   /* p[0] = components 0,2,4,6 of lanes 0,1; p[1] = 1,3,5,7 of lanes 0,1; ... */
-  for (int h = 0; h < 8; h += 4) {
-    for (int o = 0; o < 2; ++o) {
+  GLINT_UNROLL for (int h = 0; h < 8; h += 4) {
+    GLINT_UNROLL for (int o = 0; o < 2; ++o) {
       q[h + o] = shuffle2(p[h + o], p[h + 2 + o], (GLINT_SHUFFLE_MASK)(0, 1, 8, 9, 4, 5, 12, 13));
       q[h + 2 + o] =
           shuffle2(p[h + o], p[h + 2 + o], (GLINT_SHUFFLE_MASK)(2, 3, 10, 11, 6, 7, 14, 15));
     }
   }
   /* q[h + c] = components c and c + 4 (c = 0 .. 3) of lanes h .. h + 3. */
-  for (int c = 0; c < 4; ++c) {
+  GLINT_UNROLL for (int c = 0; c < 4; ++c) {
     e[c] = shuffle2(q[c], q[4 + c], (GLINT_SHUFFLE_MASK)(0, 1, 2, 3, 8, 9, 10, 11));
     e[c + 4] = shuffle2(q[c], q[4 + c], (GLINT_SHUFFLE_MASK)(4, 5, 6, 7, 12, 13, 14, 15));
   }

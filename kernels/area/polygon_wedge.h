@@ -34,6 +34,7 @@
 
 #include "kernels/area/atan_poly.h"
 #include "kernels/area/polygon.h"
+#include "kernels/area/unroll.h"
 #include "kernels/compat.h"
 
 /* polygon_edge_integral(a, b) (polygon.h) with theta by atan2_nonneg
@@ -81,6 +82,18 @@ GLINT_FN void wedge_clip_piece(real3 s, real3 e, glint_mask valid, GLINT_PRIVATE
   c->at_origin = c->at_origin | ((leaves | enters) & (r3_dot(q, q) == GLINT_R(0.0)));
 }
 
+/* The form factor from the edge sum, 0 in the lanes whose boundary passes
+ * through the shading point or whose terms overflowed (see below). */
+GLINT_FN real wedge_finish(real sum, glint_mask at_origin) {
+  /* Overflow: the terms multiply coordinates (a x b), so points beyond
+   * ~1e19 (fp32) from the shading point give Inf / NaN; such a lane gets 0,
+   * as the sequential form factor's overflowing normalisation gave. The
+   * smooth model's LTC pass never gets there: area_ltc_shade_light rescales
+   * such polygons by a power of two first (polygon_scale.h). */
+  real ff = sum * GLINT_R(0.5) * GLINT_INV_PI;
+  return glint_select(GLINT_R(0.0), ff, (fabs(ff) <= GLINT_R(1e30)) & (!at_origin));
+}
+
 /* Signed form factor (polygon_form_factor_lanes' value) of the polygon
  * o[0 .. n) (n uniform, convex, counter-clockwise seen from the origin)
  * clipped to H1 = {d1 >= 0} and then to H2 = {o.z >= 0}; d1[i] is H1's value
@@ -95,25 +108,49 @@ GLINT_FN real polygon_wedge_form_factor(const GLINT_PRIVATE real3 *o, const GLIN
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   glint_mask none = zero.z != zero.z;
   WedgeCrossings c1 = {zero, zero, none, none, none}, c2 = {zero, zero, none, none, none};
-  for (int i = 0; i < n; ++i) {
-    int j = i + 1 < n ? i + 1 : 0;
-    real3 a = o[i], b = o[j];
-    glint_mask a_in = d1[i] >= GLINT_R(0.0), b_in = d1[j] >= GLINT_R(0.0);
-    /* The edge's part in H1, s -> e; the crossing p is used only where the
-     * edge crosses (d1[i] != d1[j] there). */
-    real t = d1[i] / (d1[i] - d1[j]);
-    real3 p = r3_add(a, r3_scale(r3_sub(b, a), t));
-    real3 s = r3_select(p, a, a_in), e = r3_select(p, b, b_in);
-    wedge_clip_piece(s, e, a_in | b_in, &sum, &c2);
-    glint_mask leaves = a_in & (!b_in), enters = (!a_in) & b_in;
-    c1.x = r3_select(c1.x, p, leaves);
-    c1.r = r3_select(c1.r, p, enters);
-    c1.has_x = c1.has_x | leaves;
-    c1.has_r = c1.has_r | enters;
-    c1.at_origin = c1.at_origin | ((leaves | enters) & (r3_dot(p, p) == GLINT_R(0.0)));
+  /* Uniform shortcuts (branches on glint_any, compat.h), bit-identical to
+   * the general pass: when no vertex of any lane is outside H1, each edge's
+   * part in H1 is the whole edge (the general pass's selects pick a and b
+   * exactly) and H1's chord adds +0, so the edges go straight to the H2
+   * clip; when no vertex is outside H2 either, wedge_clip_piece keeps every
+   * edge whole and H2's chord adds +0 too, which leaves Lambert's plain edge
+   * sum, n terms instead of n + 2 with their clip arithmetic. A light wholly
+   * above the shading horizon and inside the cosine's support (a softbox
+   * over the surface, seen away from grazing) takes the second; adding +0
+   * to the sum (never -0: it starts at +0) changes no bit. */
+  glint_mask out1 = none, out2 = none;
+  GLINT_UNROLL for (int i = 0; i < n; ++i) {
+    out1 = out1 | (d1[i] < GLINT_R(0.0));
+    out2 = out2 | (o[i].z < GLINT_R(0.0));
   }
-  /* H1's chord, from where the boundary leaves H1 to where it re-enters. */
-  wedge_clip_piece(c1.x, c1.r, c1.has_x & c1.has_r, &sum, &c2);
+  if (!glint_any(out1 | out2)) {
+    GLINT_UNROLL for (int i = 0; i < n; ++i) sum += wedge_edge_term(o[i + 1 < n ? i + 1 : 0], o[i]);
+    return wedge_finish(sum, none);
+  }
+  if (!glint_any(out1)) {
+    GLINT_UNROLL for (int i = 0; i < n; ++i)
+        wedge_clip_piece(o[i], o[i + 1 < n ? i + 1 : 0], !out1, &sum, &c2);
+  } else {
+    GLINT_UNROLL for (int i = 0; i < n; ++i) {
+      int j = i + 1 < n ? i + 1 : 0;
+      real3 a = o[i], b = o[j];
+      glint_mask a_in = d1[i] >= GLINT_R(0.0), b_in = d1[j] >= GLINT_R(0.0);
+      /* The edge's part in H1, s -> e; the crossing p is used only where the
+       * edge crosses (d1[i] != d1[j] there). */
+      real t = d1[i] / (d1[i] - d1[j]);
+      real3 p = r3_add(a, r3_scale(r3_sub(b, a), t));
+      real3 s = r3_select(p, a, a_in), e = r3_select(p, b, b_in);
+      wedge_clip_piece(s, e, a_in | b_in, &sum, &c2);
+      glint_mask leaves = a_in & (!b_in), enters = (!a_in) & b_in;
+      c1.x = r3_select(c1.x, p, leaves);
+      c1.r = r3_select(c1.r, p, enters);
+      c1.has_x = c1.has_x | leaves;
+      c1.has_r = c1.has_r | enters;
+      c1.at_origin = c1.at_origin | ((leaves | enters) & (r3_dot(p, p) == GLINT_R(0.0)));
+    }
+    /* H1's chord, from where the boundary leaves H1 to where it re-enters. */
+    wedge_clip_piece(c1.x, c1.r, c1.has_x & c1.has_r, &sum, &c2);
+  }
   /* H2's chord closes the loop; it lies in H1, being a chord of P n H1. */
   glint_mask closed2 = c2.has_x & c2.has_r;
   sum += glint_select(GLINT_R(0.0), wedge_edge_term(c2.r, c2.x), closed2);
@@ -122,13 +159,7 @@ GLINT_FN real polygon_wedge_form_factor(const GLINT_PRIVATE real3 *o, const GLIN
    * loop. The polygon's plane then contains the shading point: it is seen
    * edge-on and the exact integral is 0 (polygon_form_factor_lanes skips
    * such a vertex to the same end). */
-  /* Overflow: the terms multiply coordinates (a x b), so points beyond
-   * ~1e19 (fp32) from the shading point give Inf / NaN; such a lane gets 0,
-   * as the sequential form factor's overflowing normalisation gave. (Exact
-   * power-of-two prescaling per lane would keep them: not done.) */
-  real ff = sum * GLINT_R(0.5) * GLINT_INV_PI;
-  return glint_select(GLINT_R(0.0), ff,
-                      (fabs(ff) <= GLINT_R(1e30)) & (!(c1.at_origin | c2.at_origin)));
+  return wedge_finish(sum, c1.at_origin | c2.at_origin);
 }
 
 #endif /* GLINT_POLYGON_WEDGE_H */

@@ -119,6 +119,14 @@ RequestCost EstimateSampleCost(const glint::v1::EvaluateRequest &settings,
                                uint32_t samples_per_query, uint64_t query_count) {
   glint::v1::EvaluateRequest probe;  // the material alone: one evaluation of the model
   *probe.mutable_material() = settings.material();
+  // KEMPPINEN's sampler draws and weighs by the paper's neighbourhood whatever
+  // material.kemppinen.neighborhood says (kemppinen_sample.h: only f follows the setting), so a
+  // sample costs at least a paper evaluation. The cheaper neighbourhoods' evaluation factors
+  // (2x and, at k = 4, 4.4x below the paper's) would under-charge it: bench_sample with the
+  // neighbourhoods added, k = 4, loaded, 2026-12-01: PAPER 0.35-0.39 M samples/s, ONE_LEVEL
+  // 0.45-0.50 M (1.3x), ONE_CELL 0.53-0.62 M (1.5-1.7x).
+  if (probe.material().has_kemppinen())
+    probe.mutable_material()->mutable_kemppinen()->clear_neighborhood();
   const RequestCost one = EstimateRequestCost(probe, 1);
   RequestCost c;
   c.per_query = one.per_query * double(samples_per_query);

@@ -52,7 +52,9 @@ RequestCost EstimateRequestCost(const glint::v1::EvaluateRequest &settings, uint
 // ValidateSampleSettings). Every model's sampler evaluates the model once per sample (models/
 // */*_sample.h: SMOOTH, KEMPPINEN and CHERMAIN weight a sample by f cos_i / pdf with the model's
 // f; NORMAL_MAP's pdf is its P-NDF D(s), the dominant cost of f), so one sample costs what a BRDF
-// probe query does, and a query K times that: its K samples run in the same slice.
+// probe query does, and a query K times that: its K samples run in the same slice. KEMPPINEN's
+// is charged at the paper's neighbourhood whatever material.kemppinen.neighborhood says (its
+// sampler's pdf runs the paper's).
 RequestCost EstimateSampleCost(const glint::v1::EvaluateRequest &settings,
                                uint32_t samples_per_query, uint64_t query_count);
 

@@ -1,5 +1,7 @@
 #include "client/cli/load.h"
 
+#include <sys/stat.h>
+
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -175,16 +177,22 @@ int Run(const std::map<std::string, std::string> &args) {
   options.retry.max_attempts = 1;  // refusals are what a load test measures
   options.security = glint::client::LoadChannelSecurity(get("tls-ca", ""), get("tls-cert", ""),
                                                         get("tls-key", ""), get("token-file", ""));
-  // Opened before the run, not after it: an unwritable path is said at once instead of after
-  // every level has run (found by the session 9 outside-client probe).
-  std::ofstream csv_out;
+  // Checked before the run, not after it: an unwritable path is said at once instead of after
+  // every level has run (found by the session 9 outside-client probe). Opened to append, not to
+  // write, and a file this check created removed again: a run that fails before it has results
+  // (no server, a refused --batch) leaves an existing CSV as it was and creates none; the CSV is
+  // written (truncated) only once the levels have run.
   if (args.count("csv")) {
-    csv_out.open(args.at("csv"), std::ios::binary);
-    if (!csv_out) {
-      std::fprintf(stderr, "glint load: cannot write %s: %s\n", args.at("csv").c_str(),
-                   std::strerror(errno));
+    const std::string &path = args.at("csv");
+    struct stat st {};
+    const bool existed = ::stat(path.c_str(), &st) == 0;
+    std::ofstream probe(path, std::ios::binary | std::ios::app);
+    if (!probe) {
+      std::fprintf(stderr, "glint load: cannot write %s: %s\n", path.c_str(), std::strerror(errno));
       return 1;
     }
+    probe.close();
+    if (!existed) std::remove(path.c_str());
   }
   glint::client::GlintClient client(server, options);
   std::string why;
@@ -238,7 +246,7 @@ int Run(const std::map<std::string, std::string> &args) {
   for (const auto &r : results) csv += glint::client::LoadCsvRow(r) + "\n";
   if (args.count("csv")) {
     const std::string path = args.at("csv");
-    std::ofstream &out = csv_out;
+    std::ofstream out(path, std::ios::binary);
     out << csv;
     out.close();
     if (!out) {

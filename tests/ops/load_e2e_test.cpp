@@ -3,8 +3,10 @@
 // parsed and checked (header, one row per level, answers and no errors, the columns agree).
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdlib>
+#include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -113,4 +115,27 @@ TEST(LoadEndToEnd, UnwritableCsvIsRefusedBeforeTheRun) {
   EXPECT_NE(err.find("cannot write " + csv), std::string::npos) << err;
   EXPECT_EQ(err.find("UNAVAILABLE"), std::string::npos) << err;
   EXPECT_EQ(out.find("Request concurrency"), std::string::npos) << out;
+}
+
+// A run that fails before it has anything to write (here: no server) leaves an existing --csv
+// file as it was and creates none: the early writability check must not truncate. It did: the
+// check opened the path for writing before the run, so a mistyped --server emptied the CSV of the
+// previous run (and left an empty file where there was none).
+TEST(LoadEndToEnd, FailedRunLeavesTheCsvAsItWas) {
+  TempDir dir("glint_load");
+  const int port = glint::test::FreeLoopbackPort();
+  const std::string old_csv = dir.File("old.csv"), new_csv = dir.File("new.csv");
+  const std::string previous = "concurrency,ok\n1,42\n";
+  std::ofstream(old_csv, std::ios::binary) << previous;
+  for (const std::string &csv : {old_csv, new_csv}) {
+    std::string out, err;
+    EXPECT_EQ(RunGlint(dir,
+                       {GLINT_CLI_PATH, "load", "--server", "127.0.0.1:" + std::to_string(port),
+                        "--duration", "0.2", "--wait-ms", "300", "--csv", csv},
+                       &out, &err),
+              1);
+    EXPECT_NE(err.find("UNAVAILABLE"), std::string::npos) << err;
+  }
+  EXPECT_EQ(ReadFile(old_csv), previous);
+  EXPECT_NE(access(new_csv.c_str(), F_OK), 0) << new_csv << " was created by a failed run";
 }

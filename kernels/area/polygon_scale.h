@@ -34,11 +34,12 @@
  * is outside [2^-60, 2^60] (or not finite), so that the largest coordinate
  * magnitude m lands in [2^-32, 2^32]: with it the facing product (<= ~6 n m^3)
  * and the edge terms' products stay far inside fp32's range
- * [2^-126, 2^128]. The vertices come from float records, so m <= 2^129 and
- * the smallest nonzero m is >= 2^-149: four steps of 2^32 each way reach the
- * range. Lanes in range are left alone (also in the branch, so that their
- * results do not depend on their neighbours), and so is a lane at the
- * shading point (m = 0: it gives 0 anyway). */
+ * [2^-126, 2^128]. The vertices come from float records, so m <= 2^129 (in
+ * fp64; in fp32 a vertex minus a position of opposite sign beyond ~1.7e38 is
+ * already Inf before this point and the light gives 0) and the smallest
+ * nonzero m is >= 2^-149: four steps of 2^32 each way reach the range. Lanes in range are left
+ * alone (also in the branch, so that their results do not depend on their neighbours), and so is a
+ * lane at the shading point (m = 0: it gives 0 anyway). */
 GLINT_FN void polygon_rescale(GLINT_PRIVATE real3 *v, int n) {
   real s2 = GLINT_R(0.0);
   GLINT_UNROLL for (int i = 0; i < n; ++i) s2 += r3_dot(v[i], v[i]);

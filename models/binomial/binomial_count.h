@@ -71,7 +71,7 @@ typedef struct {
   real r;                /* HEURISTIC_R: p = r D(h) / D(n) (DB23) */
   real normal_threshold; /* variance n p (1 - p) from which counts are approximated */
   real slope_cell;       /* angular correlation length of the pattern, slope units */
-  int interpolation;     /* GLINT_BINOMIAL_TRILINEAR or _TETRAHEDRAL (binomial_tetrahedral.h) */
+  int interpolation;     /* GLINT_BINOMIAL_TRILINEAR, _TETRAHEDRAL or _STOCHASTIC */
 } BinomialParams;
 
 GLINT_FN BinomialParams binomial_params_unpack(const GLINT_GLOBAL float *packed) {

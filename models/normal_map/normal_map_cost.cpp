@@ -45,15 +45,18 @@ std::string Format(double x) {
 
 double NormalMapFootprintCells(uint32_t W, uint32_t H, float u, float v, const float fp[4],
                                float cutoff) {
+  // Non-finite uv (refused later by query validation, which runs after admission): the
+  // kernel's period copies would be undefined; count the most a box at most
+  // GLINT_NM_MAX_PERIODS wide can reach, 3 copies of each axis.
+  const double most = 9.0 * double(W) * double(H);
+  if (!std::isfinite(u) || !std::isfinite(v)) return most;
   const float header[3] = {float(W), float(H), 0.0f};
   double f[4] = {fp[0], fp[1], fp[2], fp[3]};
   int k[4];
   nm_cost::NmQuery q = nm_cost::nm_footprint(header, u, v, f, cutoff, k);
-  // Non-finite uv: the kernel's copies are then undefined; count the most it could reach
-  // (a box at most GLINT_NM_MAX_PERIODS wide touches at most 3 copies of each axis).
   if (!std::isfinite(q.cx) || !std::isfinite(q.cy) || !std::isfinite(q.box_x) ||
       !std::isfinite(q.box_y) || k[1] - k[0] > 2 || k[3] - k[2] > 2)
-    return 9.0 * double(W) * double(H);
+    return most;
   double nx = 0, ny = 0;
   for (int kx = k[0]; kx <= k[1]; ++kx) nx += AxisCells(W, q.cx - double(kx) * W, q.box_x);
   for (int ky = k[2]; ky <= k[3]; ++ky) ny += AxisCells(H, q.cy - double(ky) * H, q.box_y);

@@ -107,6 +107,9 @@ TEST(NormalMapCost, CellsGrowAsFootprintSquaredUntilTheClamp) {
   EXPECT_EQ(NormalMapFootprintCells(W, H, 0.3f, 0.3f, wide, float(cutoff)), double(W) * H);
   const float nan[4] = {NAN, 0.0f, 0.0f, 1.0f};
   EXPECT_EQ(NormalMapFootprintCells(W, H, 0.3f, 0.3f, nan, float(cutoff)), double(W) * H);
+  // Non-finite uv (admission runs before query validation): the most 3 x 3 copies hold.
+  EXPECT_EQ(NormalMapFootprintCells(W, H, NAN, 0.3f, a, float(cutoff)), 9.0 * W * H);
+  EXPECT_EQ(NormalMapFootprintCells(W, H, 0.3f, INFINITY, a, float(cutoff)), 9.0 * W * H);
 }
 
 std::string InsertFlat(uint32_t w, uint32_t h) {

@@ -99,6 +99,12 @@ struct Model {
   // Admission cost of one polygon light beyond the smooth area integral, in units (nullptr: the
   // smooth integral times min(cost_factor, 8), server/request_cost.cpp).
   double (*polygon_cost)(const glint::v1::Material &m) = nullptr;
+  // Admission cost when it depends on each query (NORMAL_MAP: the footprint's cut-off box):
+  // the largest and the summed cost in units of the queries `q` with all of `settings`' lights,
+  // and what it counts (for the refusal). Replaces the estimate from cost_factor and
+  // polygon_cost; false (or nullptr): use those.
+  bool (*query_costs)(const glint::v1::EvaluateRequest &settings, const glint::v1::QueryBatch &q,
+                      double *max_units, double *sum_units, std::string *parts) = nullptr;
 };
 
 }  // namespace glint

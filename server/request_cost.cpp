@@ -110,8 +110,24 @@ RequestCost EstimateRequestCost(const glint::v1::EvaluateRequest &settings, uint
     if (method == glint::v1::REFERENCE) parts += " " + std::to_string(samples) + " nodes";
     if (method == glint::v1::MONTE_CARLO) parts += " " + std::to_string(samples) + " samples";
   }
+  const std::string lights_part = parts;
   if (factor != 1.0) parts += " x " + std::string(model->name) + " factor " + Format(factor);
   c.parts = parts;
+  // A model whose work depends on each query counts it from the queries, when the request
+  // carries them (unary Evaluate; not shared-memory queries or stream chunks): the most
+  // expensive query bounds the slice, the mean scales to query_count.
+  double max_units = 0, sum_units = 0;
+  std::string counted;
+  const glint::v1::QueryBatch &q = settings.queries();
+  if (model && model->query_costs && q.count() > 0 &&
+      model->query_costs(settings, q, &max_units, &sum_units, &counted)) {
+    c.per_query = max_units;
+    c.total = sum_units / double(q.count()) * double(query_count);
+    c.parts = lights_part + " x " + model->name + ": " + counted;
+    c.query_remedy =
+        "use smaller footprints, fewer lights, polygon lights or area_samples, or cheaper "
+        "material settings (the work per query grows with its footprint)";
+  }
   return c;
 }
 

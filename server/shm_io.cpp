@@ -242,6 +242,17 @@ Status GlintServiceImpl::RunShared(int worker, const glint::v1::EvaluateRequest 
   if (Status lost = Lost(call); !lost.ok()) return lost;
   if (s.ok() && !in_place) s = ValidateQueriesForModel(queries, settings, 0);
   if (!s.ok()) return s;
+  // A model whose cost depends on each query (Model::query_costs: NORMAL_MAP's footprints) is
+  // admitted again now that its queries are here (the handler saw only their count), as over TCP.
+  double per_query_cost = EstimateRequestCost(settings, 1).per_query;
+  if (const Model *model = FindModel(settings.material().model());
+      !in_place && model && model->query_costs) {
+    glint::v1::EvaluateRequest with = settings;  // a copy of the queries, for such a model only
+    *with.mutable_queries() = queries;
+    const RequestCost cost = EstimateRequestCost(with, queries.count());
+    if (Status c = CheckRequestCost(cost, queries.count(), options_.cost); !c.ok()) return c;
+    per_query_cost = cost.per_query;
+  }
   glint::v1::QueryBatch shape;  // MakeEvalPlan reads only which arrays are present
   if (view.wi) shape.add_wi(0.0f);
   if (view.normal) shape.add_normal(0.0f);
@@ -251,7 +262,7 @@ Status GlintServiceImpl::RunShared(int worker, const glint::v1::EvaluateRequest 
   if (kernel) *kernel = plan.spec.Describe();
   const auto start = std::chrono::steady_clock::now();
   SliceOptions slicing;
-  slicing.per_query_cost = EstimateRequestCost(settings, 1).per_query;
+  slicing.per_query_cost = per_query_cost;
   slicing.target_ms = options_.slice_ms;
   slicing.stop = [this, ctx] { return StopReason(ctx); };
   if (in_place) {

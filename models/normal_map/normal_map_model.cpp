@@ -4,6 +4,7 @@
 // work-item: the quadtree traversal).
 #include <sstream>
 
+#include "models/normal_map/normal_map_cost.h"
 #include "models/normal_map/normal_map_params.h"
 #include "server/eval_plan.h"
 #include "server/host_pass.h"
@@ -114,12 +115,13 @@ void NormalMapExample(Material *m, glint::v1::QueryBatch *one_query) {
 }  // namespace
 
 extern const Model kNormalMapModel;
-// Admission cost (server/request_cost.h) in smooth evaluations per evaluation: the triangles
-// that survive pruning cost ~1-2 us each (README "Cost"); at the ~100 texels of a one-texel
+// Admission cost (server/request_cost.h) in smooth evaluations per evaluation when the queries
+// are not at hand (the Sample RPC, shared-memory and streamed queries): the triangles that
+// survive pruning cost ~1-2 us each (README "Cost"); at the ~100 texels of a one-texel
 // footprint at cut-off 5 that is ~2000 smooth evaluations, 4x4 subdivision ~7x more, and the
-// cut-off box's area grows as cutoff^2. The footprint's own size is not in the material, so
-// big footprints are underestimated here; the slicer corrects from its measured rate after
-// the first slice.
+// cut-off box's area grows as cutoff^2. Big footprints are underestimated here (the slicer
+// corrects from its measured rate after the first slice); with the queries, query_costs
+// (normal_map_cost.h) counts each footprint's box.
 double NormalMapCostFactor(const glint::v1::Material &m) {
   const double cutoff = m.normal_map().cutoff_sigma() > 0 ? m.normal_map().cutoff_sigma() : 5.0;
   const double subdivision = m.normal_map().subdivision() == 4 ? 7.0 : 1.0;
@@ -144,6 +146,7 @@ const Model kNormalMapModel = {
     .uses_ndf = false,
     .request_table = NormalMapRequestTable,
     .cost_factor = NormalMapCostFactor,
+    .query_costs = NormalMapQueryCosts,
 };
 
 }  // namespace glint

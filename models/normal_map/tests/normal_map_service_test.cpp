@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -201,6 +202,60 @@ TEST(NormalMapServiceConcurrency, SmallRequestIsNotStalledBySubdivisionFourBuild
   if (!sent_while_building)
     GTEST_SKIP() << "inconclusive: the subdivision-4 request finished within 200 ms";
   EXPECT_TRUE(answered_first) << "the small request waited for the subdivision-4 build";
+}
+
+// Issue 12 (outside probe): NORMAL_MAP's admission counts each query's footprint. A 2-period
+// footprint on a subdivision-4 map at cut-off 10 under a quad (64 + 64 MIS samples, each a
+// P-NDF evaluation of every triangle in the box: (2 x 128 + 1)^2 cells here, ~1.7e8 units per
+// query, seconds each) is refused with --max-query-cost naming the query, over TCP (unary) and
+// over shared memory (the CLI's default transport on this host), before any work.
+TEST_F(NormalMapService, WholeMapFootprintUnderAQuadIsRefusedAtAdmission) {
+  const std::string file = Generate("bumpy", 32, 3);
+  std::string digest;
+  ASSERT_EQ(RunGlint(dir_, {"upload", "--server", server_->address(), file}, &digest), 0);
+  digest.pop_back();  // the newline
+  v1::EvaluateRequest r;
+  auto *m = r.mutable_material();
+  m->set_model(v1::NORMAL_MAP);
+  for (float f : {1.0f, 1.0f, 1.0f}) m->mutable_schlick()->add_f0(f);
+  m->mutable_normal_map()->set_digest(digest);
+  m->mutable_normal_map()->set_subdivision(4);
+  m->mutable_normal_map()->set_cutoff_sigma(10.0f);
+  auto *quad = r.add_lights()->mutable_polygon();
+  for (float v : {-1e6f, -1e6f, 1.0f, 1e6f, -1e6f, 1.0f, 1e6f, 1e6f, 1.0f, -1e6f, 1e6f, 1.0f})
+    quad->add_vertices(v);
+  for (float v : {1.0f, 1.0f, 1.0f}) quad->add_radiance(v);
+  quad->set_two_sided(true);
+  auto *q = r.mutable_queries();
+  q->set_count(2);
+  for (int i = 0; i < 2; ++i) {
+    for (float v : {0.5f, 0.5f}) q->add_uv(v);
+    for (float v : {i == 0 ? 0.01f : 1.0f, 0.0f, 0.0f, i == 0 ? 0.01f : 1.0f}) q->add_footprint(v);
+    for (float v : {0.0f, 0.0f, 1.0f}) q->add_wo(v);
+  }
+  std::vector<float> rgb;
+  grpc::Status s = client_->Evaluate(r, &rgb);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  for (const char *part : {"--max-query-cost", "query 1's footprint", "128 P-NDF evaluations"})
+    EXPECT_NE(s.error_message().find(part), std::string::npos) << part << ": " << s.error_message();
+
+  std::ofstream(dir_.File("m.json"))
+      << "{\"model\": \"NORMAL_MAP\", \"schlick\": {\"f0\": [1, 1, 1]}, "
+         "\"normal_map\": {\"digest\": \""
+      << digest << "\", \"subdivision\": 4, \"cutoff_sigma\": 10}}";
+  std::ofstream(dir_.File("l.json"))
+      << "{\"lights\": [{\"polygon\": {\"vertices\": [-1e6, -1e6, 1, 1e6, -1e6, 1, 1e6, 1e6, 1, "
+         "-1e6, 1e6, 1], \"radiance\": [1, 1, 1], \"two_sided\": true}}]}";
+  std::ofstream(dir_.File("q.csv")) << "u,v,dudx,dvdx,dudy,dvdy\n0.5,0.5,1,0,0,1\n";
+  std::string out;
+  EXPECT_NE(RunGlint(dir_,
+                     {"eval", "--server", server_->address(), "--material", dir_.File("m.json"),
+                      "--lights", dir_.File("l.json"), "--queries", dir_.File("q.csv"), "--out",
+                      dir_.File("out.csv")},
+                     &out),
+            0);
+  const std::string err = ReadFile(dir_.File("cli.err"));
+  EXPECT_NE(err.find("--max-query-cost"), std::string::npos) << err;
 }
 
 }  // namespace

@@ -17,55 +17,22 @@
 #include <vector>
 
 #include "data/ltc/ltc_table.h"
-
-namespace glint::test {
-struct V3 {
-  double x, y, z;
-};
-V3 Normalize(V3 a) {
-  double l = std::sqrt(a.x * a.x + a.y * a.y + a.z * a.z);
-  return {a.x / l, a.y / l, a.z / l};
-}
-// A material and its kemppinen block (as in kemppinen_test.cpp).
-struct Glinty {
-  int ndf = 1;  // GLINT_NDF_GGX
-  double ax = 0.3, ay = 0.3;
-  double density = 1e6, micro = 0.02, filter = 0.7, aniso = 1.0;
-  int neighbors = 4;
-  unsigned seed_lo = 11, seed_hi = 0;
-  std::vector<double> colors;
-  int neighborhood = 0;  // GLINT_KEMPPINEN_NEIGHBORHOOD_*
-};
-}  // namespace glint::test
+#include "models/kemppinen/tests/kemppinen_test_material.h"
 
 #define GLINT_TEST_KERNEL_EXTRA "models/kemppinen/tests/kemppinen_api.inc"
 #include "tests/support/kernels_both_precisions.h"
 
+// After the kernels: NdfName reads GLINT_NDF_BECKMANN.
+#include "models/kemppinen/tests/kemppinen_test_stats.h"
+
 namespace {
 
 using glint::test::Glinty;
+using glint::test::NdfName;
 using glint::test::Normalize;
+using glint::test::Stats;
+using glint::test::Summarise;
 using glint::test::V3;
-
-struct Stats {
-  double mean = 0, var = 0;
-  size_t n = 0;
-  double se() const { return std::sqrt(var / double(n)); }
-  double spread() const { return std::sqrt(var) / mean; }
-};
-Stats Summarise(const std::vector<double> &x) {
-  Stats s;
-  s.n = x.size();
-  for (double v : x) s.mean += v;
-  s.mean /= double(x.size());
-  for (double v : x) s.var += (v - s.mean) * (v - s.mean);
-  s.var /= double(x.size() - 1);
-  return s;
-}
-
-const char *NdfName(int ndf) {
-  return ndf == GLINT_NDF_BECKMANN ? "Beckmann" : "GGX";
-}
 
 const char *HoodName(int hood) {
   return hood == GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL    ? "ONE_CELL"

@@ -36,9 +36,13 @@
 // --precisions fp32,fp64, --paths device,host,end_to_end,shared_memory, --repeat R, --min-time S,
 // --shm-direct-output,
 // --note TEXT (stored in the JSON's machine note), --cache-dir DIR.
+#include <fcntl.h>
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/message.h>
+#include <spawn.h>
 #include <sys/utsname.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -46,7 +50,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -80,6 +86,10 @@ struct Options {
   std::set<std::string> models, lights, precisions, paths;
   std::string json, note, cache_dir = DefaultCacheDir();
   std::string command;
+  // Processes compiling the run's kernels up front (--compile-jobs; see Driver::WarmUp).
+  int compile_jobs = int(std::max(1u, std::thread::hardware_concurrency()));
+  std::string compile_worker;               // --compile-worker DIR: a child of WarmUp
+  std::vector<std::string> selection_args;  // the flags that choose what runs, for the children
 };
 
 bool Selected(const std::set<std::string> &filter, const std::string &name) {
@@ -165,18 +175,62 @@ uint32_t ReferenceNodes(double alpha) {
   return alpha < 0.05 ? 1024 : alpha < 0.1 ? 512 : 256;
 }
 
+// One combination the run measures: a model's variant under a light set at a precision, as the
+// request every path times (valid: the server's validation of it).
+struct Combination {
+  const Model *model = nullptr;
+  const ModelBenchCase *bench_case = nullptr;
+  Lights lights = Lights::kProbe;
+  const BenchVariant *variant = nullptr;
+  bool fp64 = false;
+  glint::v1::EvaluateRequest request;
+  Status valid;
+};
+
+// Where the wall time of a run goes, per model (stderr and the JSON's machine block).
+struct Phases {
+  double first_run = 0;   // each row's untimed first run (compile or load, when not warmed)
+  double timed = 0;       // batch growth and the timed runs
+  double errors = 0;      // the rows' own evaluations for their errors
+  double references = 0;  // fp64 host references and REFERENCE truths (shared between rows)
+};
+
 class Driver {
  public:
-  Driver(Options o, DeviceEngine *engine) : o_(std::move(o)), engine_(engine) {
-    probe_ = SharedQueries(o_.base_queries, true);
-    lit_ = SharedQueries(o_.base_queries, false);
-  }
+  Driver(Options o, DeviceEngine *engine);
 
+  // Builds every kernel variant the run needs before any row is timed (see the definition).
+  void WarmUp();
+  // --compile-worker: builds the variants this process claims, then returns.
+  void CompileWorker(const std::string &claim_dir);
   void Run();
   const std::vector<Row> &rows() const { return rows_; }
   const std::vector<Skipped> &skipped() const { return skipped_; }
+  const std::map<std::string, Phases> &phases() const { return phases_; }
+  double warm_up_seconds() const { return warm_up_seconds_; }
+  int warm_up_variants() const { return warm_up_variants_; }
+  int warm_up_processes() const { return warm_up_processes_; }
 
  private:
+  struct ModelRun {
+    const Model *model;
+    ModelBenchCase bench_case;
+    glint::v1::QueryBatch probe, lit;  // the shared queries, footprints as the case wants
+    QueryStats stats;
+  };
+  // A kernel variant the run needs: its key (model, build options, the passes it runs) and a
+  // one-query request of it.
+  struct WarmItem {
+    std::string key;
+    glint::v1::EvaluateRequest request;
+  };
+  // Calls fn for every combination the options select, in the order of the rows.
+  void ForEach(const std::function<void(Combination &)> &fn) const;
+  std::vector<WarmItem> WarmItems() const;
+  // Builds and runs the item's kernels once on worker 0; false (and a message) on failure.
+  bool WarmOne(const WarmItem &item, const char *who);
+  // Claims `item` for this process: true for exactly one process of the run.
+  static bool Claim(const std::string &claim_dir, const WarmItem &item);
   // Times `request` on `path`; false (and *why) when the path fails.
   bool Time(const std::string &path, const glint::v1::EvaluateRequest &request, Row *row,
             std::string *why);
@@ -195,12 +249,78 @@ class Driver {
   Options o_;
   DeviceEngine *engine_;
   std::unique_ptr<LoopbackService> service_;
-  glint::v1::QueryBatch probe_, lit_;
+  std::vector<ModelRun> runs_;
   std::vector<Row> rows_;
   std::vector<Skipped> skipped_;
   std::map<std::string, std::vector<double>> refs_;
   std::map<std::string, double> floors_;
+  std::map<std::string, Phases> phases_;  // by model name
+  double reference_seconds_ = 0;          // running total of the reference computations
+  double warm_up_seconds_ = 0;
+  int warm_up_variants_ = 0, warm_up_processes_ = 1;
 };
+
+Driver::Driver(Options o, DeviceEngine *engine) : o_(std::move(o)), engine_(engine) {
+  const glint::v1::QueryBatch probe = SharedQueries(o_.base_queries, true);
+  const glint::v1::QueryBatch lit = SharedQueries(o_.base_queries, false);
+  std::map<int, ModelBenchCase> cases;
+  for (ModelBenchCase &c : BenchCases()) cases[int(c.model)] = std::move(c);
+  for (const Model *model : Models()) {
+    if (!Selected(o_.models, model->name)) continue;
+    ModelRun run{model, {}, probe, lit, {}};
+    ModelBenchCase &c = run.bench_case;
+    if (auto it = cases.find(int(model->id)); it != cases.end()) {
+      c = it->second;
+    } else {  // no registered case: the model's own example material, no error reference
+      c.model = model->id;
+      c.base = [model](glint::v1::Material *m) {
+        m->set_ndf(glint::v1::GGX);
+        m->set_alpha_x(0.3f);
+        m->set_alpha_y(0.1f);
+        for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
+        glint::v1::QueryBatch unused;
+        if (model->example) model->example(m, &unused);
+      };
+      c.variants.push_back({"example", {}, true, nullptr});
+    }
+    if (c.footprints) c.footprints(&run.probe), c.footprints(&run.lit);
+    run.stats = StatsOf(run.lit);
+    runs_.push_back(std::move(run));
+  }
+}
+
+void Driver::ForEach(const std::function<void(Combination &)> &fn) const {
+  const bool fp64_ok = engine_->info().fp64;
+  for (const ModelRun &run : runs_) {
+    const ModelBenchCase &c = run.bench_case;
+    for (Lights lights : kAllLights) {
+      if (!Selected(o_.lights, LightsName(lights))) continue;
+      for (const BenchVariant &v : c.variants) {
+        if (!v.lights.empty() &&
+            std::find(v.lights.begin(), v.lights.end(), lights) == v.lights.end())
+          continue;
+        if (o_.mode != "full" && !v.quick) continue;
+        for (bool fp64 : {false, true}) {
+          if (!Selected(o_.precisions, PrecisionName(fp64))) continue;
+          Combination k;
+          k.model = run.model, k.bench_case = &c, k.lights = lights, k.variant = &v;
+          k.fp64 = fp64;
+          glint::v1::EvaluateRequest &r = k.request;
+          auto *m = r.mutable_material();
+          m->set_model(run.model->id);
+          c.base(m);
+          r.set_precision(fp64 ? glint::v1::FP64 : glint::v1::FP32);
+          r.set_seed(0x9e3779b97f4aull);
+          *r.mutable_queries() = lights == Lights::kProbe ? run.probe : run.lit;
+          AddLights(lights, &r);
+          if (v.apply) v.apply(&r, run.stats);
+          k.valid = Validate(r, fp64_ok);
+          fn(k);
+        }
+      }
+    }
+  }
+}
 
 bool Driver::Eval(const std::string &path, const glint::v1::EvaluateRequest &request, uint32_t n,
                   std::vector<float> *out, std::string *why) {
@@ -235,7 +355,18 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
                   std::string *why) {
   std::vector<float> out;
   uint32_t n = std::min(o_.base_queries, 256u);
-  if (!Eval(path, request, n, &out, why)) return false;  // compile + warm
+  Phases &phases = phases_[row->model];
+  const auto start = Clock::now();
+  const bool first_ok = Eval(path, request, n, &out, why);  // compile or load, if not warmed
+  const auto timed_start = Clock::now();
+  phases.first_run += std::chrono::duration<double>(timed_start - start).count();
+  if (!first_ok) return false;
+  // Everything after the first run counts as timing, however the function returns.
+  struct AddOnExit {
+    double *to;
+    Clock::time_point since;
+    ~AddOnExit() { *to += std::chrono::duration<double>(Clock::now() - since).count(); }
+  } add_timed{&phases.timed, timed_start};
   auto once = [&](uint32_t count, double *seconds) {
     glint::v1::EvaluateRequest r = request;
     *r.mutable_queries() = Tile(request.queries(), count);
@@ -330,9 +461,11 @@ const std::vector<double> &Driver::ExactReference(const std::string &key,
                                                   const glint::v1::EvaluateRequest &request) {
   auto it = refs_.find(key);
   if (it != refs_.end()) return it->second;
+  const auto t0 = Clock::now();
   glint::v1::EvaluateRequest r = request;
   r.set_precision(glint::v1::FP64);
   const std::vector<float> out = HostParallel(r, r.queries().count());
+  reference_seconds_ += std::chrono::duration<double>(Clock::now() - t0).count();
   return refs_[key] = RgbSums(out.data(), r.queries().count());
 }
 
@@ -349,8 +482,10 @@ const std::vector<double> &Driver::AreaTruth(const std::string &key,
     const auto t0 = Clock::now();
     const uint32_t n = std::min(o_.area_ref_queries, r.queries().count());
     const std::vector<float> out = HostParallel(r, n);
+    const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    reference_seconds_ += seconds;
     std::fprintf(stderr, "  truth %s: REFERENCE:%u fp64 host, %u queries, %.1f s\n", key.c_str(),
-                 r.area_samples(), n, std::chrono::duration<double>(Clock::now() - t0).count());
+                 r.area_samples(), n, seconds);
     it = refs_.emplace(key, RgbSums(out.data(), n)).first;
     double top = 0;
     for (double v : it->second) top = std::max(top, v);
@@ -364,9 +499,11 @@ const std::vector<double> &Driver::SmoothReference(const std::string &key,
                                                    const glint::v1::EvaluateRequest &request) {
   auto it = refs_.find(key);
   if (it != refs_.end()) return it->second;
+  const auto t0 = Clock::now();
   glint::v1::EvaluateRequest r = request;
   r.set_precision(glint::v1::FP64);
   const std::vector<float> out = HostParallel(r, r.queries().count());
+  reference_seconds_ += std::chrono::duration<double>(Clock::now() - t0).count();
   return refs_[key] = RgbSums(out.data(), r.queries().count());
 }
 
@@ -419,89 +556,165 @@ void Driver::Errors(const Model &model, const ModelBenchCase &c, Lights lights,
   }
 }
 
-void Driver::Run() {
-  std::map<int, ModelBenchCase> cases;
-  for (ModelBenchCase &c : BenchCases()) cases[int(c.model)] = std::move(c);
-  const bool fp64_ok = engine_->info().fp64;
-  for (const Model *model : Models()) {
-    if (!Selected(o_.models, model->name)) continue;
-    ModelBenchCase c;
-    if (auto it = cases.find(int(model->id)); it != cases.end()) {
-      c = it->second;
-    } else {  // no registered case: the model's own example material, no error reference
-      c.model = model->id;
-      c.base = [model](glint::v1::Material *m) {
-        m->set_ndf(glint::v1::GGX);
-        m->set_alpha_x(0.3f);
-        m->set_alpha_y(0.1f);
-        for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
-        glint::v1::QueryBatch unused;
-        if (model->example) model->example(m, &unused);
-      };
-      c.variants.push_back({"example", {}, true, nullptr});
+// The kernel variants of the run: one per model, build options and set of passes (what
+// DeviceEngine compiles), each with a one-query request of it. The service paths use the device
+// rows' kernels; when only they are selected every fp32 variant is listed (a superset).
+std::vector<Driver::WarmItem> Driver::WarmItems() const {
+  std::vector<WarmItem> items;
+  std::set<std::string> seen;
+  const bool device = Selected(o_.paths, "device");
+  const bool service = Selected(o_.paths, "end_to_end") || Selected(o_.paths, "shared_memory");
+  ForEach([&](Combination &k) {
+    if (!k.valid.ok() || !(device || (service && !k.fp64))) return;
+    WarmItem item;
+    item.request = k.request;
+    *item.request.mutable_queries() = Tile(k.request.queries(), 1);
+    EvalPlan plan;
+    try {
+      plan = ResolvedPlan(item.request, item.request.queries());
+    } catch (const std::exception &) {
+      return;  // the row reports it
     }
-    glint::v1::QueryBatch probe = probe_, lit = lit_;
-    if (c.footprints) c.footprints(&probe), c.footprints(&lit);
-    const QueryStats stats = StatsOf(lit);
-    for (Lights lights : kAllLights) {
-      if (!Selected(o_.lights, LightsName(lights))) continue;
-      bool first_variant = true;
-      for (const BenchVariant &v : c.variants) {
-        if (!v.lights.empty() &&
-            std::find(v.lights.begin(), v.lights.end(), lights) == v.lights.end())
-          continue;
-        if (o_.mode != "full" && !v.quick) continue;
-        bool measured = false;
-        for (bool fp64 : {false, true}) {
-          if (!Selected(o_.precisions, PrecisionName(fp64))) continue;
-          glint::v1::EvaluateRequest r;
-          auto *m = r.mutable_material();
-          m->set_model(model->id);
-          c.base(m);
-          r.set_precision(fp64 ? glint::v1::FP64 : glint::v1::FP32);
-          r.set_seed(0x9e3779b97f4aull);
-          *r.mutable_queries() = lights == Lights::kProbe ? probe : lit;
-          AddLights(lights, &r);
-          if (v.apply) v.apply(&r, stats);
-          Status s = Validate(r, fp64_ok);
-          if (!s.ok()) {
-            skipped_.push_back(
-                {model->name, v.name, LightsName(lights), PrecisionName(fp64), s.message()});
-            continue;
-          }
-          for (const char *path : {"device", "host", "end_to_end", "shared_memory"}) {
-            if (!Selected(o_.paths, path)) continue;
-            const bool service =
-                std::string(path) == "end_to_end" || std::string(path) == "shared_memory";
-            if (service && (fp64 || !first_variant)) continue;
-            Row row;
-            row.model = model->name;
-            row.variant = v.name;
-            row.lights = LightsName(lights);
-            row.precision = PrecisionName(fp64);
-            row.path = path;
-            std::string why;
-            if (!Time(path, r, &row, &why)) {
-              skipped_.push_back({row.model, row.variant, row.lights, row.precision,
-                                  std::string(path) + ": " + why});
-              continue;
-            }
-            Errors(*model, c, lights, r, path, &row);
-            char vs_device[64] = "";
-            if (row.ratio_to_device)
-              std::snprintf(vs_device, sizeof vs_device, ", %.2f of the device (interleaved)",
-                            *row.ratio_to_device);
-            std::fprintf(stderr, "%s %s %s %s %s: %.4g evals/s (batch %u)%s\n", row.model.c_str(),
-                         row.variant.c_str(), row.lights.c_str(), row.precision.c_str(), path,
-                         row.evals_per_s, row.batch, vs_device);
-            rows_.push_back(row);
-            measured = true;
-          }
-        }
-        if (measured) first_variant = false;
-      }
-    }
+    item.key = std::string(k.model->name) + " " + plan.spec.Describe();
+    for (const ModelPass &pass : k.model->passes)
+      if (!pass.needed || pass.needed(plan)) item.key += std::string(" ") + pass.entry;
+    item.key += " [" + plan.spec.BuildOptions() + "]";
+    if (seen.insert(item.key).second) items.push_back(std::move(item));
+  });
+  return items;
+}
+
+bool Driver::WarmOne(const WarmItem &item, const char *who) {
+  const auto t0 = Clock::now();
+  std::vector<float> out;
+  std::string why;
+  const bool ok = Eval("device", item.request, 1, &out, &why);
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  if (who)
+    std::fprintf(stderr, "  %s %.1f s: %s%s\n", who, seconds, item.key.c_str(),
+                 ok ? "" : (" failed: " + why).c_str());
+  return ok;
+}
+
+bool Driver::Claim(const std::string &claim_dir, const WarmItem &item) {
+  uint64_t h = 1469598103934665603ull;  // FNV-1a: the same name in every process
+  for (unsigned char ch : item.key) h = (h ^ ch) * 1099511628211ull;
+  char name[32];
+  std::snprintf(name, sizeof name, "/%016llx", static_cast<unsigned long long>(h));
+  const int fd = open((claim_dir + name).c_str(), O_CREAT | O_EXCL | O_WRONLY, 0600);
+  if (fd < 0) return false;
+  close(fd);
+  return true;
+}
+
+// Compiles every kernel variant the run needs before the first row, in --compile-jobs processes.
+// Why processes: PoCL 3.1 serialises kernel compilation inside a process. clBuildProgram holds
+// its context's LLVM lock, and the work-group function it compiles at a kernel's first enqueue
+// (most of the time) holds the process-wide dlhandle-cache lock (pocl common_driver.c,
+// pocl_check_kernel_dlhandle_cache), so threads, even with one cl_context each, take turns.
+// The children (this binary with --compile-worker and the same selection) and this process
+// claim variants one by one (an O_EXCL file per variant in a fresh directory); each compiles its
+// claims into the shared kernel cache (--cache-dir: program binaries, and PoCL's compiled
+// work-group functions under its pocl/ directory). Then this process runs every variant once,
+// loading the children's from the disk cache. Without a disk cache, or with --compile-jobs 1,
+// it compiles them all itself, still before any row, so no row's first run compiles.
+void Driver::WarmUp() {
+  const auto t0 = Clock::now();
+  const std::vector<WarmItem> items = WarmItems();
+  warm_up_variants_ = int(items.size());
+  const int jobs = std::min(o_.compile_jobs, int(items.size()));
+  std::string claim_dir;
+  if (jobs > 1 && !o_.cache_dir.empty()) {
+    char dir[] = "/tmp/bench_models_claims.XXXXXX";
+    if (mkdtemp(dir)) claim_dir = dir;
   }
+  std::set<std::string> built_here;
+  if (!claim_dir.empty()) {
+    std::vector<pid_t> children;
+    for (int j = 1; j < jobs; ++j) {
+      std::vector<std::string> args = {"bench_models"};
+      args.insert(args.end(), o_.selection_args.begin(), o_.selection_args.end());
+      for (const char *a :
+           {"--cache-dir", o_.cache_dir.c_str(), "--compile-worker", claim_dir.c_str()})
+        args.push_back(a);
+      std::vector<char *> argv;
+      for (std::string &a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      pid_t pid = 0;
+      if (posix_spawn(&pid, "/proc/self/exe", nullptr, nullptr, argv.data(), environ) == 0)
+        children.push_back(pid);
+    }
+    for (const WarmItem &item : items)
+      if (Claim(claim_dir, item)) {
+        WarmOne(item, "compile");
+        built_here.insert(item.key);
+      }
+    for (pid_t pid : children) {
+      int status = 0;
+      waitpid(pid, &status, 0);
+    }
+    warm_up_processes_ = 1 + int(children.size());
+    std::error_code ec;
+    std::filesystem::remove_all(claim_dir, ec);
+  }
+  // Every variant on this engine: built here already, loaded from the disk cache (a child's),
+  // or compiled now (no children, or a child failed).
+  for (const WarmItem &item : items)
+    if (!built_here.count(item.key)) WarmOne(item, claim_dir.empty() ? "compile" : "load");
+  warm_up_seconds_ = std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+void Driver::CompileWorker(const std::string &claim_dir) {
+  for (const WarmItem &item : WarmItems())
+    if (Claim(claim_dir, item)) WarmOne(item, "compile (child)");
+}
+
+void Driver::Run() {
+  // The service paths run each model's first variant per light set that gave a row.
+  std::map<std::string, std::string> first_variant;  // model|lights -> variant
+  ForEach([&](Combination &k) {
+    const std::string model = k.model->name, variant = k.variant->name;
+    if (!k.valid.ok()) {
+      skipped_.push_back(
+          {model, variant, LightsName(k.lights), PrecisionName(k.fp64), k.valid.message()});
+      return;
+    }
+    std::string &first = first_variant[model + "|" + LightsName(k.lights)];
+    Phases &phases = phases_[model];
+    for (const char *path : {"device", "host", "end_to_end", "shared_memory"}) {
+      if (!Selected(o_.paths, path)) continue;
+      const bool service =
+          std::string(path) == "end_to_end" || std::string(path) == "shared_memory";
+      if (service && (k.fp64 || !(first.empty() || first == variant))) continue;
+      Row row;
+      row.model = model;
+      row.variant = variant;
+      row.lights = LightsName(k.lights);
+      row.precision = PrecisionName(k.fp64);
+      row.path = path;
+      std::string why;
+      if (!Time(path, k.request, &row, &why)) {
+        skipped_.push_back(
+            {row.model, row.variant, row.lights, row.precision, std::string(path) + ": " + why});
+        continue;
+      }
+      const auto t0 = Clock::now();
+      const double refs0 = reference_seconds_;
+      Errors(*k.model, *k.bench_case, k.lights, k.request, path, &row);
+      const double refs = reference_seconds_ - refs0;
+      phases.references += refs;
+      phases.errors += std::chrono::duration<double>(Clock::now() - t0).count() - refs;
+      char vs_device[64] = "";
+      if (row.ratio_to_device)
+        std::snprintf(vs_device, sizeof vs_device, ", %.2f of the device (interleaved)",
+                      *row.ratio_to_device);
+      std::fprintf(stderr, "%s %s %s %s %s: %.4g evals/s (batch %u)%s\n", row.model.c_str(),
+                   row.variant.c_str(), row.lights.c_str(), row.precision.c_str(), path,
+                   row.evals_per_s, row.batch, vs_device);
+      rows_.push_back(row);
+      if (first.empty()) first = variant;
+    }
+  });
   // ratio_to_smooth against SMOOTH schlick directional_point on the same path and precision.
   for (Row &row : rows_)
     for (const Row &base : rows_)
@@ -549,7 +762,7 @@ int Main(int argc, char **argv) {
                  "usage: bench_models [--quick | --tiny] [--json PATH] [--models A,B] "
                  "[--lights probe,directional_point,quad,four_quads] [--precisions fp32,fp64] "
                  "[--paths device,host,end_to_end,shared_memory] [--repeat R] [--min-time S] "
-                 "[--note TEXT] [--cache-dir DIR] [--shm-direct-output]\n");
+                 "[--note TEXT] [--cache-dir DIR] [--compile-jobs N] [--shm-direct-output]\n");
     return 2;
   };
   int repeat = 0;
@@ -557,6 +770,7 @@ int Main(int argc, char **argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has_value = i + 1 < argc;
+    const int first_arg = i;
     std::string shown = a;
     if (a == "--quick") {
       o.mode = "quick";
@@ -587,10 +801,20 @@ int Main(int argc, char **argv) {
     } else if (has_value && a == "--cache-dir") {
       o.cache_dir = argv[++i];
       shown.clear();  // machine-specific: not part of the command shown
+    } else if (has_value && a == "--compile-jobs") {
+      o.compile_jobs = std::max(1, std::atoi(argv[++i]));
+      shown.clear();  // changes the wall time only
+    } else if (has_value && a == "--compile-worker") {
+      o.compile_worker = argv[++i];
+      shown.clear();
     } else {
       return usage();
     }
     if (!shown.empty()) o.command += " " + shown;
+    // What selects the variants (and so the kernels), forwarded to the compile children.
+    if (a == "--quick" || a == "--tiny" || a == "--models" || a == "--lights" ||
+        a == "--precisions" || a == "--paths")
+      for (int k = first_arg; k <= i; ++k) o.selection_args.push_back(argv[k]);
   }
   // Refuse unknown names in the filters instead of silently measuring nothing.
   std::set<std::string> known_models, known_lights;
@@ -625,12 +849,33 @@ int Main(int argc, char **argv) {
     std::fprintf(stderr, "bench_models: %s\n", s.message().c_str());
     return 1;
   }
+  if (!o.compile_worker.empty()) {
+    Driver(o, engine.get()).CompileWorker(o.compile_worker);
+    return 0;
+  }
   const std::string load_start = LoadAverage(), started = UtcNow();
   const auto t0 = Clock::now();
   Driver driver(o, engine.get());
+  driver.WarmUp();
   driver.Run();
   const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
   const std::string load_end = LoadAverage();
+  // Where the time went (issue 13: --quick from a cold cache in under 3 minutes).
+  nlohmann::ordered_json breakdown = {{"kernel_warm_up_s", Num(driver.warm_up_seconds())},
+                                      {"kernel_warm_up_variants", driver.warm_up_variants()},
+                                      {"kernel_warm_up_processes", driver.warm_up_processes()}};
+  std::fprintf(stderr, "\ntime: %.1f s wall; kernel warm-up %.1f s (%d variants, %d processes)\n",
+               wall, driver.warm_up_seconds(), driver.warm_up_variants(),
+               driver.warm_up_processes());
+  for (const auto &[model, p] : driver.phases()) {
+    std::fprintf(stderr,
+                 "  %-10s first runs %6.1f s, timing %6.1f s, errors %6.1f s, references %6.1f s\n",
+                 model.c_str(), p.first_run, p.timed, p.errors, p.references);
+    breakdown["per_model_s"][model] = {{"first_runs", Num(p.first_run)},
+                                       {"timing", Num(p.timed)},
+                                       {"errors", Num(p.errors)},
+                                       {"references", Num(p.references)}};
+  }
 
   std::printf(
       "bench_models (%s): device %s, %u cores, load average %s at start, %s at end, "
@@ -668,6 +913,7 @@ int Main(int argc, char **argv) {
         {"kernels_compiled", engine->runtime().programs_compiled()},
         {"kernels_from_cache", engine->runtime().programs_loaded_from_disk()},
         {"note", o.note},
+        {"time_breakdown", breakdown},
     };
     j["settings"] = {{"mode", o.mode},
                      {"base_queries", o.base_queries},

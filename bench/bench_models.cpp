@@ -222,13 +222,16 @@ class Driver {
   // one-query request of it.
   struct WarmItem {
     std::string key;
-    glint::v1::EvaluateRequest request;
+    glint::v1::EvaluateRequest request;  // a combination's request of the variant
+    int lanes_min = 1, lanes_max = 1;    // queries per work-item of its passes
   };
   // Calls fn for every combination the options select, in the order of the rows.
   void ForEach(const std::function<void(Combination &)> &fn) const;
   std::vector<WarmItem> WarmItems() const;
-  // Builds and runs the item's kernels once on worker 0; false (and a message) on failure.
-  bool WarmOne(const WarmItem &item, const char *who);
+  // Runs the item's kernels once on worker 0 (building or loading them); with `large_grids`,
+  // also once on a grid PoCL compiles separately when the rows may reach it (see the
+  // definition). Prints `who` and the seconds; false (and a message) on failure.
+  bool WarmOne(const WarmItem &item, const char *who, bool large_grids);
   // Claims `item` for this process: true for exactly one process of the run.
   static bool Claim(const std::string &claim_dir, const WarmItem &item);
   // Times `request` on `path`; false (and *why) when the path fails.
@@ -237,6 +240,11 @@ class Driver {
   // Evaluates the first n queries of `request` on `path` (untimed).
   bool Eval(const std::string &path, const glint::v1::EvaluateRequest &request, uint32_t n,
             std::vector<float> *out, std::string *why);
+  // Eval for a row's error: the host path split over two threads (HostParallel), untimed; the
+  // same bits as one thread (the host path's result does not depend on how the queries are
+  // split: DESIGN.md, Determinism).
+  bool EvalForErrors(const std::string &path, const glint::v1::EvaluateRequest &request, uint32_t n,
+                     std::vector<float> *out, std::string *why);
   void Errors(const Model &model, const ModelBenchCase &c, Lights lights,
               const glint::v1::EvaluateRequest &request, const std::string &path, Row *row);
   const std::vector<double> &ExactReference(const std::string &key,
@@ -349,6 +357,13 @@ bool Driver::Eval(const std::string &path, const glint::v1::EvaluateRequest &req
   Status s = engine_->Evaluate(0, plan, r.queries(), out->data());
   if (!s.ok()) *why = "device: " + s.message();
   return s.ok();
+}
+
+bool Driver::EvalForErrors(const std::string &path, const glint::v1::EvaluateRequest &request,
+                           uint32_t n, std::vector<float> *out, std::string *why) {
+  if (path != "host") return Eval(path, request, n, out, why);
+  *out = HostParallel(request, n);
+  return true;
 }
 
 bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &request, Row *row,
@@ -516,7 +531,7 @@ void Driver::Errors(const Model &model, const ModelBenchCase &c, Lights lights,
   if (c.error == ErrorReference::kExact && !HasPolygons(lights)) {
     if (path == "host" && row->precision == "fp64") return;  // the reference itself
     const auto &ref = ExactReference(light_key + "|" + row->variant, request);
-    if (!Eval(path, request, uint32_t(ref.size()), &out, &why)) return;
+    if (!EvalForErrors(path, request, uint32_t(ref.size()), &out, &why)) return;
     double top = 0;
     for (double v : ref) top = std::max(top, v);
     const ErrorStats s = Summarise(RelativeErrors(out.data(), ref, 1e-3 * top, &row->nonfinite));
@@ -526,7 +541,7 @@ void Driver::Errors(const Model &model, const ModelBenchCase &c, Lights lights,
   } else if (c.error == ErrorReference::kExact) {
     double floor = 0;
     const auto &truth = AreaTruth(light_key, request, &floor);
-    if (!Eval(path, request, uint32_t(truth.size()), &out, &why)) return;
+    if (!EvalForErrors(path, request, uint32_t(truth.size()), &out, &why)) return;
     const ErrorStats s = Summarise(RelativeErrors(out.data(), truth, floor, &row->nonfinite));
     row->error_mean = s.mean, row->error_p95 = s.p95, row->error_max = s.max;
     row->error_reference = "REFERENCE fp64 host";
@@ -534,7 +549,7 @@ void Driver::Errors(const Model &model, const ModelBenchCase &c, Lights lights,
   } else if (c.error == ErrorReference::kSmoothMean) {
     const auto &sv = SmoothReference(light_key, AsSmooth(request, model));
     const uint32_t n = uint32_t(sv.size());
-    if (!Eval(path, request, n, &out, &why)) return;
+    if (!EvalForErrors(path, request, n, &out, &why)) return;
     const std::vector<double> gv = RgbSums(out.data(), n);
     double mean_g = 0, mean_s = 0;
     for (uint32_t i = 0; i < n; ++i) {
@@ -568,31 +583,71 @@ std::vector<Driver::WarmItem> Driver::WarmItems() const {
     if (!k.valid.ok() || !(device || (service && !k.fp64))) return;
     WarmItem item;
     item.request = k.request;
-    *item.request.mutable_queries() = Tile(k.request.queries(), 1);
     EvalPlan plan;
     try {
-      plan = ResolvedPlan(item.request, item.request.queries());
+      plan = ResolvedPlan(item.request, Tile(k.request.queries(), 1));
     } catch (const std::exception &) {
       return;  // the row reports it
     }
     item.key = std::string(k.model->name) + " " + plan.spec.Describe();
+    item.lanes_min = 1 << 30, item.lanes_max = 1;
     for (const ModelPass &pass : k.model->passes)
-      if (!pass.needed || pass.needed(plan)) item.key += std::string(" ") + pass.entry;
+      if (!pass.needed || pass.needed(plan)) {
+        item.key += std::string(" ") + pass.entry;
+        item.lanes_min = std::min(item.lanes_min, pass.simd_width);
+        item.lanes_max = std::max(item.lanes_max, pass.simd_width);
+      }
+    item.lanes_min = std::min(item.lanes_min, item.lanes_max);
     item.key += " [" + plan.spec.BuildOptions() + "]";
     if (seen.insert(item.key).second) items.push_back(std::move(item));
   });
   return items;
 }
 
-bool Driver::WarmOne(const WarmItem &item, const char *who) {
+// PoCL compiles a kernel's work-group function per local size and, separately, for grids of
+// fewer than 65535 work-items ("smallgrid") and for larger ones (pocl_cache.c,
+// grid_width_specialization_limit = USHRT_MAX). The one-query run builds the small-grid one. A
+// row whose batch grows past 65408 work-items (n / lanes, padded to the local size 128) needs
+// the large one too; it would be compiled inside that row's batch growth, in the measuring
+// process, one at a time. So a compiling process times 4096 queries of the variant and, when
+// the rows may reach such a grid, runs one batch of 65536 x lanes queries. Bound on the batch a
+// row reaches: Time() grows it until a run takes min_time, by at most 2x past the point where it
+// would (clamp(1.3 min_time / t, 2, 64)), so n <= 2 min_time R for the measuring process's rate
+// R; R is taken as up to 2.5x the rate seen here (the compiling processes share the cores; PoCL
+// runs a 4096-query batch on its two threads), giving n <= 5 min_time R_here. An
+// over-estimate costs one extra compile; an under-estimate leaves it to the row.
+bool Driver::WarmOne(const WarmItem &item, const char *who, bool large_grids) {
   const auto t0 = Clock::now();
   std::vector<float> out;
   std::string why;
-  const bool ok = Eval("device", item.request, 1, &out, &why);
-  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-  if (who)
-    std::fprintf(stderr, "  %s %.1f s: %s%s\n", who, seconds, item.key.c_str(),
+  bool ok = Eval("device", item.request, 1, &out, &why);
+  const double small = std::chrono::duration<double>(Clock::now() - t0).count();
+  double large = 0;
+  const uint32_t large_batch = 65536u * uint32_t(item.lanes_max);
+  const double work_items_limit = 65408;
+  // The rate seen on n queries, and the largest batch a row may then reach.
+  auto reach = [&](uint32_t n) {
+    const auto t1 = Clock::now();
+    ok = Eval("device", item.request, n, &out, &why);
+    const double t = std::chrono::duration<double>(Clock::now() - t1).count();
+    return std::min(double(o_.max_batch), 5 * o_.min_time * n / std::max(t, 1e-9));
+  };
+  // 64 queries first, so that a slow variant (NORMAL_MAP: ~1000/s) is not run on 4096; the
+  // launch overhead may hide up to 8x of a fast variant's rate there.
+  if (ok && large_grids && o_.max_batch / double(item.lanes_min) > work_items_limit &&
+      8 * reach(64) / item.lanes_min > work_items_limit) {
+    if (ok && reach(4096) / item.lanes_min > work_items_limit) {
+      const auto t2 = Clock::now();
+      ok = Eval("device", item.request, std::min(o_.max_batch, large_batch), &out, &why);
+      large = std::chrono::duration<double>(Clock::now() - t2).count();
+    }
+  }
+  if (who) {
+    char grids[48] = "";
+    if (large > 0) std::snprintf(grids, sizeof grids, " + %.1f s large grid", large);
+    std::fprintf(stderr, "  %s %.1f s%s: %s%s\n", who, small, grids, item.key.c_str(),
                  ok ? "" : (" failed: " + why).c_str());
+  }
   return ok;
 }
 
@@ -646,7 +701,7 @@ void Driver::WarmUp() {
     }
     for (const WarmItem &item : items)
       if (Claim(claim_dir, item)) {
-        WarmOne(item, "compile");
+        WarmOne(item, "compile", true);
         built_here.insert(item.key);
       }
     for (pid_t pid : children) {
@@ -660,13 +715,14 @@ void Driver::WarmUp() {
   // Every variant on this engine: built here already, loaded from the disk cache (a child's),
   // or compiled now (no children, or a child failed).
   for (const WarmItem &item : items)
-    if (!built_here.count(item.key)) WarmOne(item, claim_dir.empty() ? "compile" : "load");
+    if (!built_here.count(item.key))
+      WarmOne(item, claim_dir.empty() ? "compile" : "load", claim_dir.empty());
   warm_up_seconds_ = std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
 void Driver::CompileWorker(const std::string &claim_dir) {
   for (const WarmItem &item : WarmItems())
-    if (Claim(claim_dir, item)) WarmOne(item, "compile (child)");
+    if (Claim(claim_dir, item)) WarmOne(item, "compile (child)", true);
 }
 
 void Driver::Run() {

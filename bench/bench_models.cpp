@@ -40,6 +40,7 @@
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/message.h>
 #include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/utsname.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -47,6 +48,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -173,6 +175,13 @@ std::vector<float> HostParallel(const glint::v1::EvaluateRequest &request, uint3
 // this takes one step finer down to alpha 0.03 (capped at the 1024 the server allows).
 uint32_t ReferenceNodes(double alpha) {
   return alpha < 0.05 ? 1024 : alpha < 0.1 ? 512 : 256;
+}
+
+// Time()'s batch growth: the next batch after one of n queries took t seconds, aiming at
+// 1.3 x min_time, at least doubling and at most x64.
+uint32_t NextBatch(uint32_t n, double t, double min_time, uint32_t max_batch) {
+  const double grow = std::clamp(1.3 * min_time / std::max(t, 1e-6), 2.0, 64.0);
+  return uint32_t(std::min(double(max_batch), std::ceil(n * grow)));
 }
 
 // One combination the run measures: a model's variant under a light set at a precision, as the
@@ -437,8 +446,7 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
   if (same_as_device) n = same_as_device;
   if (!once(n, &t)) return false;
   while (!same_as_device && t < o_.min_time && n < o_.max_batch) {
-    const double grow = std::clamp(1.3 * o_.min_time / std::max(t, 1e-6), 2.0, 64.0);
-    n = uint32_t(std::min(double(o_.max_batch), std::ceil(n * grow)));
+    n = NextBatch(n, t, o_.min_time, o_.max_batch);
     if (!once(n, &t)) return false;
   }
   // The device on the same batch, for the interleaved ratio of a transport row.
@@ -608,44 +616,41 @@ std::vector<Driver::WarmItem> Driver::WarmItems() const {
 // fewer than 65535 work-items ("smallgrid") and for larger ones (pocl_cache.c,
 // grid_width_specialization_limit = USHRT_MAX). The one-query run builds the small-grid one. A
 // row whose batch grows past 65408 work-items (n / lanes, padded to the local size 128) needs
-// the large one too; it would be compiled inside that row's batch growth, in the measuring
-// process, one at a time. So a compiling process times 4096 queries of the variant and, when
-// the rows may reach such a grid, runs one batch of 65536 x lanes queries. Bound on the batch a
-// row reaches: Time() grows it until a run takes min_time, by at most 2x past the point where it
-// would (clamp(1.3 min_time / t, 2, 64)), so n <= 2 min_time R for the measuring process's rate
-// R; R is taken as up to 2.5x the rate seen here (the compiling processes share the cores; PoCL
-// runs a 4096-query batch on its two threads), giving n <= 5 min_time R_here. An
-// over-estimate costs one extra compile; an under-estimate leaves it to the row.
+// the large one too, and would compile it inside its batch growth, in the measuring process, one
+// at a time. So a compiling process also runs Time()'s batch growth (first batch 256, NextBatch)
+// until a run takes kGrowthMargin x min_time: a row grows its batch by at most 2x past the point
+// where a run takes min_time, so it reaches at most 2 min_time R at the measuring process's rate
+// R; with R up to 2.5x the rate here (the compiling processes share the two cores that PoCL's
+// two threads use when measuring), 5 x min_time here covers every batch a row reaches. The growth
+// costs ~2 x 5 x min_time per variant; an over-reach costs one unneeded large-grid compile, an
+// under-reach leaves that compile to the row, as before.
 bool Driver::WarmOne(const WarmItem &item, const char *who, bool large_grids) {
+  constexpr double kGrowthMargin = 5;
   const auto t0 = Clock::now();
   std::vector<float> out;
   std::string why;
   bool ok = Eval("device", item.request, 1, &out, &why);
   const double small = std::chrono::duration<double>(Clock::now() - t0).count();
-  double large = 0;
-  const uint32_t large_batch = 65536u * uint32_t(item.lanes_max);
-  const double work_items_limit = 65408;
-  // The rate seen on n queries, and the largest batch a row may then reach.
-  auto reach = [&](uint32_t n) {
-    const auto t1 = Clock::now();
+  const auto t1 = Clock::now();
+  uint32_t n = std::min(o_.base_queries, 256u), largest = 0;
+  while (ok && large_grids && o_.min_time > 0) {
+    const auto t = Clock::now();
     ok = Eval("device", item.request, n, &out, &why);
-    const double t = std::chrono::duration<double>(Clock::now() - t1).count();
-    return std::min(double(o_.max_batch), 5 * o_.min_time * n / std::max(t, 1e-9));
-  };
-  // 64 queries first, so that a slow variant (NORMAL_MAP: ~1000/s) is not run on 4096; the
-  // launch overhead may hide up to 8x of a fast variant's rate there.
-  if (ok && large_grids && o_.max_batch / double(item.lanes_min) > work_items_limit &&
-      8 * reach(64) / item.lanes_min > work_items_limit) {
-    if (ok && reach(4096) / item.lanes_min > work_items_limit) {
-      const auto t2 = Clock::now();
-      ok = Eval("device", item.request, std::min(o_.max_batch, large_batch), &out, &why);
-      large = std::chrono::duration<double>(Clock::now() - t2).count();
-    }
+    largest = n;
+    if (std::chrono::duration<double>(Clock::now() - t).count() >= kGrowthMargin * o_.min_time ||
+        n >= o_.max_batch)
+      break;
+    n = NextBatch(n, std::chrono::duration<double>(Clock::now() - t).count(),
+                  kGrowthMargin * o_.min_time, o_.max_batch);
   }
+  const double growth = std::chrono::duration<double>(Clock::now() - t1).count();
   if (who) {
-    char grids[48] = "";
-    if (large > 0) std::snprintf(grids, sizeof grids, " + %.1f s large grid", large);
-    std::fprintf(stderr, "  %s %.1f s%s: %s%s\n", who, small, grids, item.key.c_str(),
+    char grown[80] = "";
+    if (largest)
+      std::snprintf(grown, sizeof grown, " + %.1f s growth to %u queries (%s grid)", growth,
+                    largest,
+                    (largest + item.lanes_min - 1) / item.lanes_min > 65408 ? "large" : "small");
+    std::fprintf(stderr, "  %s %.1f s%s: %s%s\n", who, small, grown, item.key.c_str(),
                  ok ? "" : (" failed: " + why).c_str());
   }
   return ok;
@@ -906,6 +911,9 @@ int Main(int argc, char **argv) {
     return 1;
   }
   if (!o.compile_worker.empty()) {
+    // A compile child ends with the run that started it (killed or not).
+    prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (getppid() == 1) return 1;
     Driver(o, engine.get()).CompileWorker(o.compile_worker);
     return 0;
   }

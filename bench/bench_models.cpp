@@ -30,12 +30,17 @@
 // Printed as a markdown table; --json PATH writes {"command", "machine", "rows": [...],
 // "skipped": [...]} (scripts/bench_tables.py turns it into the README's performance section).
 //
-//   build/bench/bench_models --quick --json bench/results/quick.json   # < 3 min, warm cache
+// Before the first row every kernel variant the run needs is built (Driver::WarmUp), in
+// --compile-jobs processes (default: one per core) sharing the kernel cache, so no row's first
+// run compiles; stderr and the JSON's machine.time_breakdown say where the time went.
+//
+//   build/bench/bench_models --quick --json bench/results/quick.json   # < 3 min, even cold
 //   build/bench/bench_models --json results.json                       # every variant, longer
 // Flags: --quick | --tiny (seconds; the ctest smoke run), --models A,B, --lights a,b,
 // --precisions fp32,fp64, --paths device,host,end_to_end,shared_memory, --repeat R, --min-time S,
 // --shm-direct-output,
-// --note TEXT (stored in the JSON's machine note), --cache-dir DIR.
+// --note TEXT (stored in the JSON's machine note), --cache-dir DIR (default: glintd's,
+// $GLINT_CACHE_DIR; PoCL's own cache goes to DIR/pocl), --compile-jobs N.
 #include <fcntl.h>
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/message.h>

@@ -238,6 +238,7 @@ class Driver {
     std::string key;
     glint::v1::EvaluateRequest request;  // a combination's request of the variant
     int lanes_min = 1, lanes_max = 1;    // queries per work-item of its passes
+    double cost = 1;                     // expected compile time, relative (WarmItems)
   };
   // Calls fn for every combination the options select, in the order of the rows.
   void ForEach(const std::function<void(Combination &)> &fn) const;
@@ -612,8 +613,17 @@ std::vector<Driver::WarmItem> Driver::WarmItems() const {
       }
     item.lanes_min = std::min(item.lanes_min, item.lanes_max);
     item.key += " [" + plan.spec.BuildOptions() + "]";
+    // Expected compile cost, for the order: seen cold on this machine (loaded), a SMOOTH
+    // probe or punctual variant ~12 s, SMOOTH polygons with the 8-lane LTC pass ~50 s, with the
+    // one-query-per-item area pass ~150 s, BINOMIAL ~170 s; other glint models taken as heavy.
+    item.cost = k.model->id == glint::v1::SMOOTH ? 1 : 12;
+    if (plan.spec.has_polygon) item.cost *= item.lanes_min == 1 ? 12 : 4;
     if (seen.insert(item.key).second) items.push_back(std::move(item));
   });
+  // The costliest first: the processes claim in this order, so the last claims are short and
+  // the processes finish together (longest-processing-time-first scheduling).
+  std::stable_sort(items.begin(), items.end(),
+                   [](const WarmItem &a, const WarmItem &b) { return a.cost > b.cost; });
   return items;
 }
 

@@ -7,6 +7,8 @@
 #include "server/counted_reactor.h"
 #include "server/eval_plan.h"
 #include "server/kserve_tensors.h"
+#include "server/model_table.h"
+#include "server/request_cost.h"
 
 namespace glint {
 namespace {
@@ -247,6 +249,11 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
   Status s = ApplyInferParameters(*request, settings.get());
   if (s.ok()) s = ValidateSettings(*settings, glint_->options().limits);
   if (s.ok()) s = CheckRequestedOutputs(*request);
+  // Evaluate's admission (GlintServiceImpl::Admit): UNAVAILABLE while shutting down, then
+  // --max-query-cost and --max-request-cost for wo's row count, before the job is queued. (It
+  // was missing: a REFERENCE 1024 request over a polygon preset, refused by Evaluate, held a
+  // worker for its whole run.)
+  if (s.ok()) s = glint_->Admit(*settings, InferQueryCount(*request));
   if (!s.ok()) return refuse(s);
 
   // The reply counts in --max-undelivered-mb until it has left; a cancelled call leaves the
@@ -254,7 +261,7 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
   auto *reactor = new CountedUnaryReactor(request, response, &glint_->undelivered(),
                                           [this] { glint_->scheduler().DropDeadJobs(); });
   const bool queued = glint_->scheduler().TrySubmit(
-      [this, reactor, request, response, settings, model, model_index,
+      [this, ctx, reactor, request, response, settings, model, model_index,
        received](int worker) -> Scheduler::Respond {
         Timings t;
         const auto started = Clock::now();
@@ -268,12 +275,26 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
                                        " queries per ModelInfer call (glintd --max-batch); split "
                                        "the request");
         }
+        // A model whose cost depends on each query (Model::query_costs: NORMAL_MAP's
+        // footprints) is admitted again now that the queries are decoded, as Evaluate admits
+        // it with its queries (the handler saw only their count).
+        if (st.ok()) {
+          const Model *m = FindModel(settings->material().model());
+          if (m && m->query_costs) {
+            glint::v1::EvaluateRequest with = *settings;  // a copy, for such a model only
+            *with.mutable_queries() = queries;
+            st = CheckRequestCost(EstimateRequestCost(with, queries.count()), queries.count(),
+                                  glint_->options().cost);
+          }
+        }
         const auto decoded = Clock::now();
         t.input_ns = NsBetween(started, decoded);
         glint::v1::EvaluateResponse evaluated;
         std::string kernel = "-";
         if (st.ok()) {
-          st = glint_->RunBatch(worker, *settings, queries, 0, false, &evaluated, &kernel);
+          // With the call's context, so its slices stop once the client cancels or the deadline
+          // passes (without it, an abandoned call held its worker to the end).
+          st = glint_->RunBatch(worker, *settings, queries, 0, false, &evaluated, &kernel, ctx);
           if (st.code() == Status::Code::kInvalidArgument)
             st = Status::InvalidArgument(InferMessage(st.message()));
         }

@@ -161,6 +161,25 @@ Status DecodeInferInputs(const inference::ModelInferRequest &request, bool has_l
   return Status::Ok();
 }
 
+uint64_t InferQueryCount(const inference::ModelInferRequest &request) {
+  for (int i = 0; i < request.inputs_size(); ++i) {
+    const auto &input = request.inputs(i);
+    if (input.name() != "wo") continue;
+    const auto &shape = input.shape();
+    if (shape.size() != 2 || shape[1] != 3 || shape[0] < 1 ||
+        shape[0] > int64_t(std::numeric_limits<uint32_t>::max()))
+      return 0;
+    const uint64_t rows = uint64_t(shape[0]);
+    // Only a shape its data fills: a lying shape is DecodeInferInputs' to refuse, by name.
+    const uint64_t floats =
+        request.raw_input_contents_size() > 0
+            ? (i < request.raw_input_contents_size() ? request.raw_input_contents(i).size() / 4 : 0)
+            : uint64_t(input.contents().fp32_contents_size());
+    return floats == 3 * rows ? rows : 0;
+  }
+  return 0;
+}
+
 Status ApplyInferParameters(const inference::ModelInferRequest &request,
                             glint::v1::EvaluateRequest *settings) {
   using P = inference::InferParameter;

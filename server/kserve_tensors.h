@@ -32,6 +32,12 @@ std::vector<KServeInput> KServeInputs(bool has_lights);
 Status DecodeInferInputs(const inference::ModelInferRequest &request, bool has_lights,
                          glint::v1::QueryBatch *queries);
 
+// The query count of the request: the rows N of its 'wo' input when that is shaped [N, 3] with
+// 1 <= N < 2^32 and its data holds 3 N floats, else 0 (DecodeInferInputs then refuses it, naming
+// the input). Read before the tensors are decoded, for admission by cost; a request that runs
+// has exactly this many queries.
+uint64_t InferQueryCount(const inference::ModelInferRequest &request);
+
 // Applies the request parameters seed, precision, area_method and area_samples to
 // `settings`; ignores the ones Triton's clients set for their own features and refuses others.
 Status ApplyInferParameters(const inference::ModelInferRequest &request,

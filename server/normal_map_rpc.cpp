@@ -1,5 +1,6 @@
 // The normal-map resource RPCs of GlintServiceImpl: UploadNormalMap (client-streamed chunks of
 // one file), ListNormalMaps, DeleteNormalMap, on the process's NormalMapStore.
+#include <mutex>
 #include <sstream>
 #include <thread>
 
@@ -7,9 +8,21 @@
 #include "server/normal_map_store.h"
 #include "server/raw_messages.h"
 #include "server/service.h"
+#include "server/upload_gate.h"
 
 namespace glint {
 namespace {
+
+// Uploads in progress at once, whatever their size (each waiting decode is a thread).
+constexpr uint32_t kMaxUploadsInProgress = 16;
+
+// The process's upload gate (server/upload_gate.h), sized from glintd's flags on first use (an
+// upload arrives only once the server is serving, after the flags are applied): two of the
+// largest files accepted.
+UploadGate &Uploads() {
+  static UploadGate gate(2 * NormalMaps().limits().max_upload_bytes, kMaxUploadsInProgress);
+  return gate;
+}
 
 // Collects the chunks (refusing early once the file is over the size limit), then decodes and
 // stores on a thread of its own: decoding a large map takes a while and must not hold a gRPC
@@ -19,8 +32,13 @@ namespace {
 // it were decoded as the whole file).
 class UploadReactor : public grpc::ServerReadReactor<grpc::ByteBuffer> {
  public:
-  UploadReactor(GlintServiceImpl *service, grpc::ByteBuffer *reply)
-      : service_(service), reply_(reply), max_bytes_(NormalMaps().limits().max_upload_bytes) {
+  // Counted in Uploads() (Begin succeeded) until OnDone.
+  UploadReactor(GlintServiceImpl *service, grpc::CallbackServerContext *ctx,
+                grpc::ByteBuffer *reply)
+      : service_(service),
+        ctx_(ctx),
+        reply_(reply),
+        max_bytes_(NormalMaps().limits().max_upload_bytes) {
     StartRead(&raw_chunk_);
   }
 
@@ -36,17 +54,32 @@ class UploadReactor : public grpc::ServerReadReactor<grpc::ByteBuffer> {
             "normal map " + Name() + ": over " + std::to_string(max_bytes_) +
             " bytes; the server accepts at most that (Capabilities.max_normal_map_upload_bytes)"));
       }
+      if (Status room = Uploads().Reserve(chunk_.data().size(), bytes_.size()); !room.ok()) {
+        AddRetryPushback(ctx_, service_->options().slice_ms);
+        return Done(room);
+      }
       bytes_ += chunk_.data();
       StartRead(&raw_chunk_);
       return;
     }
+    // Reads also end when the call is cancelled (client gone, shutdown): the bytes so far are
+    // not a file the client finished sending, so nothing is decoded.
+    if (ctx_->IsCancelled()) return Done(Status::Cancelled("the upload was cancelled"));
     std::thread([this] {
-      Status s = NormalMaps().Upload(Name(), bytes_, &response_);
+      Status s;
+      {
+        // One decode at a time: each holds the whole image several times over.
+        std::lock_guard<std::mutex> turn(Uploads().DecodeTurn());
+        s = NormalMaps().Upload(Name(), bytes_, &response_);
+      }
       Done(s);
     }).detach();
   }
 
-  void OnDone() override { delete this; }
+  void OnDone() override {
+    Uploads().End(bytes_.size());
+    delete this;
+  }
 
  private:
   std::string Name() const { return filename_.empty() ? std::string("(unnamed)") : filename_; }
@@ -62,6 +95,7 @@ class UploadReactor : public grpc::ServerReadReactor<grpc::ByteBuffer> {
   }
 
   GlintServiceImpl *service_;
+  grpc::CallbackServerContext *ctx_;
   grpc::ByteBuffer *reply_;
   glint::v1::NormalMapInfo response_;
   uint64_t max_bytes_;
@@ -77,7 +111,12 @@ grpc::ServerReadReactor<grpc::ByteBuffer> *GlintServiceImpl::UploadNormalMap(
     grpc::CallbackServerContext *ctx, grpc::ByteBuffer *reply) {
   if (grpc::Status denied = CheckBearer(options_.auth, *ctx); !denied.ok())
     return new RefusedReadReactor<grpc::ByteBuffer>(denied);
-  return new UploadReactor(this, reply);
+  if (Status busy = Uploads().Begin(); !busy.ok()) {
+    LogLine("UploadNormalMap refused: " + busy.message());
+    AddRetryPushback(ctx, options_.slice_ms);
+    return new RefusedReadReactor<grpc::ByteBuffer>(ToGrpcStatus(busy));
+  }
+  return new UploadReactor(this, ctx, reply);
 }
 
 grpc::ServerUnaryReactor *GlintServiceImpl::ListNormalMaps(grpc::CallbackServerContext *ctx,

@@ -157,6 +157,27 @@ int RunInfo(const Options &options) {
                 Bytes(caps.max_normal_map_upload_bytes()).c_str(),
                 static_cast<unsigned long long>(caps.max_normal_map_texels()),
                 Bytes(caps.normal_map_budget_bytes()).c_str());
+  // Admission and scheduling (glintd --max-request-cost, --max-query-cost, --slice-ms,
+  // --batch-max-queries, --batch-delay-us, --max-shm-regions, --max-shm-mb): what decides
+  // whether a request is refused, how soon a cancel acts, and what a same-host client may map.
+  if (caps.max_request_cost() > 0 || caps.max_query_cost() > 0)
+    std::printf(
+        "cost limits      %g per request, %g per query (smooth-BRDF evaluations; "
+        "beyond: RESOURCE_EXHAUSTED)\n",
+        caps.max_request_cost(), caps.max_query_cost());
+  if (caps.slice_ms() > 0)
+    std::printf("query slices     %g ms (cancellation, deadlines and shutdown act between them)\n",
+                caps.slice_ms());
+  if (caps.batch_max_queries() > 0)
+    std::printf("batching         up to %u queries per launch, delay %u us\n",
+                caps.batch_max_queries(), caps.batch_delay_us());
+  else
+    std::printf("batching         off\n");
+  if (caps.max_shared_memory_regions() > 0)
+    std::printf("shared memory    %u regions, %s per owner\n", caps.max_shared_memory_regions(),
+                Bytes(caps.max_shared_memory_bytes()).c_str());
+  else
+    std::printf("shared memory    off\n");
   return kExitOk;
 }
 

@@ -129,13 +129,12 @@ int Run(const std::map<std::string, std::string> &args) {
     std::fprintf(stderr, "glint: GetCapabilities: %s\n", FormatStatus(s).c_str());
     return kExitFailure;
   }
-  // Queries per call: count * K <= max_batch, and the response (7 floats per sample plus
-  // framing) within half the message limit. Samples depend only on each query's own inputs, so
-  // the split does not change them.
-  const uint64_t by_batch = std::max<uint64_t>(1, caps.max_batch() / k);
-  const uint64_t by_bytes = std::max<uint64_t>(
-      1, uint64_t(options.max_message_bytes) / 2 / (uint64_t(k) * 7 * sizeof(float)));
-  const uint32_t per_call = uint32_t(std::min<uint64_t>({by_batch, by_bytes, queries.count()}));
+  // Queries per call: count * K <= max_batch, and the request and the response within half the
+  // server's and our message limit. Samples depend only on each query's own inputs, so the split
+  // does not change them.
+  const uint32_t per_call =
+      SampleQueriesPerCall(caps, options.max_message_bytes, k, BytesPerQuery(queries),
+                           base.ByteSizeLong(), queries.count());
 
   auto stub = glint::v1::GlintService::NewStub(channel);
   std::FILE *out = std::fopen(out_path.c_str(), "w");

@@ -172,6 +172,26 @@ size_t BytesPerQuery(const QueryBatch &batch) {
   return bytes;
 }
 
+uint32_t SampleQueriesPerCall(const glint::v1::Capabilities &caps, int client_max_message_bytes,
+                              uint32_t samples_per_query, size_t query_bytes, size_t settings_bytes,
+                              uint32_t count) {
+  const uint64_t k = std::max<uint32_t>(1, samples_per_query);
+  uint64_t limit = caps.max_message_bytes() ? caps.max_message_bytes() : kGrpcDefaultMessageBytes;
+  limit = std::min<uint64_t>(limit, uint64_t(std::max(client_max_message_bytes, 0)));
+  // Half the limit, as Evaluate's messages (framing estimates never matter), less the fields
+  // that do not grow with the queries.
+  const uint64_t budget = limit / 2;
+  const uint64_t overhead = settings_bytes + kEnvelopeBytes;
+  const uint64_t room = budget > overhead ? budget - overhead : 0;
+  // Per query: its arrays in the request, K samples of wi (3), pdf (1), weight (3) in the reply.
+  const uint64_t per_query = std::max<uint64_t>({query_bytes, k * 7 * sizeof(float), 1});
+  const uint64_t by_bytes = std::max<uint64_t>(1, room / per_query);
+  const uint64_t by_batch =
+      std::max<uint64_t>(1, (caps.max_batch() ? caps.max_batch() : UINT32_MAX) / k);
+  return static_cast<uint32_t>(
+      std::max<uint64_t>(1, std::min<uint64_t>({by_batch, by_bytes, uint64_t{count}})));
+}
+
 const char *StatusCodeName(grpc::StatusCode code) {
   switch (code) {
     case grpc::StatusCode::OK:

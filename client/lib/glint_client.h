@@ -178,6 +178,16 @@ glint::v1::QueryBatch SliceQueries(const glint::v1::QueryBatch &batch, uint32_t 
 // `batch`), used to size stream chunks.
 size_t BytesPerQuery(const glint::v1::QueryBatch &batch);
 
+// Queries per Sample call for `count` queries of `query_bytes` each (BytesPerQuery) with
+// `samples_per_query` samples: count x K within the server's max_batch, and both messages within
+// half the smaller of the server's (caps.max_message_bytes) and the client's message limit: the
+// request (`settings_bytes` of material and fields, then the queries) and the response (7 floats
+// per sample). At least 1. (glint sample sized calls by the response and the client's limit
+// alone, so a server with a smaller --max-message-mb, or K = 1 with a world frame, refused them.)
+uint32_t SampleQueriesPerCall(const glint::v1::Capabilities &caps, int client_max_message_bytes,
+                              uint32_t samples_per_query, size_t query_bytes, size_t settings_bytes,
+                              uint32_t count);
+
 // "INVALID_ARGUMENT", "UNAVAILABLE", ... for messages people read.
 const char *StatusCodeName(grpc::StatusCode code);
 

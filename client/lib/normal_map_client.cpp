@@ -3,29 +3,37 @@
 #include <algorithm>
 
 #include "client/lib/glint_client.h"
+#include "client/lib/retry.h"
 
 namespace glint::client {
 
 grpc::Status GlintClient::UploadNormalMap(const std::string &filename, const std::string &bytes,
                                           glint::v1::NormalMapInfo *info) {
   constexpr size_t kChunk = size_t{1} << 20;
-  grpc::ClientContext context;
-  PrepareContext(&context);
-  std::unique_ptr<grpc::ClientWriter<glint::v1::NormalMapChunk>> writer =
-      stub_->UploadNormalMap(&context, info);
-  size_t offset = 0;
-  do {
-    glint::v1::NormalMapChunk chunk;
-    if (offset == 0) chunk.set_filename(filename);
-    const size_t n = std::min(kChunk, bytes.size() - offset);
-    chunk.set_data(bytes.data() + offset, n);
-    offset += n;
-    // A failed write means the server has finished the call (e.g. refused an oversize file):
-    // Finish() below carries its status.
-    if (!writer->Write(chunk)) break;
-  } while (offset < bytes.size());
-  writer->WritesDone();
-  return writer->Finish();
+  // Retried like Evaluate (client/lib/retry.h): glintd refuses an upload with its retry pushback
+  // while other uploads fill its upload gate (server/upload_gate.h), and an upload is
+  // idempotent (the map is stored once by its digest).
+  return CallWithRetries(options_.retry, Clock::time_point::max(), [&](RetryHint *hint) {
+    grpc::ClientContext context;
+    PrepareContext(&context);
+    std::unique_ptr<grpc::ClientWriter<glint::v1::NormalMapChunk>> writer =
+        stub_->UploadNormalMap(&context, info);
+    size_t offset = 0;
+    do {
+      glint::v1::NormalMapChunk chunk;
+      if (offset == 0) chunk.set_filename(filename);
+      const size_t n = std::min(kChunk, bytes.size() - offset);
+      chunk.set_data(bytes.data() + offset, n);
+      offset += n;
+      // A failed write means the server has finished the call (e.g. refused an oversize file):
+      // Finish() below carries its status.
+      if (!writer->Write(chunk)) break;
+    } while (offset < bytes.size());
+    writer->WritesDone();
+    grpc::Status status = writer->Finish();
+    hint->ReadFrom(context);
+    return status;
+  });
 }
 
 grpc::Status GlintClient::ListNormalMaps(glint::v1::ListNormalMapsResponse *maps) {

@@ -421,6 +421,14 @@ TEST_F(CliEndToEnd, InfoReportsServingAndLimits) {
   EXPECT_EQ(r.exit_code, 0) << Describe(r);
   EXPECT_NE(r.out.find("SERVING"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("max batch        256 "), std::string::npos) << r.out;
+  // The admission settings GetCapabilities reports (glintd's defaults on this server); they
+  // were documented as shown by `glint info` but not printed.
+  EXPECT_NE(r.out.find("cost limits      1e+11 per request, 1e+07 per query"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("query slices     50 ms"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("batching         off"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("shared memory    16 regions, 4096 MiB per owner"), std::string::npos)
+      << r.out;
 }
 
 TEST_F(CliEndToEnd, ProbesAgreeAcrossFormatsAndTransports) {

@@ -291,6 +291,76 @@ TEST(SliceQueries, HandlesEveryRepeatedFloatFieldOfQueryBatch) {
   }
 }
 
+// glint sample's calls: count x K within max_batch, and the request (settings + each query's
+// arrays) and the reply (7 floats per sample) within half the smaller of the server's and the
+// client's message limit, checked here against the message sizes protobuf itself computes.
+TEST(SampleQueriesPerCall, BothMessagesFitHalfTheSmallerLimit) {
+  auto sizes = [](uint32_t n, uint32_t k, bool frame) {
+    glint::v1::SampleRequest request;
+    request.mutable_material()->set_model(glint::v1::SMOOTH);
+    request.mutable_material()->set_alpha_x(0.3f);
+    request.mutable_material()->mutable_schlick()->add_f0(0.9f);
+    request.set_samples_per_query(k);
+    QueryBatch *q = request.mutable_queries();
+    q->set_count(n);
+    for (uint32_t i = 0; i < n; ++i) {
+      for (float v : {0.5f, 0.5f}) q->add_uv(v);
+      for (float v : {1e-3f, 0.0f, 0.0f, 1e-3f}) q->add_footprint(v);
+      for (float v : {0.0f, 0.6f, 0.8f}) q->add_wo(v);
+      if (frame) {
+        for (float v : {1.0f, 2.0f, 3.0f}) q->add_position(v);
+        for (float v : {0.0f, 0.0f, 1.0f}) q->add_normal(v);
+        for (float v : {1.0f, 0.0f, 0.0f}) q->add_tangent(v);
+      }
+    }
+    glint::v1::SampleResponse reply;
+    reply.set_count(n);
+    reply.set_samples_per_query(k);
+    for (uint64_t j = 0; j < uint64_t(n) * k; ++j) {
+      for (float v : {0.1f, 0.2f, 0.97f}) reply.add_wi(v);
+      reply.add_pdf(1.5f);
+      for (float v : {0.3f, 0.3f, 0.3f}) reply.add_weight(v);
+    }
+    reply.mutable_stats()->set_device("a device name of some length, as PoCL reports");
+    return std::pair<size_t, size_t>{request.ByteSizeLong(), reply.ByteSizeLong()};
+  };
+  for (uint32_t server_mb : {1u, 64u}) {
+    for (uint32_t k : {1u, 64u}) {
+      for (bool frame : {false, true}) {
+        glint::v1::Capabilities caps;
+        caps.set_max_batch(1u << 20);
+        caps.set_max_message_bytes(uint64_t{server_mb} << 20);
+        glint::v1::SampleRequest settings;
+        settings.mutable_material()->set_model(glint::v1::SMOOTH);
+        settings.mutable_material()->set_alpha_x(0.3f);
+        settings.mutable_material()->mutable_schlick()->add_f0(0.9f);
+        settings.set_samples_per_query(k);
+        const size_t query_bytes = frame ? 72 : 36;
+        const uint32_t count = 4u << 20;
+        const uint32_t n =
+            SampleQueriesPerCall(caps, 64 << 20, k, query_bytes, settings.ByteSizeLong(), count);
+        SCOPED_TRACE("server " + std::to_string(server_mb) + " MiB, K " + std::to_string(k) +
+                     (frame ? ", frame" : ""));
+        EXPECT_LE(uint64_t(n) * k, caps.max_batch());
+        const auto [request, reply] = sizes(n, k, frame);
+        const uint64_t half = caps.max_message_bytes() / 2;
+        EXPECT_LE(request, half);
+        EXPECT_LE(reply, half);
+        // Not needlessly small: one more query per call would pass a bound by at most a few
+        // percent, or the batch limit caps it.
+        const auto [request1, reply1] = sizes(n + n / 16 + 1, k, frame);
+        EXPECT_TRUE(request1 > half || reply1 > half ||
+                    uint64_t(n + n / 16 + 1) * k > caps.max_batch());
+      }
+    }
+  }
+  glint::v1::Capabilities none;  // a server that reports no limits: gRPC's 4 MiB default
+  EXPECT_LE(uint64_t(SampleQueriesPerCall(none, 64 << 20, 8, 36, 100, 1u << 30)) * 8 * 28,
+            uint64_t{2} << 20);
+  EXPECT_EQ(SampleQueriesPerCall(none, 64 << 20, 65536, 72, 100, 10), 1u);  // never 0
+  EXPECT_EQ(SampleQueriesPerCall(none, 64 << 20, 1, 36, 100, 3), 3u);
+}
+
 TEST(StatusNames, CodesAreSpelledAsInTheSpec) {
   EXPECT_STREQ(StatusCodeName(grpc::StatusCode::INVALID_ARGUMENT), "INVALID_ARGUMENT");
   EXPECT_STREQ(StatusCodeName(grpc::StatusCode::RESOURCE_EXHAUSTED), "RESOURCE_EXHAUSTED");

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -128,7 +129,7 @@ class KServeService : public ::testing::Test {
   static void SetUpTestSuite() {
     dir_ = new test::TempDir("kserve_service");
     std::string error;
-    server_ = test::Glintd::Start(GLINTD_PATH, *dir_, "glintd",
+    server_ = test::Glintd::Start(test::GlintdUnderTest(GLINTD_PATH), *dir_, "glintd",
                                   {"--model", "paint=" + Paint(), "--model", "probe=" + Probe(),
                                    "--model", "sparkle=" + Sparkle()},
                                   &error)
@@ -382,12 +383,142 @@ TEST_F(KServeService, HealthMetadataConfigAndStatistics) {
   EXPECT_GT(after.compute_infer().ns(), before.compute_infer().ns());
 }
 
+// ModelInfer is admitted by cost as Evaluate is (server/request_cost.h). The sparkle preset's
+// rect light by REFERENCE with 1024 nodes costs (4 x 256)^2 nodes x 3 fan triangles x the glint
+// factor 8 = 2.5e7 BRDF evaluations per query, over the default --max-query-cost 1e7: Evaluate
+// refuses it, and ModelInfer must refuse it with the same words (before, it ran the query and
+// answered OK, and a large batch of such queries held a worker for hours).
+TEST_F(KServeService, ModelInferIsAdmittedByCostAsEvaluate) {
+  const Queries q = MakeQueries(4, false, false, 13, kSparkleMirror);
+  glint::v1::EvaluateRequest settings = Settings("sparkle=" + Sparkle());
+  settings.set_area_method(glint::v1::REFERENCE);
+  settings.set_area_samples(1024);
+  *settings.mutable_queries() = Batch(q);
+  glint::v1::EvaluateResponse evaluated;
+  grpc::Status evaluate_status;
+  {
+    grpc::ClientContext ctx;
+    evaluate_status = glint_->Evaluate(&ctx, settings, &evaluated);
+  }
+  ASSERT_EQ(evaluate_status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED)
+      << evaluate_status.error_message();
+
+  ModelInferRequest r = InferRequest("sparkle", q, true);
+  (*r.mutable_parameters())["area_method"].set_string_param("REFERENCE");
+  (*r.mutable_parameters())["area_samples"].set_int64_param(1024);
+  ModelInferResponse response;
+  const grpc::Status s = Infer(r, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  EXPECT_EQ(s.error_message(), evaluate_status.error_message());
+  EXPECT_NE(s.error_message().find("--max-query-cost"), std::string::npos) << s.error_message();
+  EXPECT_EQ(response.outputs_size(), 0);
+
+  // Within the limit (REFERENCE 64: 1.6e5 per query) the same queries are answered.
+  (*r.mutable_parameters())["area_samples"].set_int64_param(64);
+  EXPECT_TRUE(Infer(r, &response).ok());
+}
+
+// --max-request-cost counts ModelInfer's rows (wo's shape), as Evaluate counts its queries: the
+// paint preset (three lights: 1 + 3 = 4 units per query) at --max-request-cost 1000 admits 250
+// rows and refuses 251, before any tensor is decoded.
+TEST(KServeAdmission, MaxRequestCostCountsTheRows) {
+  test::TempDir dir("kserve_admission");
+  const std::string paint =
+      kExamples + "/materials/paint_schlick.json," + kExamples + "/lights/studio.json";
+  std::string error;
+  auto server =
+      test::Glintd::Start(test::GlintdUnderTest(GLINTD_PATH), dir, "glintd",
+                          {"--model", "paint=" + paint, "--max-request-cost", "1000"}, &error);
+  ASSERT_NE(server, nullptr) << error;
+  auto kserve = GRPCInferenceService::NewStub(
+      grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials()));
+  for (uint32_t n : {250u, 251u}) {
+    grpc::ClientContext ctx;
+    ModelInferResponse response;
+    const grpc::Status s = kserve->ModelInfer(
+        &ctx, InferRequest("paint", MakeQueries(n, false, false, 3), true), &response);
+    if (n == 250) {
+      EXPECT_TRUE(s.ok()) << s.error_message();
+    } else {
+      EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+      EXPECT_NE(s.error_message().find("(251 queries x 4 per query"), std::string::npos)
+          << s.error_message();
+      EXPECT_NE(s.error_message().find("exceeds --max-request-cost 1e+03"), std::string::npos)
+          << s.error_message();
+    }
+  }
+}
+
+// A ModelInfer whose client has gone (deadline passed) stops at its next query slice, as
+// Evaluate does, instead of running to the end for nobody. With one worker, a small call sent
+// after it runs only once the worker is free, so by then the abandoned call has been recorded:
+// as a failure when it stopped, as a success when it ran to the end (before: its slices never
+// looked at the call). Judged from ModelStatistics, not from timings.
+TEST(KServeAdmission, AnAbandonedModelInferStopsAtTheNextSlice) {
+  test::TempDir dir("kserve_abandoned");
+  const std::string sparkle =
+      kExamples + "/materials/sparkle_binomial.json," + kExamples + "/lights/rect_small.json";
+  const std::string paint =
+      kExamples + "/materials/paint_schlick.json," + kExamples + "/lights/studio.json";
+  std::string error;
+  auto server = test::Glintd::Start(test::GlintdUnderTest(GLINTD_PATH), dir, "glintd",
+                                    {"--model", "sparkle=" + sparkle, "--model", "paint=" + paint,
+                                     "--workers", "1", "--slice-ms", "50"},
+                                    &error);
+  ASSERT_NE(server, nullptr) << error;
+  auto kserve = GRPCInferenceService::NewStub(
+      grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials()));
+  auto reference = [](uint32_t n) {
+    ModelInferRequest r =
+        InferRequest("sparkle", MakeQueries(n, false, false, 17, kSparkleMirror), true);
+    (*r.mutable_parameters())["area_method"].set_string_param("REFERENCE");
+    (*r.mutable_parameters())["area_samples"].set_int64_param(256);
+    return r;
+  };
+  ModelInferResponse response;
+  {  // Compile the REFERENCE variant first: a compile is not sliced.
+    grpc::ClientContext ctx;
+    ASSERT_TRUE(kserve->ModelInfer(&ctx, reference(1), &response).ok());
+  }
+  auto stats = [&](const char *model) {
+    grpc::ClientContext ctx;
+    inference::ModelStatisticsRequest req;
+    req.set_name(model);
+    inference::ModelStatisticsResponse r;
+    EXPECT_TRUE(kserve->ModelStatistics(&ctx, req, &r).ok());
+    return r.model_stats_size() == 1 ? r.model_stats(0).inference_stats()
+                                     : inference::InferStatistics();
+  };
+  const inference::InferStatistics before = stats("sparkle");
+  // 1000 queries x 1.6e5 units: 5-20 s of the worker at any load; the deadline passes
+  // within its first second.
+  {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(800));
+    const grpc::Status s = kserve->ModelInfer(&ctx, reference(1000), &response);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << s.error_message();
+  }
+  {  // Queued behind the abandoned call on the one worker.
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(600));
+    const grpc::Status s = kserve->ModelInfer(
+        &ctx, InferRequest("paint", MakeQueries(8, false, false, 3), true), &response);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+  }
+  const inference::InferStatistics after = stats("sparkle");
+  EXPECT_EQ(after.success().count(), before.success().count())
+      << "the abandoned ModelInfer ran to its end";
+  EXPECT_EQ(after.fail().count(), before.fail().count() + 1);
+  EXPECT_TRUE(server->Alive());
+}
+
 TEST(KServeStartup, ABadPresetStopsGlintdNamingTheFile) {
   test::TempDir dir("kserve_startup");
   const std::string bad = dir.File("bad.json");
   std::ofstream(bad) << R"({"model": "SMOOTH", "ndf": "GGX", "alpha_x": 0.3, "alpha_y": 0.1})";
   std::string error;
-  auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd", {"--model", "bad=" + bad}, &error);
+  auto server = test::Glintd::Start(test::GlintdUnderTest(GLINTD_PATH), dir, "glintd",
+                                    {"--model", "bad=" + bad}, &error);
   EXPECT_EQ(server, nullptr);
   EXPECT_NE(error.find("model 'bad' (" + bad + ")"), std::string::npos) << error;
 }

@@ -181,6 +181,23 @@ TEST(KServeTensors, MalformedTensorsAreRefusedNamingTheInput) {
   }
 }
 
+// The query count admission charges before decoding: wo's rows, only when its data fills them.
+TEST(KServeTensors, QueryCountForAdmissionIsWoRowsItsDataFills) {
+  for (bool raw : {false, true}) {
+    ModelInferRequest r;
+    AddInput(&r, "uv", 5, 2, std::vector<float>(10, 0.5f), raw);
+    AddInput(&r, "wo", 5, 3, std::vector<float>(15, 0.0f), raw);
+    EXPECT_EQ(InferQueryCount(r), 5u);
+    ModelInferRequest lying;  // claims 1e9 rows, carries one
+    AddInput(&lying, "wo", 1000000000, 3, std::vector<float>(3, 0.0f), raw);
+    EXPECT_EQ(InferQueryCount(lying), 0u);
+    ModelInferRequest narrow;
+    AddInput(&narrow, "wo", 5, 2, std::vector<float>(10, 0.0f), raw);
+    EXPECT_EQ(InferQueryCount(narrow), 0u);
+  }
+  EXPECT_EQ(InferQueryCount(ModelInferRequest()), 0u);
+}
+
 TEST(KServeTensors, ParametersOverrideSeedPrecisionAndAreaMethod) {
   ModelInferRequest r;
   glint::v1::EvaluateRequest settings;

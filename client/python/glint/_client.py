@@ -75,6 +75,15 @@ class _Progress:
             self._bar.close()
 
 
+def _unsigned(value: Any, bits: int, what: str) -> int:
+    """``value`` as an integer of a ``uint<bits>`` field, or a ValueError naming the argument
+    (protobuf's own says only "Value out of range")."""
+    v = int(value)
+    if not 0 <= v < (1 << bits):
+        raise ValueError(f"{what}: {v}; expected an integer in [0, 2^{bits})")
+    return v
+
+
 def _radiance(values: Any, n: int) -> np.ndarray:
     return np.fromiter(values, dtype=np.float32, count=3 * n).reshape(n, 3)
 
@@ -216,6 +225,9 @@ class Client:
         ``max_error`` (the relative error allowed per query and light, e.g. 0.05). ``progress``:
         True for a tqdm bar, or a callable(done, total) called as results arrive.
 
+        N = 0 (empty arrays) returns a (0, 3) array without calling the server, so the material
+        and lights of an empty batch are not checked.
+
         Raises :class:`glint.Error` for a failed call (the server's refusals are
         ``INVALID_ARGUMENT`` naming the field and query index), ``ValueError`` / ``TypeError``
         for arguments that cannot form a request.
@@ -227,13 +239,18 @@ class Client:
             material=to_material(material),
             lights=to_lights(lights),
             precision=to_precision(precision),
-            seed=int(seed),
+            seed=_unsigned(seed, 64, "seed"),
             area_method=to_area_method(area_method),
         )
         if samples is not None:
-            settings.area_samples = int(samples)
+            settings.area_samples = _unsigned(samples, 32, "samples")
         if max_error is not None:
             settings.max_relative_error = float(max_error)
+        if queries.count == 0:
+            # Nothing to ask (the server refuses an empty batch): an empty result, as numpy
+            # operations on empty arrays give, so a renderer's empty tile needs no special case.
+            self.last_info = EvaluateInfo(False, 0, 0, "")
+            return np.empty((0, 3), dtype=np.float32)
         bar = _Progress(progress, queries.count)
         try:
             return self._evaluate(settings, queries, bar)
@@ -375,7 +392,8 @@ class Client:
         :meth:`evaluate` (no ``wi``, no lights). Queries are sent in calls of at most
         max_batch / K queries and half the message limit, as ``glint sample`` does; samples
         depend only on (seed, the query, the sample index), so the split does not change them.
-        Models without a sampler (BINOMIAL) are refused with ``INVALID_ARGUMENT``."""
+        Models without a sampler (BINOMIAL) are refused with ``INVALID_ARGUMENT``. N = 0 returns
+        empty arrays without calling the server."""
         k = int(samples)
         if not 1 <= k <= 65536:
             raise ValueError(f"samples: {k}; expected 1 to 65536")
@@ -383,16 +401,20 @@ class Client:
             uv=uv, footprint=footprint, wo=wo, position=position, normal=normal, tangent=tangent
         )
         caps = self._cached_capabilities()
+        settings = dict(material=to_material(material), samples_per_query=k, seed=_unsigned(seed, 64, "seed"),
+                        precision=to_precision(precision))
+        # As SampleQueriesPerCall in the C++ client: the request (settings, then the queries'
+        # arrays) and the reply (7 floats per sample) both within half the smaller message limit.
         message_limit = min(caps.max_message_bytes or _GRPC_DEFAULT_MESSAGE_BYTES, self.max_message_bytes)
+        room = max(0, message_limit // 2 - pb.SampleRequest(**settings).ByteSize() - _ENVELOPE_BYTES)
+        per_query = max(queries.bytes_per_query(), k * 7 * 4, 1)
         by_batch = max(1, (caps.max_batch or 0xFFFFFFFF) // k)
-        by_bytes = max(1, (message_limit // 2) // (k * 7 * 4))
-        per_call = min(by_batch, by_bytes, queries.count)
+        by_bytes = max(1, room // per_query)
+        per_call = max(1, min(by_batch, by_bytes, queries.count))
         n = queries.count
         wi = np.empty((n, k, 3), dtype=np.float32)
         pdf = np.empty((n, k), dtype=np.float32)
         weight = np.empty((n, k, 3), dtype=np.float32)
-        settings = dict(material=to_material(material), samples_per_query=k, seed=int(seed),
-                        precision=to_precision(precision))
         for first in range(0, n, per_call):
             m = min(per_call, n - first)
             request = pb.SampleRequest(queries=queries.batch(first, first + m), **settings)

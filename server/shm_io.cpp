@@ -173,7 +173,9 @@ bool EvaluatesInPlace(const SharedMemoryCall &call, const glint::v1::EvaluateReq
   // The in-place path runs ValidateQueryView only: a model that checks more (validate_queries)
   // gets its batch copied and checked as over TCP.
   const Model *model = FindModel(settings.material().model());
-  if (!model || model->validate_queries) return false;
+  // Nor a model that counts each query's cost (query_costs): it is admitted once its queries
+  // are copied (the handler saw only their count).
+  if (!model || model->validate_queries || model->query_costs) return false;
   for (const glint::v1::Light &light : settings.lights())
     if (light.has_polygon()) return false;
   return true;
@@ -243,13 +245,12 @@ Status GlintServiceImpl::RunShared(int worker, const glint::v1::EvaluateRequest 
   if (s.ok() && !in_place) s = ValidateQueriesForModel(queries, settings, 0);
   if (!s.ok()) return s;
   // A model whose cost depends on each query (Model::query_costs: NORMAL_MAP's footprints) is
-  // admitted again now that its queries are here (the handler saw only their count), as over TCP.
+  // admitted now that its queries are here (the handler saw only their count and left it to
+  // us, AdmitCount), by the same per-query cost as over TCP. Such a model is never in place.
   double per_query_cost = EstimateRequestCost(settings, 1).per_query;
   if (const Model *model = FindModel(settings.material().model());
       !in_place && model && model->query_costs) {
-    glint::v1::EvaluateRequest with = settings;  // a copy of the queries, for such a model only
-    *with.mutable_queries() = queries;
-    const RequestCost cost = EstimateRequestCost(with, queries.count());
+    const RequestCost cost = EstimateQueriesCost(settings, queries);
     if (Status c = CheckRequestCost(cost, queries.count(), options_.cost); !c.ok()) return c;
     per_query_cost = cost.per_query;
   }

@@ -101,10 +101,9 @@ Status ResolveSharedMemoryCall(const ShmRegistry &registry, const std::string &o
     s = Status::InvalidArgument(
         "shared_memory.output_offset: " + std::to_string(io.output_offset()) +
         " is not a multiple of 4 (float alignment)");
-  if (s.ok())
-    s = CheckDisjointWindows(*call->in, io.input_offset(), io.input_byte_size(), *call->out,
-                             io.output_offset(), out_bytes);
   if (!s.ok()) return s;
+  call->windows_overlap = WindowsOverlap(*call->in, io.input_offset(), io.input_byte_size(),
+                                         *call->out, io.output_offset(), out_bytes);
   call->input = call->in->data() + io.input_offset();
   call->output = reinterpret_cast<float *>(call->out->data() + io.output_offset());
   call->count = io.count();
@@ -163,6 +162,8 @@ QueryView SharedQueryView(const SharedMemoryCall &call, const glint::v1::SharedM
 bool EvaluatesInPlace(const SharedMemoryCall &call, const glint::v1::EvaluateRequest &settings,
                       bool on_device) {
   if (!on_device) return false;  // the host path reads QueryBatch arrays
+  // The kernels would read queries that earlier work-items' radiance overwrote: copied first.
+  if (call.windows_overlap) return false;
   if (reinterpret_cast<uintptr_t>(call.input) % alignof(float) != 0) return false;
   // Kernels whose every step is arithmetic on the query's own floats: no table index, loop count
   // or branch into memory derived from query data, so bytes the client changes after validation
@@ -204,7 +205,10 @@ Status Lost(const SharedMemoryCall &call) {
 //    later call on that region; the server and other clients are untouched;
 //  - writing the input blocks mid-call: in place, validation and the kernels may see different
 //    bytes, so its results are undefined (not necessarily finite) for its own queries only;
-//    copied, the kernels see exactly the validated bytes.
+//    copied, the kernels see exactly the validated bytes;
+//  - an output window over its input window: copied (EvaluatesInPlace), the queries are out of
+//    the region before the first radiance is written, so the results are those of the same
+//    queries over TCP (tests/service/shm_test.cpp).
 Status GlintServiceImpl::RunShared(int worker, const glint::v1::EvaluateRequest &settings,
                                    const std::string &owner, glint::v1::EvaluateResponse *response,
                                    std::string *kernel, grpc::CallbackServerContext *ctx) {

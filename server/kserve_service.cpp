@@ -268,6 +268,11 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
                                        " queries per ModelInfer call (glintd --max-batch); split "
                                        "the request");
         }
+        // Cost admission as Evaluate's, by the same per-query cost (server/request_cost.h
+        // EstimateQueriesCost), once the tensors are decoded: a preset's polygon lights under
+        // area_method REFERENCE and area_samples 1024, or a NORMAL_MAP preset's big footprints,
+        // are refused as over glint.v1 instead of running unbounded.
+        if (st.ok()) st = glint_->Admit(*settings, queries);
         const auto decoded = Clock::now();
         t.input_ns = NsBetween(started, decoded);
         glint::v1::EvaluateResponse evaluated;

@@ -132,6 +132,32 @@ class RenderCli : public ::testing::Test {
   TempDir dir_;
 };
 
+// A batch whose server is unreachable stops at its first material instead of trying every
+// other one: the summary names that material's failure (UNAVAILABLE) and every later one as not
+// attempted, and the exit code is 1.
+TEST_F(RenderCli, ABatchStopsAtAFailureThatIsNotTheMaterials) {
+  WriteFile(dir_.File("l.json"), R"({"lights": [{"point": {"position": [0, -2, 2],
+                                     "intensity": [1, 1, 1]}}]})");
+  for (const char *stem : {"a", "b", "c"})
+    WriteFile(dir_.File(std::string(stem) + ".json"),
+              R"({"model": "SMOOTH", "ndf": "GGX", "alpha_x": 0.3, "alpha_y": 0.3,
+                  "schlick": {"f0": [0.9, 0.9, 0.9]}})");
+  const RunResult r = RunGlint(
+      dir_, {kGlint, "preview", "--server", "127.0.0.1:1", "--material", dir_.File("a.json"),
+             "--material", dir_.File("b.json"), "--material", dir_.File("c.json"), "--lights",
+             dir_.File("l.json"), "--out", dir_.File("p.exr"), "--size", "16x12"});
+  EXPECT_EQ(r.exit_code, 1) << Describe(r);
+  EXPECT_NE(r.err.find("3 of 3 materials not rendered:"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("  a (" + dir_.File("a.json") + "): failed: UNAVAILABLE"), std::string::npos)
+      << r.err;
+  for (const char *stem : {"b", "c"})
+    EXPECT_NE(r.err.find(std::string("  ") + stem + " (" + dir_.File(std::string(stem) + ".json") +
+                         "): not attempted: the batch stopped at a"),
+              std::string::npos)
+        << r.err;
+  EXPECT_FALSE(fs::exists(dir_.File("p_a.exr")));
+}
+
 TEST_F(RenderCli, MalformedGBuffersAreRefusedNamingTheFileAndLayer) {
   const Analytic a = BuildAnalytic(PreviewShape::kSphere, 16, 12);
   std::vector<float> alpha(a.covered.begin(), a.covered.end());

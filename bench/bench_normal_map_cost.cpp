@@ -98,7 +98,7 @@ int main(int argc, char **argv) {
       if (!row.polygon)
         for (float v : {0.0f, 0.0f, 1.0f}) q->add_wi(v);
     }
-    const double units = glint::EstimateRequestCost(r, 1).per_query;
+    const double units = glint::EstimateQueriesCost(r, r.queries()).per_query;
     glint::EvalPlan plan = glint::MakeEvalPlan(r, r.queries());
     if (glint::Status st = glint::ResolveRequestTable(r.material(), &plan); !st.ok()) {
       std::fprintf(stderr, "%s\n", st.message().c_str());

@@ -7,6 +7,8 @@
 #include <array>
 #include <cstring>
 
+#include "server/request_cost.h"
+
 namespace glint {
 namespace {
 
@@ -59,6 +61,14 @@ bool Batchable(const glint::v1::EvaluateRequest &request, uint32_t max_queries) 
   for (const auto &[array, per_query] : Arrays(q))
     if (!array->empty() && array->size() != int64_t(q.count()) * per_query) return false;
   return true;
+}
+
+double BatchPerQueryCost(const glint::v1::EvaluateRequest &settings,
+                         const std::vector<BatchPart> &parts) {
+  double cost = 1;
+  for (const BatchPart &p : parts)
+    cost = std::max(cost, EstimateQueriesCost(settings, *p.queries).per_query);
+  return cost;
 }
 
 Status EvaluateBatched(DeviceEngine *engine, int worker, const EvalPlan &plan,

@@ -52,6 +52,13 @@ struct BatchStats {
   int slices = 0;
 };
 
+// The per-query cost (server/request_cost.h) a batch's slices are sized by: that of the dearest
+// query of any part under `settings` (the parts' shared settings), each part counted by
+// EstimateQueriesCost, the cost every member was admitted by. The first part's alone would let
+// a NORMAL_MAP batch whose big footprints sit in a later part run as one long slice.
+double BatchPerQueryCost(const glint::v1::EvaluateRequest &settings,
+                         const std::vector<BatchPart> &parts);
+
 // Evaluates `parts` (all with `plan`'s settings, BatchKey-equal) as one batch on `worker`
 // (engine null: the host path). A part whose stop() fails before the launch is left out with
 // that status. The launch runs in slices (server/sliced_eval.h) and stops early only when

@@ -2,6 +2,7 @@
 // scheduler's batch job that runs them (server/scheduler.h gathers, server/batch_eval.h
 // evaluates and scatters). Each member is validated, answered and logged on its own, as
 // RunBatch would; only the device launch is shared.
+#include <algorithm>
 #include <sstream>
 
 #include "server/batch_eval.h"
@@ -73,7 +74,9 @@ std::vector<Scheduler::Respond> GlintServiceImpl::RunEvaluateBatch(
     if (table.ok()) {
       kernel = plan.spec.Describe();
       SliceOptions slicing;
-      slicing.per_query_cost = EstimateRequestCost(*first, 1).per_query;
+      // The dearest query of any member bounds a slice (each member was admitted by the same
+      // per-query cost in Evaluate's handler).
+      slicing.per_query_cost = BatchPerQueryCost(*first, parts);
       slicing.target_ms = options_.slice_ms;
       slicing.stop = [this] { return StopReason(nullptr); };
       EvaluateBatched(engine_, worker, plan, &parts, slicing, &stats);

@@ -249,11 +249,12 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
   Status s = ApplyInferParameters(*request, settings.get());
   if (s.ok()) s = ValidateSettings(*settings, glint_->options().limits);
   if (s.ok()) s = CheckRequestedOutputs(*request);
-  // Evaluate's admission (GlintServiceImpl::Admit): UNAVAILABLE while shutting down, then
+  // Evaluate's admission (GlintServiceImpl::AdmitCount; a NORMAL_MAP preset is admitted once its
+  // queries are decoded): UNAVAILABLE while shutting down, then
   // --max-query-cost and --max-request-cost for wo's row count, before the job is queued. (It
   // was missing: a REFERENCE 1024 request over a polygon preset, refused by Evaluate, held a
   // worker for its whole run.)
-  if (s.ok()) s = glint_->Admit(*settings, InferQueryCount(*request));
+  if (s.ok()) s = glint_->AdmitCount(*settings, InferQueryCount(*request));
   if (!s.ok()) return refuse(s);
 
   // The reply counts in --max-undelivered-mb until it has left; a cancelled call leaves the
@@ -275,18 +276,11 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
                                        " queries per ModelInfer call (glintd --max-batch); split "
                                        "the request");
         }
-        // A model whose cost depends on each query (Model::query_costs: NORMAL_MAP's
-        // footprints) is admitted again now that the queries are decoded, as Evaluate admits
-        // it with its queries (the handler saw only their count).
-        if (st.ok()) {
-          const Model *m = FindModel(settings->material().model());
-          if (m && m->query_costs) {
-            glint::v1::EvaluateRequest with = *settings;  // a copy, for such a model only
-            *with.mutable_queries() = queries;
-            st = CheckRequestCost(EstimateRequestCost(with, queries.count()), queries.count(),
-                                  glint_->options().cost);
-          }
-        }
+        // Cost admission as Evaluate's, by the same per-query cost (server/request_cost.h
+        // EstimateQueriesCost), once the tensors are decoded: a preset's polygon lights under
+        // area_method REFERENCE and area_samples 1024, or a NORMAL_MAP preset's big footprints,
+        // are refused as over glint.v1 instead of running unbounded.
+        if (st.ok()) st = glint_->Admit(*settings, queries);
         const auto decoded = Clock::now();
         t.input_ns = NsBetween(started, decoded);
         glint::v1::EvaluateResponse evaluated;

@@ -100,11 +100,18 @@ struct Model {
   // smooth integral times min(cost_factor, 8), server/request_cost.cpp).
   double (*polygon_cost)(const glint::v1::Material &m) = nullptr;
   // Admission cost when it depends on each query (NORMAL_MAP: the footprint's cut-off box):
-  // the largest and the summed cost in units of the queries `q` with all of `settings`' lights,
-  // and what it counts (for the refusal). Replaces the estimate from cost_factor and
-  // polygon_cost; false (or nullptr): use those.
+  // the largest and the summed cost in units of the queries `q` with all of `settings`' lights
+  // (settings.queries() is not read), and what it counts (for the refusal, naming the dearest
+  // query as `first_query` + its index in q). Replaces the estimate from cost_factor and
+  // polygon_cost wherever the server holds the queries (EstimateQueriesCost,
+  // server/request_cost.h); false (or nullptr): use those.
   bool (*query_costs)(const glint::v1::EvaluateRequest &settings, const glint::v1::QueryBatch &q,
-                      double *max_units, double *sum_units, std::string *parts) = nullptr;
+                      uint64_t first_query, double *max_units, double *sum_units,
+                      std::string *parts) = nullptr;
+  // How the model integrates polygon lights when it does not use settings.area_method (NORMAL_MAP:
+  // its own MIS of light and P-NDF samples), in the words the cost and its refusal print after
+  // "polygon lights (up to N vertices) by "; nullptr: the area method's name.
+  std::string (*polygon_method)(const glint::v1::EvaluateRequest &settings) = nullptr;
 };
 
 }  // namespace glint

@@ -106,24 +106,37 @@ RequestCost EstimateRequestCost(const glint::v1::EvaluateRequest &settings, uint
   if (polygons) {
     if (!parts.empty()) parts += " + ";
     parts += std::to_string(polygons) + " polygon lights (up to " + std::to_string(max_vertices) +
-             " vertices) by " + glint::v1::AreaMethod_Name(method);
-    if (method == glint::v1::REFERENCE) parts += " " + std::to_string(samples) + " nodes";
-    if (method == glint::v1::MONTE_CARLO) parts += " " + std::to_string(samples) + " samples";
+             " vertices) by ";
+    if (model && model->polygon_method) {
+      // The model's own integrator: naming area_method would tell the client to change a
+      // field the model ignores.
+      parts += model->polygon_method(settings);
+    } else {
+      parts += glint::v1::AreaMethod_Name(method);
+      if (method == glint::v1::REFERENCE) parts += " " + std::to_string(samples) + " nodes";
+      if (method == glint::v1::MONTE_CARLO) parts += " " + std::to_string(samples) + " samples";
+    }
   }
-  const std::string lights_part = parts;
+  c.lights_part = parts;
   if (factor != 1.0) parts += " x " + std::string(model->name) + " factor " + Format(factor);
   c.parts = parts;
-  // A model whose work depends on each query counts it from the queries, when the request
-  // carries them (unary Evaluate; not shared-memory queries or stream chunks): the most
-  // expensive query bounds the slice, the mean scales to query_count.
+  return c;
+}
+
+RequestCost EstimateQueriesCost(const glint::v1::EvaluateRequest &settings,
+                                const glint::v1::QueryBatch &queries, uint64_t first_query) {
+  RequestCost c = EstimateRequestCost(settings, queries.count());
+  // A model whose work depends on each query counts it from the queries: the most expensive
+  // query bounds the slice, the sum is the request's.
+  const Model *model = FindModel(settings.material().model());
   double max_units = 0, sum_units = 0;
   std::string counted;
-  const glint::v1::QueryBatch &q = settings.queries();
-  if (model && model->query_costs && q.count() > 0 &&
-      model->query_costs(settings, q, &max_units, &sum_units, &counted)) {
+  if (model && model->query_costs && queries.count() > 0 &&
+      model->query_costs(settings, queries, first_query, &max_units, &sum_units, &counted)) {
     c.per_query = max_units;
-    c.total = sum_units / double(q.count()) * double(query_count);
-    c.parts = lights_part + " x " + model->name + ": " + counted;
+    c.total = sum_units;
+    c.counted_per_query = true;
+    c.parts = c.lights_part + " x " + model->name + ": " + counted;
     c.query_remedy =
         "use smaller footprints, fewer lights, polygon lights or area_samples, or cheaper "
         "material settings (the work per query grows with its footprint)";
@@ -151,6 +164,25 @@ RequestCost EstimateSampleCost(const glint::v1::EvaluateRequest &settings,
             " per sample (one evaluation: " + one.parts + ")";
   c.query_remedy = "use fewer samples_per_query (a query's samples run in one slice)";
   c.request_remedy = "split the queries over several calls, or use fewer samples_per_query";
+  return c;
+}
+
+RequestCost EstimateSampleCost(const glint::v1::EvaluateRequest &settings,
+                               uint32_t samples_per_query, const glint::v1::QueryBatch &queries) {
+  RequestCost c = EstimateSampleCost(settings, samples_per_query, queries.count());
+  const Model *model = FindModel(settings.material().model());
+  if (!model || !model->query_costs) return c;
+  glint::v1::EvaluateRequest probe;  // a sample costs one probe of its query (see above)
+  *probe.mutable_material() = settings.material();
+  const RequestCost probes = EstimateQueriesCost(probe, queries);
+  if (!probes.counted_per_query) return c;  // the model could not count these queries
+  c.per_query = probes.per_query * double(samples_per_query);
+  c.total = probes.total * double(samples_per_query);
+  c.parts = std::to_string(samples_per_query) + " samples_per_query x up to " +
+            Format(probes.per_query) + " per sample (one evaluation: " + probes.parts + ")";
+  c.query_remedy =
+      "use fewer samples_per_query or smaller footprints (a query's samples run in one slice, "
+      "and the work per sample grows with its footprint)";
   return c;
 }
 

@@ -27,6 +27,11 @@ struct RequestCost {
   std::string parts;     // e.g. "3 polygon lights (REFERENCE 1024 nodes) x BINOMIAL factor 3"
   // What the refusal advises (empty: Evaluate's advice on lights, area_samples, area_method).
   std::string query_remedy, request_remedy;
+  // The lights and how they are integrated, without the model's part (e.g. "1 polygon lights (up
+  // to 4 vertices) by LTC").
+  std::string lights_part;
+  // Whether the model counted each query (Model::query_costs), not its material-only estimate.
+  bool counted_per_query = false;
 };
 
 struct CostLimits {
@@ -44,8 +49,23 @@ struct CostLimits {
 };
 
 // The cost of evaluating `query_count` queries with `settings` (a request that passed
-// ValidateSettings: known model, at most max_lights lights, area_samples <= 1024).
+// ValidateSettings: known model, at most max_lights lights, area_samples <= 1024) from the
+// settings alone: the model's material-only estimate (Model::cost_factor, polygon_cost).
+// settings.queries() is not read. For a model whose cost depends on each query
+// (Model::query_costs) this is only a guess; glintd admits and slices every request it holds
+// the queries of with EstimateQueriesCost instead.
 RequestCost EstimateRequestCost(const glint::v1::EvaluateRequest &settings, uint64_t query_count);
+
+// THE per-query cost of evaluating `queries` with `settings` (its material, lights, area
+// method; settings.queries() is not read, so a stream's settings serve every chunk). Every path
+// that holds the queries admits and slices by it: unary Evaluate, each stream chunk, each
+// member of a dynamic batch, shared-memory queries once copied out of the region, and (through
+// EstimateSampleCost) the Sample RPC. A model with Model::query_costs (NORMAL_MAP: the
+// footprint's cut-off box) counts each query: per_query is the dearest query's (it bounds a
+// slice), total the sum; the refusal names the dearest query as `first_query` + its index (its
+// place in the stream). Other models: EstimateRequestCost(settings, queries.count()).
+RequestCost EstimateQueriesCost(const glint::v1::EvaluateRequest &settings,
+                                const glint::v1::QueryBatch &queries, uint64_t first_query = 0);
 
 // The cost of a Sample request (server/sample.h) of `query_count` queries with
 // `samples_per_query` samples each; `settings` holds its material (a request that passed
@@ -57,6 +77,11 @@ RequestCost EstimateRequestCost(const glint::v1::EvaluateRequest &settings, uint
 // sampler's pdf runs the paper's).
 RequestCost EstimateSampleCost(const glint::v1::EvaluateRequest &settings,
                                uint32_t samples_per_query, uint64_t query_count);
+// The same for the Sample request's own `queries`: one sample of query i costs what a BRDF probe
+// of query i does (EstimateQueriesCost of the material alone), so NORMAL_MAP is charged by each
+// query's footprint; per_query is the dearest query's K samples.
+RequestCost EstimateSampleCost(const glint::v1::EvaluateRequest &settings,
+                               uint32_t samples_per_query, const glint::v1::QueryBatch &queries);
 
 // OK, or RESOURCE_EXHAUSTED: "request cost 9.4e+17 (1048576 queries x 9.0e+11 per query: ...)
 // exceeds --max-request-cost 1e+11; ...".

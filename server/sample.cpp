@@ -89,7 +89,7 @@ Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleReques
     s = run(q, raw.data());
   } else {
     SliceOptions options = *slicing;
-    options.per_query_cost = EstimateSampleCost(settings, k, 1).per_query;
+    options.per_query_cost = EstimateSampleCost(settings, k, q).per_query;
     glint::v1::QueryBatch part;
     s = RunInSlices(q.count(), engine != nullptr, options, [&](uint32_t begin, uint32_t size) {
       if (begin == 0 && size == q.count()) return run(q, raw.data());

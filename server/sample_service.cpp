@@ -32,7 +32,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Sample(grpc::CallbackServerContext *
     return reactor;
   }
   if (shutting_down_) {
-    reactor->Finish(ToGrpcStatus(Admit({}, 0)));
+    reactor->Finish(ToGrpcStatus(AdmitCount({}, 0)));
     return reactor;
   }
   if (Status full = undelivered_.Admit(); !full.ok()) {
@@ -42,14 +42,16 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Sample(grpc::CallbackServerContext *
     reactor->Finish(ToGrpcStatus(full));
     return reactor;
   }
-  // Cost admission as Evaluate's (server/request_cost.h): the settings are checked here, on
-  // gRPC's thread, the queries on the worker.
+  // Cost admission as Evaluate's (server/request_cost.h): the settings and the cost of each
+  // query (a NORMAL_MAP query's by its footprint) are checked here, on gRPC's thread, the
+  // queries' values on the worker.
   glint::v1::EvaluateRequest settings;
   const uint32_t count = request->queries().count();
   Status admitted = ValidateSampleSettings(*request, options_.limits, &settings);
   if (admitted.ok())
-    admitted = CheckRequestCost(EstimateSampleCost(settings, request->samples_per_query(), count),
-                                count, options_.cost);
+    admitted = CheckRequestCost(
+        EstimateSampleCost(settings, request->samples_per_query(), request->queries()), count,
+        options_.cost);
   if (!admitted.ok()) {
     LogLine("Sample n=" + std::to_string(count) + " refused: " + admitted.message());
     reactor->Finish(ToGrpcStatus(admitted));

@@ -147,11 +147,20 @@ void GlintServiceImpl::LogLine(const std::string &line) {
 }
 
 Status GlintServiceImpl::Admit(const glint::v1::EvaluateRequest &settings,
-                               uint64_t query_count) const {
+                               const glint::v1::QueryBatch &queries, uint64_t first_query) const {
+  if (Status s = AdmitCount({}, 0); !s.ok()) return s;
+  return CheckRequestCost(EstimateQueriesCost(settings, queries, first_query), queries.count(),
+                          options_.cost);
+}
+
+Status GlintServiceImpl::AdmitCount(const glint::v1::EvaluateRequest &settings,
+                                    uint64_t query_count) const {
   if (shutting_down_)
     return Status::Unavailable(
         "server shutting down: no new work accepted; send to another "
         "replica");
+  const Model *model = FindModel(settings.material().model());
+  if (model && model->query_costs) return Status::Ok();  // RunShared admits it with its queries
   return CheckRequestCost(EstimateRequestCost(settings, query_count), query_count, options_.cost);
 }
 
@@ -192,7 +201,7 @@ Status GlintServiceImpl::RunBatchInto(int worker, const glint::v1::EvaluateReque
   if (kernel) *kernel = plan.spec.Describe();
   const auto start = Clock::now();
   SliceOptions slicing;
-  slicing.per_query_cost = EstimateRequestCost(settings, 1).per_query;
+  slicing.per_query_cost = EstimateQueriesCost(settings, queries, first_query).per_query;
   slicing.target_ms = options_.slice_ms;
   slicing.stop = [this, ctx] { return StopReason(ctx); };
   s = EvaluateSliced(engine_, worker, plan, queries, out, slicing);
@@ -232,7 +241,8 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
   const bool shared = request->has_shared_memory();
   if (s.ok() && shared) s = CheckSharedMemoryRequest(*request);
   if (s.ok())
-    s = Admit(*request, shared ? request->shared_memory().count() : request->queries().count());
+    s = shared ? AdmitCount(*request, request->shared_memory().count())
+               : Admit(*request, request->queries());
   if (!s.ok()) {
     LogLine("Evaluate n=" + std::to_string(request->queries().count()) +
             " refused: " + s.message());
@@ -325,7 +335,7 @@ class GlintServiceImpl::StreamReactor
     {
       std::lock_guard<std::mutex> lock(mu_);
       if (service_->shutting_down_) {
-        failure_ = ToGrpcStatus(service_->Admit({}, 0));
+        failure_ = ToGrpcStatus(service_->AdmitCount({}, 0));
       } else if (!room) {
         Status busy = OverloadStatus(service_->scheduler());
         AddRetryPushback(ctx_, service_->options().slice_ms);
@@ -436,8 +446,12 @@ class GlintServiceImpl::StreamReactor
       return ChunkStatus(read_index_,
                          Status::InvalidArgument("request.shared_memory: only unary Evaluate reads "
                                                  "shared memory; a region needs no stream"));
-    const uint32_t count = c.message.request().queries().count();
-    if (Status s = service_->Admit(*settings_, count); !s.ok()) return ChunkStatus(read_index_, s);
+    // Admitted by the cost of its own queries under the settings in force (a NORMAL_MAP chunk by
+    // each query's footprint, named by its place in the stream), as a unary call would be.
+    const glint::v1::QueryBatch &queries = c.message.request().queries();
+    const uint32_t count = queries.count();
+    if (Status s = service_->Admit(*settings_, queries, read_query_); !s.ok())
+      return ChunkStatus(read_index_, s);
     c.settings = settings_;
     c.index = read_index_++;
     c.first_query = read_query_;

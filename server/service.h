@@ -124,8 +124,15 @@ class GlintServiceImpl final : public GlintRawService {
                       float *out, glint::v1::EvaluateStats *stats, std::string *kernel = nullptr,
                       grpc::CallbackServerContext *ctx = nullptr);
 
-  // Admission before a job is queued: UNAVAILABLE while shutting down, then the cost limits.
-  Status Admit(const glint::v1::EvaluateRequest &settings, uint64_t query_count) const;
+  // Admission before a job is queued: UNAVAILABLE while shutting down, then the cost limits on
+  // the cost of `queries` under `settings` (EstimateQueriesCost, server/request_cost.h: the one
+  // per-query cost of every path; `first_query` = the batch's place in a stream).
+  Status Admit(const glint::v1::EvaluateRequest &settings, const glint::v1::QueryBatch &queries,
+               uint64_t first_query = 0) const;
+  // The same when only the query count is known (a shared-memory call before its region is
+  // read): the settings' estimate (EstimateRequestCost). A model that counts each query
+  // (Model::query_costs) is admitted by RunShared once it has copied them, not here.
+  Status AdmitCount(const glint::v1::EvaluateRequest &settings, uint64_t query_count) const;
   // Why work for `ctx` must stop now (OK: go on).
   Status StopReason(grpc::CallbackServerContext *ctx) const;
   // The scheduler's Dead check (server/scheduler.h) of a job answering `ctx`: once StopReason

@@ -101,10 +101,9 @@ Status ResolveSharedMemoryCall(const ShmRegistry &registry, const std::string &o
     s = Status::InvalidArgument(
         "shared_memory.output_offset: " + std::to_string(io.output_offset()) +
         " is not a multiple of 4 (float alignment)");
-  if (s.ok())
-    s = CheckDisjointWindows(*call->in, io.input_offset(), io.input_byte_size(), *call->out,
-                             io.output_offset(), out_bytes);
   if (!s.ok()) return s;
+  call->windows_overlap = WindowsOverlap(*call->in, io.input_offset(), io.input_byte_size(),
+                                         *call->out, io.output_offset(), out_bytes);
   call->input = call->in->data() + io.input_offset();
   call->output = reinterpret_cast<float *>(call->out->data() + io.output_offset());
   call->count = io.count();
@@ -163,6 +162,8 @@ QueryView SharedQueryView(const SharedMemoryCall &call, const glint::v1::SharedM
 bool EvaluatesInPlace(const SharedMemoryCall &call, const glint::v1::EvaluateRequest &settings,
                       bool on_device) {
   if (!on_device) return false;  // the host path reads QueryBatch arrays
+  // The kernels would read queries that earlier work-items' radiance overwrote: copied first.
+  if (call.windows_overlap) return false;
   if (reinterpret_cast<uintptr_t>(call.input) % alignof(float) != 0) return false;
   // Kernels whose every step is arithmetic on the query's own floats: no table index, loop count
   // or branch into memory derived from query data, so bytes the client changes after validation
@@ -173,7 +174,9 @@ bool EvaluatesInPlace(const SharedMemoryCall &call, const glint::v1::EvaluateReq
   // The in-place path runs ValidateQueryView only: a model that checks more (validate_queries)
   // gets its batch copied and checked as over TCP.
   const Model *model = FindModel(settings.material().model());
-  if (!model || model->validate_queries) return false;
+  // Nor a model that counts each query's cost (query_costs): it is admitted once its queries
+  // are copied (the handler saw only their count).
+  if (!model || model->validate_queries || model->query_costs) return false;
   for (const glint::v1::Light &light : settings.lights())
     if (light.has_polygon()) return false;
   return true;
@@ -202,7 +205,10 @@ Status Lost(const SharedMemoryCall &call) {
 //    later call on that region; the server and other clients are untouched;
 //  - writing the input blocks mid-call: in place, validation and the kernels may see different
 //    bytes, so its results are undefined (not necessarily finite) for its own queries only;
-//    copied, the kernels see exactly the validated bytes.
+//    copied, the kernels see exactly the validated bytes;
+//  - an output window over its input window: copied (EvaluatesInPlace), the queries are out of
+//    the region before the first radiance is written, so the results are those of the same
+//    queries over TCP (tests/service/shm_test.cpp).
 Status GlintServiceImpl::RunShared(int worker, const glint::v1::EvaluateRequest &settings,
                                    const std::string &owner, glint::v1::EvaluateResponse *response,
                                    std::string *kernel, grpc::CallbackServerContext *ctx) {
@@ -243,13 +249,12 @@ Status GlintServiceImpl::RunShared(int worker, const glint::v1::EvaluateRequest 
   if (s.ok() && !in_place) s = ValidateQueriesForModel(queries, settings, 0);
   if (!s.ok()) return s;
   // A model whose cost depends on each query (Model::query_costs: NORMAL_MAP's footprints) is
-  // admitted again now that its queries are here (the handler saw only their count), as over TCP.
+  // admitted now that its queries are here (the handler saw only their count and left it to
+  // us, AdmitCount), by the same per-query cost as over TCP. Such a model is never in place.
   double per_query_cost = EstimateRequestCost(settings, 1).per_query;
   if (const Model *model = FindModel(settings.material().model());
       !in_place && model && model->query_costs) {
-    glint::v1::EvaluateRequest with = settings;  // a copy of the queries, for such a model only
-    *with.mutable_queries() = queries;
-    const RequestCost cost = EstimateRequestCost(with, queries.count());
+    const RequestCost cost = EstimateQueriesCost(settings, queries);
     if (Status c = CheckRequestCost(cost, queries.count(), options_.cost); !c.ok()) return c;
     per_query_cost = cost.per_query;
   }

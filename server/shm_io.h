@@ -35,6 +35,9 @@ struct SharedMemoryCall {
   const uint8_t *input = nullptr;
   float *output = nullptr;
   uint32_t count = 0;
+  // The output window shares bytes of the object with the input window (WindowsOverlap): the
+  // call is then evaluated on a copy of its queries, never in place.
+  bool windows_overlap = false;
 };
 Status ResolveSharedMemoryCall(const ShmRegistry &registry, const std::string &owner,
                                const glint::v1::SharedMemoryIo &io, SharedMemoryCall *call);
@@ -48,8 +51,11 @@ Status LoadSharedQueries(const SharedMemoryCall &call, const glint::v1::SharedMe
 QueryView SharedQueryView(const SharedMemoryCall &call, const glint::v1::SharedMemoryIo &io);
 
 // Whether RunShared evaluates `call` on those views (no copy): on the device, with a
-// float-aligned input, for kernels that stay safe on any bytes (SMOOTH without polygon lights).
-// Otherwise the queries are copied out of the region first (LoadSharedQueries).
+// float-aligned input that the output window does not overlap, for kernels that stay safe on
+// any bytes (SMOOTH without polygon lights). Otherwise the queries are copied out of the region
+// first (LoadSharedQueries), before any radiance is written, so an output window over the
+// input (e.g. the radiance written over the queries it came from) gives the results of the
+// same queries sent over TCP.
 bool EvaluatesInPlace(const SharedMemoryCall &call, const glint::v1::EvaluateRequest &settings,
                       bool on_device);
 

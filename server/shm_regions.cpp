@@ -85,20 +85,13 @@ Status ShmRegion::CheckRange(uint64_t offset, uint64_t bytes, const std::string 
   return Status::Ok();
 }
 
-Status CheckDisjointWindows(const ShmRegion &in, uint64_t in_offset, uint64_t in_bytes,
-                            const ShmRegion &out, uint64_t out_offset, uint64_t out_bytes) {
-  if (!in.SameObject(out) || in_bytes == 0 || out_bytes == 0) return Status::Ok();
+bool WindowsOverlap(const ShmRegion &in, uint64_t in_offset, uint64_t in_bytes,
+                    const ShmRegion &out, uint64_t out_offset, uint64_t out_bytes) {
+  if (!in.SameObject(out) || in_bytes == 0 || out_bytes == 0) return false;
   // Byte ranges within the object; both windows passed CheckRange, so none of these wrap.
   const uint64_t in_begin = in.info().offset() + in_offset, in_end = in_begin + in_bytes;
   const uint64_t out_begin = out.info().offset() + out_offset, out_end = out_begin + out_bytes;
-  if (out_end <= in_begin || in_end <= out_begin) return Status::Ok();
-  return Status::InvalidArgument(
-      "shared_memory.output_offset: the radiance bytes [" + std::to_string(out_begin) + ", " +
-      std::to_string(out_end) + ") of object " + out.info().key() + " (region \"" +
-      out.info().name() + "\") overlap the query bytes [" + std::to_string(in_begin) + ", " +
-      std::to_string(in_end) + ") (region \"" + in.info().name() +
-      "\"); the kernels read the queries while writing the radiance, so expected disjoint "
-      "input and output windows");
+  return !(out_end <= in_begin || in_end <= out_begin);
 }
 
 Status ShmRegistry::Register(const std::string &owner,

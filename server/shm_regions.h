@@ -93,15 +93,16 @@ class ShmRegistry {
 // other '/', 2-255 characters, no NUL).
 Status ValidateRegionName(const std::string &name, const std::string &field);
 
-// OK unless the input window [in_offset, in_offset + in_bytes) of `in` and the output window
+// Whether the input window [in_offset, in_offset + in_bytes) of `in` and the output window
 // [out_offset, out_offset + out_bytes) of `out` (offsets within the registered windows) share a
-// byte of one object. The kernels read the queries in place while they write the radiance
-// (server/query_view.h), so a query whose input bytes another query's radiance overwrote would
-// be evaluated from those bytes: wrong, and different from run to run with the order of the
-// work-items (found by the session 9 outside-client probe). INVALID_ARGUMENT naming
-// shared_memory.output_offset.
-Status CheckDisjointWindows(const ShmRegion &in, uint64_t in_offset, uint64_t in_bytes,
-                            const ShmRegion &out, uint64_t out_offset, uint64_t out_bytes);
+// byte of one object (regions over the same object at different offsets included: the overlap
+// is a property of the object's bytes). Such a call must not be evaluated in place: the kernels
+// would read the queries while writing the radiance, so a query whose input bytes another
+// query's radiance overwrote would be evaluated from those bytes, wrong and different from run
+// to run (found by the session 9 outside-client probe). RunShared copies its queries out of
+// the region first instead (server/shm_io.h EvaluatesInPlace), which makes the overlap harmless.
+bool WindowsOverlap(const ShmRegion &in, uint64_t in_offset, uint64_t in_bytes,
+                    const ShmRegion &out, uint64_t out_offset, uint64_t out_bytes);
 Status ValidateShmKey(const std::string &key, const std::string &field);
 
 }  // namespace glint

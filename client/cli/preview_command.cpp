@@ -44,7 +44,11 @@ IMG.exr (linear radiance) and IMG.png next to it (tone-mapped sRGB) and prints b
 Batch: with several --material, with --materials DIR (every *.json in DIR, by name) or with
 --contact-sheet, every material is rendered over one connection and one stream (the scene is
 set up once), material STEM.json going to IMG_STEM.exr and IMG_STEM.png; --contact-sheet adds
-a PNG of all previews on a grid, each labelled with its STEM. Prints the throughput.
+a PNG of all rendered previews on a grid, each labelled with its STEM. Prints the throughput.
+A material the server refuses (e.g. BINOMIAL under a light without a cone, a request over the
+cost limits) or a NORMAL_MAP material without --normal-map is skipped and the others are
+rendered; the run ends with a list of the materials not rendered and why, on stderr, and exits
+1 if there are any. A failure of the server or the connection stops the batch there.
 
   --server ADDR       gRPC target, e.g. 127.0.0.1:50051
   --material M.json   glint.v1.Material in proto3 JSON (repeat for a batch)
@@ -230,6 +234,49 @@ class BackgroundWriter {
   std::thread thread_;
 };
 
+// Why a material of a batch was not rendered, for the summary.
+struct NotRendered {
+  size_t material;
+  std::string why;
+};
+
+// Whether `status`, ending a series at one material, is the server's refusal of that material's
+// request (INVALID_ARGUMENT: a field of the material or its lights, e.g. BINOMIAL without a
+// light cone; NOT_FOUND: its normal map; FAILED_PRECONDITION; RESOURCE_EXHAUSTED naming a
+// request cost limit: its work): the batch skips it and goes on. Anything else (the server or
+// the connection failed, the server is full, a deadline passed) would meet the next materials
+// too: the batch stops there.
+bool RefusesTheMaterial(const grpc::Status &status) {
+  switch (status.error_code()) {
+    case grpc::StatusCode::INVALID_ARGUMENT:
+    case grpc::StatusCode::NOT_FOUND:
+    case grpc::StatusCode::FAILED_PRECONDITION:
+    case grpc::StatusCode::OUT_OF_RANGE:
+      return true;
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:  // "server busy" may pass later: not the material
+      return status.error_message().find("request cost") != std::string::npos;
+    default:
+      return false;
+  }
+}
+
+// The server's status without its "chunk N: " prefix (N counts the chunks of one stream, which
+// means nothing to the reader of the summary; the material is named instead).
+std::string WithoutChunkPrefix(const grpc::Status &status) {
+  std::string message = status.error_message();
+  if (message.rfind("chunk ", 0) == 0) {
+    const size_t colon = message.find(": ");
+    if (colon != std::string::npos && message.find_first_not_of("0123456789", 6) == colon)
+      message = message.substr(colon + 2);
+  }
+  return glint::client::FormatStatus(grpc::Status(status.error_code(), message));
+}
+
+// A batch (several --material, --materials DIR or --contact-sheet): every material over one
+// stream; a material the server refuses (or that needs --normal-map) is skipped and the others
+// are still rendered, over a new stream from the next one on (the server ends a stream at its
+// first refusal). The run ends with a summary of what was not rendered and why, and exits 1 if
+// anything was not (a TD rendering 200 previews overnight gets the other 199).
 int RunBatch(const Options &options) {
   const auto start = std::chrono::steady_clock::now();
   const PreviewSetup s = ParseSetup(options);
@@ -244,6 +291,8 @@ int RunBatch(const Options &options) {
   FillSettings(options, &base);
   for (auto &light : glint::client::ReadLightsJson(s.lights_path)) *base.add_lights() = light;
   std::vector<glint::v1::EvaluateRequest> settings;
+  std::vector<NotRendered> not_rendered;
+  std::vector<size_t> pending;  // materials still to render, in order
   for (const std::string &path : material_paths) {
     const std::string stem = fs::path(path).stem().string();
     if (!seen.insert(stem).second) {
@@ -253,10 +302,22 @@ int RunBatch(const Options &options) {
     stems.push_back(stem);
     settings.push_back(base);
     *settings.back().mutable_material() = glint::client::ReadMaterialJson(path);
+    glint::v1::Material *material = settings.back().mutable_material();
     // Only the batch's NORMAL_MAP materials take the map; the others would refuse its field.
-    if (options.Has("normal-map") && settings.back().material().model() == glint::v1::NORMAL_MAP)
-      AttachNormalMap(s.server, ConnectionOptions(options), options.Required("normal-map"),
-                      settings.back().mutable_material());
+    if (material->model() == glint::v1::NORMAL_MAP) {
+      if (options.Has("normal-map")) {
+        AttachNormalMap(s.server, ConnectionOptions(options), options.Required("normal-map"),
+                        material);
+      } else if (material->normal_map().digest().empty()) {
+        // The server would refuse it too ("material.normal_map: unset"); the CLI knows the fix.
+        not_rendered.push_back({stems.size() - 1,
+                                "skipped: a NORMAL_MAP material needs a normal map: pass "
+                                "--normal-map FILE (EXR / PNG), or set normal_map.digest to "
+                                "what 'glint upload' prints"});
+        continue;
+      }
+    }
+    pending.push_back(stems.size() - 1);
   }
   // The outputs are written while the stream runs: a missing directory must fail up front,
   // not after every material has been evaluated.
@@ -273,61 +334,112 @@ int RunBatch(const Options &options) {
   const std::string stem_base = s.out.substr(0, s.out.size() - 4);
 
   glint::client::GlintClient client(s.server, ConnectionOptions(options));
-  const glint::client::ContactSheetLayout layout =
-      glint::client::LayoutContactSheet(static_cast<int>(stems.size()), s.width, s.height);
   std::vector<std::vector<uint8_t>> tiles(stems.size());
+  std::vector<size_t> rendered;  // in order
   std::vector<std::string> written;
   BackgroundWriter writer;
-  auto deliver = [&](size_t k, std::vector<float> &&rgb) {
-    const std::string exr = stem_base + "_" + stems[k] + ".exr";
-    written.push_back(exr);
-    writer.Post([&, k, exr, rgb = std::move(rgb)] {
-      const std::vector<float> image = glint::client::ScatterToImage(scene, rgb);
-      glint::client::WriteExrRgb(exr, s.width, s.height, image, s.half);
-      tiles[k] = glint::client::ToneMapToSrgb8(s.width, s.height, image, s.exposure);
-      glint::client::WritePngRgb8(PngBeside(exr), s.width, s.height, tiles[k]);
-    });
-  };
-
+  const uint64_t per_material = scene.queries.count();
+  const uint64_t all_queries = per_material * pending.size();
+  uint64_t done_before = 0;  // queries of the streams before this one
   ProgressBar bar;
   const auto eval_start = std::chrono::steady_clock::now();
-  glint::client::SeriesInfo info;
-  const grpc::Status status = glint::client::EvaluateSeries(
-      client, settings, scene.queries, deliver,
-      [&](uint64_t done, uint64_t total) { bar.Update(done, total); }, &info);
+  glint::client::SeriesInfo info;  // of the first stream (the chunk size is the same in all)
+  uint64_t chunks = 0;
+  int streams = 0;
+  bool stopped = false;
+  while (!pending.empty() && !stopped) {
+    std::vector<glint::v1::EvaluateRequest> part;
+    for (size_t k : pending) part.push_back(settings[k]);
+    auto deliver = [&](size_t local, std::vector<float> &&rgb) {
+      const size_t k = pending[local];
+      const std::string exr = stem_base + "_" + stems[k] + ".exr";
+      written.push_back(exr);
+      rendered.push_back(k);
+      writer.Post([&, k, exr, rgb = std::move(rgb)] {
+        const std::vector<float> image = glint::client::ScatterToImage(scene, rgb);
+        glint::client::WriteExrRgb(exr, s.width, s.height, image, s.half);
+        tiles[k] = glint::client::ToneMapToSrgb8(s.width, s.height, image, s.exposure);
+        glint::client::WritePngRgb8(PngBeside(exr), s.width, s.height, tiles[k]);
+      });
+    };
+    glint::client::SeriesInfo this_stream;
+    const grpc::Status status = glint::client::EvaluateSeries(
+        client, part, scene.queries, deliver,
+        [&](uint64_t done, uint64_t) { bar.Update(done_before + done, all_queries); },
+        &this_stream);
+    if (streams++ == 0) info = this_stream;
+    chunks += this_stream.chunks;
+    const size_t delivered = std::min(this_stream.delivered, pending.size());
+    if (status.ok() && delivered == pending.size()) break;
+    if (status.ok()) {  // cannot happen (EvaluateSeries checks the chunk count); stop honestly
+      stopped = true;
+      for (size_t i = delivered; i < pending.size(); ++i)
+        not_rendered.push_back({pending[i], "not rendered: the stream ended early"});
+      break;
+    }
+    const size_t failed = pending[delivered];
+    const std::string why = WithoutChunkPrefix(status);
+    if (RefusesTheMaterial(status)) {
+      not_rendered.push_back({failed, "skipped: " + why});
+    } else {
+      stopped = true;
+      ReportRpcError("preview of " + material_paths[failed] + " failed", status, s.server);
+      for (size_t i = delivered; i < pending.size(); ++i)
+        not_rendered.push_back(
+            {pending[i], i == delivered ? "failed: " + why
+                                        : "not attempted: the batch stopped at " + stems[failed]});
+    }
+    done_before += per_material * (delivered + 1);
+    pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(delivered) + 1);
+  }
   const std::chrono::duration<double> eval_seconds = std::chrono::steady_clock::now() - eval_start;
   bar.Finish();
   const std::string write_error = writer.Finish();
-  if (!status.ok()) {
-    ReportRpcError("evaluation failed after " + std::to_string(written.size()) + " of " +
-                       std::to_string(stems.size()) + " materials (at " +
-                       material_paths[std::min(written.size(), stems.size() - 1)] + ")",
-                   status, s.server);
-    return kExitFailure;
-  }
   if (!write_error.empty()) {
     std::fprintf(stderr, "glint: %s\n", write_error.c_str());
     return kExitFailure;
   }
-  if (!sheet.empty()) glint::client::WriteContactSheet(sheet, layout, tiles, stems);
+  // The sheet holds the rendered materials, in order; the summary names the others.
+  if (!sheet.empty() && !rendered.empty()) {
+    std::vector<std::vector<uint8_t>> sheet_tiles;
+    std::vector<std::string> labels;
+    for (size_t k : rendered) {
+      sheet_tiles.push_back(std::move(tiles[k]));
+      labels.push_back(stems[k]);
+    }
+    glint::client::WriteContactSheet(
+        sheet,
+        glint::client::LayoutContactSheet(static_cast<int>(rendered.size()), s.width, s.height),
+        sheet_tiles, labels);
+  }
   const std::chrono::duration<double> total = std::chrono::steady_clock::now() - start;
 
-  const uint64_t queries = uint64_t{scene.queries.count()} * stems.size();
+  const uint64_t queries = per_material * rendered.size();
   const double t = total.count();
+  std::string count = std::to_string(rendered.size());
+  if (rendered.size() != stems.size()) count += " of " + std::to_string(stems.size());
   std::printf(
-      "glint preview: %zu materials, %s %dx%d, %u queries each, one stream of %llu chunks of <= "
+      "glint preview: %s materials, %s %dx%d, %u queries each, %d stream%s of %llu chunks of <= "
       "%u queries\n",
-      stems.size(), s.scene_name.c_str(), s.width, s.height, scene.queries.count(),
-      static_cast<unsigned long long>(info.chunks), info.chunk_queries);
+      count.c_str(), s.scene_name.c_str(), s.width, s.height, scene.queries.count(), streams,
+      streams == 1 ? "" : "s", static_cast<unsigned long long>(chunks), info.chunk_queries);
   std::printf(
       "glint preview: throughput %.2f materials/s, %.0f queries/s (%.3f s in all, %.3f s "
       "evaluating)\n",
-      t > 0 ? static_cast<double>(stems.size()) / t : 0.0,
+      t > 0 ? static_cast<double>(rendered.size()) / t : 0.0,
       t > 0 ? static_cast<double>(queries) / t : 0.0, t, eval_seconds.count());
   for (const std::string &exr : written)
     std::printf("%s\n%s\n", exr.c_str(), PngBeside(exr).c_str());
-  if (!sheet.empty()) std::printf("%s\n", sheet.c_str());
-  return kExitOk;
+  if (!sheet.empty() && !rendered.empty()) std::printf("%s\n", sheet.c_str());
+  if (not_rendered.empty()) return kExitOk;
+  std::sort(not_rendered.begin(), not_rendered.end(),
+            [](const NotRendered &a, const NotRendered &b) { return a.material < b.material; });
+  std::fprintf(stderr, "glint preview: %zu of %zu materials not rendered:\n", not_rendered.size(),
+               stems.size());
+  for (const NotRendered &n : not_rendered)
+    std::fprintf(stderr, "  %s (%s): %s\n", stems[n.material].c_str(),
+                 material_paths[n.material].c_str(), n.why.c_str());
+  return kExitFailure;
 }
 
 }  // namespace

@@ -24,6 +24,7 @@ grpc::Status EvaluateSeries(GlintClient &client,
   if (settings.empty()) return grpc::Status::OK;
   if (count == 0) {
     for (size_t k = 0; k < settings.size(); ++k) on_result(k, {});
+    if (info) info->delivered = settings.size();
     return grpc::Status::OK;
   }
   glint::v1::Capabilities caps;
@@ -111,6 +112,7 @@ grpc::Status EvaluateSeries(GlintClient &client,
     stream_query += n;
     if (progress) progress(stream_query, uint64_t{count} * settings.size());
     if (local + 1 == per_setting) {
+      if (info) info->delivered = static_cast<size_t>(received / per_setting);
       on_result(static_cast<size_t>(received / per_setting - 1), std::move(out));
       out.assign(uint64_t{count} * 3, 0.0f);
     }

@@ -21,6 +21,10 @@ using SeriesResultFn = std::function<void(size_t setting, std::vector<float> &&r
 struct SeriesInfo {
   uint64_t chunks = 0;         // chunks over the whole stream
   uint32_t chunk_queries = 0;  // queries per chunk (the last of each setting may be smaller)
+  // Settings whose results on_result received, also when the series failed: the server answers
+  // every chunk before a refused one, so a refusal of a chunk is a refusal of setting
+  // `delivered` (glint preview skips it and goes on with the next ones).
+  size_t delivered = 0;
 };
 
 // `settings[k]` holds everything of an EvaluateRequest but the queries (its `queries` field is
@@ -28,7 +32,7 @@ struct SeriesInfo {
 // `queries` (the server's determinism contract; chunking does not change results). `progress`
 // counts queries over all settings (total = settings.size() * queries.count()). Stops at the
 // first error: an INVALID_ARGUMENT for setting k arrives after on_result was called for the
-// settings before k.
+// settings before k (info->delivered == k).
 grpc::Status EvaluateSeries(GlintClient &client,
                             const std::vector<glint::v1::EvaluateRequest> &settings,
                             const glint::v1::QueryBatch &queries, const SeriesResultFn &on_result,

@@ -14,6 +14,12 @@
 namespace glint::nm_cost {
 #define GLINT_USE_DOUBLE 1
 #include "models/normal_map/normal_map_pndf.h"
+std::string NormalMapPolygonMethod(const glint::v1::EvaluateRequest &settings) {
+  const std::string n = std::to_string(settings.area_samples() ? settings.area_samples() : 64);
+  return "NORMAL_MAP's own MIS (" + n + " light + " + n +
+         " P-NDF samples, area_samples; area_method does not apply)";
+}
+
 }  // namespace glint::nm_cost
 
 namespace glint {
@@ -64,7 +70,8 @@ double NormalMapFootprintCells(uint32_t W, uint32_t H, float u, float v, const f
 }
 
 bool NormalMapQueryCosts(const glint::v1::EvaluateRequest &settings, const glint::v1::QueryBatch &q,
-                         double *max_units, double *sum_units, std::string *parts) {
+                         uint64_t first_query, double *max_units, double *sum_units,
+                         std::string *parts) {
   const auto &p = settings.material().normal_map();
   const uint32_t n = q.count();
   if (n == 0 || q.footprint_size() != int64_t(n) * 4 || q.uv_size() != int64_t(n) * 2) return false;
@@ -99,10 +106,16 @@ bool NormalMapQueryCosts(const glint::v1::EvaluateRequest &settings, const glint
   *max_units = worst;
   *sum_units = sum;
   *parts = Format(evaluations) + " P-NDF evaluations x up to " + Format(2.0 * worst_cells) +
-           " triangles in query " + std::to_string(worst_query) + "'s footprint cut-off box (" +
-           std::to_string(W) + " x " + std::to_string(H) + " vertex map, cutoff_sigma " +
-           Format(cutoff) + ")";
+           " triangles in query " + std::to_string(first_query + worst_query) +
+           "'s footprint cut-off box (" + std::to_string(W) + " x " + std::to_string(H) +
+           " vertex map, cutoff_sigma " + Format(cutoff) + ")";
   return true;
+}
+
+std::string NormalMapPolygonMethod(const glint::v1::EvaluateRequest &settings) {
+  const std::string n = std::to_string(settings.area_samples() ? settings.area_samples() : 64);
+  return "NORMAL_MAP's own MIS (" + n + " light + " + n +
+         " P-NDF samples, area_samples; area_method does not apply)";
 }
 
 }  // namespace glint

@@ -23,10 +23,17 @@ double NormalMapFootprintCells(uint32_t W, uint32_t H, float u, float v, const f
                                float cutoff);
 
 // Admission cost of the queries `q` under `settings` (a NORMAL_MAP request whose map the store
-// holds), in units of one smooth BRDF evaluation: the largest per query and their sum, and
-// what they count for the refusal message. False when it cannot tell (no footprints, or the
-// map is not held: validation refuses that).
+// holds; settings.queries() is not read), in units of one smooth BRDF evaluation: the largest
+// per query and their sum, and what they count for the refusal message, which names the
+// dearest query as first_query + its index in q (its place in a stream). False when it cannot
+// tell (no footprints, or the map is not held: validation refuses that).
 bool NormalMapQueryCosts(const glint::v1::EvaluateRequest &settings, const glint::v1::QueryBatch &q,
-                         double *max_units, double *sum_units, std::string *parts);
+                         uint64_t first_query, double *max_units, double *sum_units,
+                         std::string *parts);
+
+// How NORMAL_MAP integrates polygon lights, for the cost's wording (Model::polygon_method): its
+// own MIS of light samples and P-NDF samples (normal_map_polygons.h), area_samples of each;
+// area_method does not apply.
+std::string NormalMapPolygonMethod(const glint::v1::EvaluateRequest &settings);
 
 }  // namespace glint

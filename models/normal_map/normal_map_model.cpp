@@ -116,12 +116,12 @@ void NormalMapExample(Material *m, glint::v1::QueryBatch *one_query) {
 
 extern const Model kNormalMapModel;
 // Admission cost (server/request_cost.h) in smooth evaluations per evaluation when the queries
-// are not at hand (the Sample RPC, shared-memory and streamed queries): the triangles that
-// survive pruning cost ~1-2 us each (README "Cost"); at the ~100 texels of a one-texel
-// footprint at cut-off 5 that is ~2000 smooth evaluations, 4x4 subdivision ~7x more, and the
-// cut-off box's area grows as cutoff^2. Big footprints are underestimated here (the slicer
-// corrects from its measured rate after the first slice); with the queries, query_costs
-// (normal_map_cost.h) counts each footprint's box.
+// cannot be counted (EstimateRequestCost without queries; glintd admits every path by
+// query_costs, so in practice only queries without uv or footprint, which validation then
+// refuses): the triangles that survive pruning cost ~1-2 us each (README "Cost"); at the ~100
+// texels of a one-texel footprint at cut-off 5 that is ~2000 smooth evaluations, 4x4
+// subdivision ~7x more, and the cut-off box's area grows as cutoff^2. Big footprints are
+// underestimated here; query_costs (normal_map_cost.h) counts each footprint's box.
 double NormalMapCostFactor(const glint::v1::Material &m) {
   const double cutoff = m.normal_map().cutoff_sigma() > 0 ? m.normal_map().cutoff_sigma() : 5.0;
   const double subdivision = m.normal_map().subdivision() == 4 ? 7.0 : 1.0;
@@ -147,6 +147,7 @@ const Model kNormalMapModel = {
     .request_table = NormalMapRequestTable,
     .cost_factor = NormalMapCostFactor,
     .query_costs = NormalMapQueryCosts,
+    .polygon_method = NormalMapPolygonMethod,
 };
 
 }  // namespace glint

@@ -32,7 +32,7 @@ void Check(const glint::v1::EvaluateRequest &r, bool later_chunk) {
   glint::Status s = glint::ValidateSettings(r, limits);
   if (!s.ok()) return;
   const uint32_t n = r.queries().count();
-  const glint::RequestCost cost = glint::EstimateRequestCost(r, n);
+  const glint::RequestCost cost = glint::EstimateQueriesCost(r, r.queries());
   s = glint::CheckRequestCost(cost, n, glint::CostLimits());
   if (!s.ok()) return;
   s = glint::ValidateQueries(r.queries(), r.lights_size() > 0, limits, later_chunk ? 7 : 0,

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <memory>
 #include <random>
 #include <string>
@@ -521,6 +522,68 @@ TEST(KServeStartup, ABadPresetStopsGlintdNamingTheFile) {
                                     {"--model", "bad=" + bad}, &error);
   EXPECT_EQ(server, nullptr);
   EXPECT_NE(error.find("model 'bad' (" + bad + ")"), std::string::npos) << error;
+}
+
+// ModelInfer is admitted by the same per-query cost as Evaluate (server/request_cost.h
+// EstimateQueriesCost): a preset with four quads under area_method REFERENCE at 1024 nodes
+// (4 x 3 fan triangles x 1024^2 nodes = 1.26e7 BRDF evaluations a query, over the default
+// --max-query-cost 1e7) is refused with RESOURCE_EXHAUSTED and Evaluate's very message; at
+// the default 64 nodes it is served, bit-identical to Evaluate. Before, ModelInfer had no cost
+// admission at all and ran such a request (seconds a query).
+TEST(KServeAdmission, RefusedByTheCostLimitsAsEvaluateIs) {
+  test::TempDir dir("kserve_admission");
+  const std::string lights = dir.File("quads.json");
+  {
+    std::ofstream out(lights);
+    out << R"({"lights": [)";
+    for (int k = 0; k < 4; ++k)
+      out << (k ? "," : "") << R"({"polygon": {"vertices": [)" << -2 + k << ", -1, 2, " << -1 + k
+          << ", -1, 2, " << -1 + k << ", 1, 2, " << -2 + k << R"(, 1, 2], "radiance": [1, 1, 1]}})";
+    out << "]}";
+  }
+  const std::string flag = "quads=" + kExamples + "/materials/paint_schlick.json," + lights;
+  std::string error;
+  auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd", {"--model", flag}, &error);
+  ASSERT_NE(server, nullptr) << error;
+  auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
+  auto kserve = GRPCInferenceService::NewStub(channel);
+  auto glint = glint::v1::GlintService::NewStub(channel);
+  const Queries q = MakeQueries(4, false, false, 5);
+  KServeModel preset;
+  ASSERT_TRUE(LoadModelFlag(flag, &preset).ok());
+  for (const uint32_t nodes : {1024u, 64u}) {
+    SCOPED_TRACE(std::to_string(nodes) + " nodes");
+    glint::v1::EvaluateRequest request = preset.settings;
+    request.set_area_method(glint::v1::REFERENCE);
+    request.set_area_samples(nodes);
+    *request.mutable_queries() = Batch(q);
+    glint::v1::EvaluateResponse evaluated;
+    grpc::ClientContext a;
+    const grpc::Status want = glint->Evaluate(&a, request, &evaluated);
+    ModelInferRequest r = InferRequest("quads", q, true);
+    (*r.mutable_parameters())["area_method"].set_string_param("REFERENCE");
+    (*r.mutable_parameters())["area_samples"].set_int64_param(nodes);
+    ModelInferResponse response;
+    grpc::ClientContext b;
+    const grpc::Status got = kserve->ModelInfer(&b, r, &response);
+    if (nodes == 1024) {
+      EXPECT_EQ(want.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << want.error_message();
+      EXPECT_NE(want.error_message().find("--max-query-cost"), std::string::npos)
+          << want.error_message();
+      EXPECT_EQ(got.error_code(), want.error_code()) << got.error_message();
+      EXPECT_EQ(got.error_message(), want.error_message());
+    } else {
+      ASSERT_TRUE(want.ok()) << want.error_message();
+      ASSERT_TRUE(got.ok()) << got.error_message();
+      const std::vector<float> radiance(evaluated.radiance().begin(), evaluated.radiance().end());
+      ASSERT_EQ(response.raw_output_contents_size(), 1);
+      std::vector<float> inferred(radiance.size());
+      ASSERT_EQ(response.raw_output_contents(0).size(), inferred.size() * sizeof(float));
+      std::memcpy(inferred.data(), response.raw_output_contents(0).data(),
+                  inferred.size() * sizeof(float));
+      EXPECT_EQ(std::memcmp(inferred.data(), radiance.data(), radiance.size() * sizeof(float)), 0);
+    }
+  }
 }
 
 }  // namespace

@@ -12,9 +12,11 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "models/normal_map/normal_map_table.h"
+#include "server/batch_eval.h"
 #include "server/normal_map_store.h"
 #include "server/request_cost.h"
 #include "tests/support/kernels_both_precisions.h"
@@ -152,7 +154,7 @@ TEST(NormalMapCost, TheProbesRequestIsRefusedNamingTheCostAndTheQuery) {
     quad->add_vertices(v);
   for (float v : {1.0f, 1.0f, 1.0f}) quad->add_radiance(v);
   AddQueries(&r, 4, 1.0f);
-  const RequestCost cost = EstimateRequestCost(r, 4);
+  const RequestCost cost = EstimateQueriesCost(r, r.queries());
   // 128 P-NDF evaluations (64 + 64 MIS samples) of every triangle in a 2-period box of the
   // 4 x 16388 vertex grid: explicitly, cells = NormalMapFootprintCells (checked above against
   // the kernel), so the cost is at least 128 x 2 x cells units.
@@ -179,12 +181,14 @@ TEST(NormalMapCost, OrdinaryRequestsAreAdmittedAndTheDearestQueryBoundsTheSlice)
   }
   AddQueries(&r, 1000, 2.0f / 256);
   const uint64_t preview = 512 * 512;
-  EXPECT_TRUE(CheckRequestCost(EstimateRequestCost(r, preview), preview, CostLimits{}).ok());
+  RequestCost scaled = EstimateQueriesCost(r, r.queries());
+  scaled.total *= double(preview) / 1000.0;  // the same queries, 512 x 512 of them
+  EXPECT_TRUE(CheckRequestCost(scaled, preview, CostLimits{}).ok());
   // One query with a 16-texel footprint among them: the per-query cost (the slicer's) is that
   // query's, the total the mean's.
-  const RequestCost before = EstimateRequestCost(r, 1001);
+  const RequestCost before = EstimateQueriesCost(r, r.queries());
   AddQueries(&r, 1, 32.0f / 256);
-  const RequestCost after = EstimateRequestCost(r, 1001);
+  const RequestCost after = EstimateQueriesCost(r, r.queries());
   // The cells grow (16 texels / 1)^2 ~ 214x (box half-widths 80 and 5 texels: 161^2 / 11^2);
   // the cost per query follows them, up to the per-evaluation base, which is at most the
   // triangles' part of a one-texel box (>= 2 x 121 triangles), so at most halves the ratio.
@@ -197,6 +201,82 @@ TEST(NormalMapCost, OrdinaryRequestsAreAdmittedAndTheDearestQueryBoundsTheSlice)
   EXPECT_LT(after.per_query, ratio * before.per_query);
   EXPECT_LT(after.total, 2 * before.total);  // one query of 1001
   EXPECT_NE(after.parts.find("query 1000"), std::string::npos) << after.parts;
+}
+
+// Every path charges one function (EstimateQueriesCost): a stream's settings carry no queries,
+// so the cost must come from the batch passed, not settings.queries(); a chunk's refusal names
+// the query by its place in the stream; the Sample RPC charges K probe evaluations of each
+// query's own footprint (one sample = one P-NDF evaluation, as a probe or one directional
+// light); polygon lights are worded by NORMAL_MAP's own MIS, never by the area_method it
+// ignores.
+TEST(NormalMapCost, EveryPathChargesEachQueryByItsFootprint) {
+  const std::string digest = InsertFlat(64, 64);
+  glint::v1::EvaluateRequest settings = NormalMapRequest(digest, 1, 5.0f);
+  auto *d = settings.add_lights()->mutable_directional();
+  for (float v : {0.0f, 0.6f, 0.8f}) d->add_direction(v);
+  for (float v : {1.0f, 1.0f, 1.0f}) d->add_irradiance(v);
+  glint::v1::EvaluateRequest carrier = settings;  // the same batch inside the request
+  AddQueries(&carrier, 3, 2.0f / 64);
+  AddQueries(&carrier, 1, 0.5f);
+  const glint::v1::QueryBatch &q = carrier.queries();
+
+  const RequestCost unary = EstimateQueriesCost(carrier, q);
+  const RequestCost chunk = EstimateQueriesCost(settings, q, 1000);
+  EXPECT_TRUE(unary.counted_per_query);
+  EXPECT_EQ(chunk.per_query, unary.per_query);
+  EXPECT_EQ(chunk.total, unary.total);
+  EXPECT_NE(unary.parts.find("query 3's footprint"), std::string::npos) << unary.parts;
+  EXPECT_NE(chunk.parts.find("query 1003's footprint"), std::string::npos) << chunk.parts;
+  // The material-only guess differs (it cannot see the half-period footprint).
+  EXPECT_LT(EstimateRequestCost(settings, 4).per_query, unary.per_query);
+
+  // One directional light is one P-NDF evaluation per query, as a probe and as a sample.
+  glint::v1::EvaluateRequest probe;
+  *probe.mutable_material() = settings.material();
+  const RequestCost probes = EstimateQueriesCost(probe, q);
+  EXPECT_EQ(probes.per_query, unary.per_query);
+  EXPECT_EQ(probes.total, unary.total);
+  const RequestCost sample = EstimateSampleCost(settings, 64, q);
+  EXPECT_EQ(sample.per_query, 64 * probes.per_query);
+  EXPECT_EQ(sample.total, 64 * probes.total);
+  EXPECT_NE(sample.parts.find("query 3's footprint"), std::string::npos) << sample.parts;
+
+  // Polygon lights: NORMAL_MAP's MIS with area_samples of each technique, whatever
+  // area_method says.
+  glint::v1::EvaluateRequest lit = NormalMapRequest(digest, 1, 5.0f);
+  auto *quad = lit.add_lights()->mutable_polygon();
+  for (float v : {-1.0f, -1.0f, 1.0f, 1.0f, -1.0f, 1.0f, 1.0f, 1.0f, 1.0f, -1.0f, 1.0f, 1.0f})
+    quad->add_vertices(v);
+  lit.set_area_method(glint::v1::REFERENCE);
+  lit.set_area_samples(16);
+  for (const RequestCost &c : {EstimateRequestCost(lit, 4), EstimateQueriesCost(lit, q)}) {
+    EXPECT_NE(c.parts.find("by NORMAL_MAP's own MIS (16 light + 16 P-NDF samples"),
+              std::string::npos)
+        << c.parts;
+    EXPECT_EQ(c.parts.find("REFERENCE"), std::string::npos) << c.parts;
+  }
+  // 32 P-NDF evaluations per query (16 + 16 MIS samples) against one per directional light.
+  const RequestCost polygon = EstimateQueriesCost(lit, q);
+  EXPECT_NE(polygon.parts.find("32 P-NDF evaluations"), std::string::npos) << polygon.parts;
+  EXPECT_NEAR((polygon.per_query - 1) / (unary.per_query - 1), 32.0, 1e-9);
+}
+
+// A dynamic batch's slices are sized by the dearest query of any member (BatchPerQueryCost),
+// here the half-period footprint in the second part, not by the first part's queries.
+TEST(NormalMapCost, TheDearestMemberSizesABatchsSlices) {
+  glint::v1::EvaluateRequest settings = NormalMapRequest(InsertFlat(64, 64), 1, 5.0f);
+  glint::v1::EvaluateRequest small = settings, big = settings;
+  AddQueries(&small, 4, 2.0f / 64);
+  AddQueries(&big, 2, 2.0f / 64);
+  AddQueries(&big, 1, 0.5f);
+  std::vector<float> out(3 * 7);
+  std::vector<BatchPart> parts = {{&small.queries(), out.data(), {}, Status::Ok()},
+                                  {&big.queries(), out.data() + 12, {}, Status::Ok()}};
+  const double dearest = EstimateQueriesCost(settings, big.queries()).per_query;
+  EXPECT_GT(dearest, 10 * EstimateQueriesCost(settings, small.queries()).per_query);
+  EXPECT_EQ(BatchPerQueryCost(settings, parts), dearest);
+  std::swap(parts[0], parts[1]);
+  EXPECT_EQ(BatchPerQueryCost(settings, parts), dearest);
 }
 
 }  // namespace

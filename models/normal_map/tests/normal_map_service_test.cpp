@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "client/lib/glint_client.h"
+#include "glint/v1/glint.grpc.pb.h"
 #include "glintd_process.h"
 #include "server/normal_map_decode.h"
 
@@ -256,6 +257,140 @@ TEST_F(NormalMapService, WholeMapFootprintUnderAQuadIsRefusedAtAdmission) {
             0);
   const std::string err = ReadFile(dir_.File("cli.err"));
   EXPECT_NE(err.find("--max-query-cost"), std::string::npos) << err;
+}
+
+// The per-query cost on every other path (issue 12 leftovers): the same settings as above (a
+// subdivision-4 map at cut-off 10 under a quad: 128 P-NDF evaluations per query), queries with a
+// footprint of 0.002 (a box of ~6 x 6 cells, ~1e5 units) or 1.0 (two periods, ~1.7e8 units).
+// Before, a stream chunk and the Sample RPC were charged by the material alone (a quad by LTC,
+// 161 units; a sample 56,000) and would have run the big footprint for minutes.
+v1::EvaluateRequest QuadSettings(const std::string &digest) {
+  v1::EvaluateRequest r;
+  auto *m = r.mutable_material();
+  m->set_model(v1::NORMAL_MAP);
+  for (float f : {1.0f, 1.0f, 1.0f}) m->mutable_schlick()->add_f0(f);
+  m->mutable_normal_map()->set_digest(digest);
+  m->mutable_normal_map()->set_subdivision(4);
+  m->mutable_normal_map()->set_cutoff_sigma(10.0f);
+  auto *quad = r.add_lights()->mutable_polygon();
+  for (float v : {-1e6f, -1e6f, 1.0f, 1e6f, -1e6f, 1.0f, 1e6f, 1e6f, 1.0f, -1e6f, 1e6f, 1.0f})
+    quad->add_vertices(v);
+  for (float v : {1.0f, 1.0f, 1.0f}) quad->add_radiance(v);
+  quad->set_two_sided(true);
+  return r;
+}
+
+// `footprints` queries at uv (0.5, 0.5) looking straight down, one per footprint (isotropic).
+void AddQueries(v1::QueryBatch *q, const std::vector<float> &footprints) {
+  for (float f : footprints) {
+    q->set_count(q->count() + 1);
+    for (float v : {0.5f, 0.5f}) q->add_uv(v);
+    for (float v : {f, 0.0f, 0.0f, f}) q->add_footprint(v);
+    for (float v : {0.0f, 0.0f, 1.0f}) q->add_wo(v);
+  }
+}
+
+bool Mentions(const grpc::Status &s, const std::string &text) {
+  return s.error_message().find(text) != std::string::npos;
+}
+
+void ExpectFootprintRefusal(const grpc::Status &s, const std::string &query) {
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  for (const std::string &part :
+       {std::string("--max-query-cost"), query + "'s footprint", std::string("smaller footprints")})
+    EXPECT_TRUE(Mentions(s, part)) << part << ": " << s.error_message();
+}
+
+TEST_F(NormalMapService, BigFootprintIsRefusedOnTheStreamAndBySampleOrdinaryOnesAdmitted) {
+  const std::string file = Generate("bumpy", 32, 3);
+  v1::NormalMapInfo info;
+  ASSERT_TRUE(client_->UploadNormalMap("bumpy.exr", ReadFile(file), &info).ok());
+  client::ClientOptions options;
+  options.max_chunk_queries = 2;  // a stream of 2-query chunks
+  client::GlintClient streamer(server_->address(), options);
+
+  // Stream: chunks 0 and 1 ordinary, chunk 2 holds the big footprint as stream query 5.
+  v1::EvaluateRequest r = QuadSettings(info.digest());
+  AddQueries(r.mutable_queries(), {0.002f, 0.002f, 0.002f, 0.002f, 0.002f, 1.0f});
+  std::vector<float> rgb;
+  client::EvaluateInfo how;
+  grpc::Status s = streamer.Evaluate(r, &rgb, {}, &how);
+  EXPECT_TRUE(how.streamed);
+  ExpectFootprintRefusal(s, "query 5");
+  EXPECT_TRUE(Mentions(s, "chunk 2: ")) << s.error_message();
+  // Worded for the model: NORMAL_MAP integrates polygons by its own MIS, not by area_method.
+  EXPECT_TRUE(Mentions(s, "by NORMAL_MAP's own MIS (64 light + 64 P-NDF samples"))
+      << s.error_message();
+  EXPECT_FALSE(Mentions(s, "LTC")) << s.error_message();
+
+  // The ordinary queries alone: streamed and admitted, bit-identical to one unary call.
+  v1::EvaluateRequest ordinary = QuadSettings(info.digest());
+  AddQueries(ordinary.mutable_queries(), {0.002f, 0.002f, 0.003f, 0.004f, 0.002f});
+  std::vector<float> streamed, unary;
+  s = streamer.Evaluate(ordinary, &streamed, {}, &how);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  EXPECT_TRUE(how.streamed);
+  ASSERT_TRUE(client_->Evaluate(ordinary, &unary).ok());
+  EXPECT_EQ(streamed, unary);
+  double sum = 0;
+  for (float v : unary) sum += v;
+  EXPECT_GT(sum, 0.0);
+
+  // Sample: a sample costs one P-NDF evaluation of its query's footprint, K per query.
+  auto stub = v1::GlintService::NewStub(
+      grpc::CreateChannel(server_->address(), grpc::InsecureChannelCredentials()));
+  auto sample = [&](const std::vector<float> &footprints, v1::SampleResponse *out) {
+    v1::SampleRequest q;
+    *q.mutable_material() = QuadSettings(info.digest()).material();
+    AddQueries(q.mutable_queries(), footprints);
+    q.set_samples_per_query(16);
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::minutes(5));
+    return stub->Sample(&context, q, out);
+  };
+  v1::SampleResponse samples;
+  s = sample({0.002f, 1.0f}, &samples);
+  ExpectFootprintRefusal(s, "query 1");
+  EXPECT_TRUE(Mentions(s, "16 samples_per_query")) << s.error_message();
+  s = sample({0.002f, 0.004f}, &samples);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  EXPECT_EQ(samples.pdf_size(), 2 * 16);
+}
+
+// Dynamic batching on: the big-footprint call is refused by the same per-query cost while the
+// ordinary calls with the same settings (one batch key) are served, bit-identical to alone.
+TEST(NormalMapServiceBatching, BigFootprintIsRefusedOrdinaryCallsServed) {
+  TempDir dir{"glint_nm_batching"};
+  std::string error;
+  auto server = Glintd::Start(GLINTD_PATH, dir, "nm",
+                              {"--device", "host", "--workers", "1", "--batch-max-queries", "4096",
+                               "--batch-delay-us", "200000"},
+                              &error);
+  ASSERT_TRUE(server) << error;
+  client::GlintClient client(server->address());
+  const std::string file = dir.File("bumpy.exr");
+  std::string out;
+  ASSERT_EQ(
+      RunGlint(dir, {"normal-map", "bumpy", "--size", "32", "--seed", "3", "--out", file}, &out),
+      0);
+  v1::NormalMapInfo info;
+  ASSERT_TRUE(client.UploadNormalMap("bumpy.exr", ReadFile(file), &info).ok());
+  std::vector<v1::EvaluateRequest> requests(3, QuadSettings(info.digest()));
+  AddQueries(requests[0].mutable_queries(), {0.002f, 0.003f});
+  AddQueries(requests[1].mutable_queries(), {0.002f, 1.0f});
+  AddQueries(requests[2].mutable_queries(), {0.004f, 0.002f});
+  std::vector<std::vector<float>> together(3), alone(3);
+  std::vector<grpc::Status> status(3);
+  std::vector<std::thread> threads;
+  for (size_t i = 0; i < 3; ++i)
+    threads.emplace_back([&, i] { status[i] = client.Evaluate(requests[i], &together[i]); });
+  for (std::thread &t : threads) t.join();
+  ExpectFootprintRefusal(status[1], "query 1");
+  for (size_t i : {size_t{0}, size_t{2}}) {
+    ASSERT_TRUE(status[i].ok()) << i << ": " << status[i].error_message();
+    ASSERT_TRUE(client.Evaluate(requests[i], &alone[i]).ok());
+    EXPECT_EQ(together[i], alone[i]) << i;
+  }
 }
 
 }  // namespace

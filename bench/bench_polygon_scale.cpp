@@ -73,19 +73,23 @@ double Median(std::vector<double> v) {
 
 struct Row {
   const char *name;
-  int method;   // GLINT_AREA_*, or -1: the loader alone
+  int method;   // GLINT_AREA_* through area_shade_keyed; 0: area_ltc_shade (the LTC lane
+                // pass's whole light loop) directly; -1: the loader alone
   int samples;  // area samples (AUTO: the budget in millionths)
 };
 
 // One variant's pass over the queries: the sum of the red channel (kept, so nothing is
 // optimised away, and compared between the variants; it must be > 0: the light is seen).
-template <class Real3, class Material, class Frame, class Shade, class Load>
+template <class Real3, class Material, class Frame, class Shade, class Ltc, class Load>
 double Pass(const Row &row, const std::vector<Real3> &wo, const Material &m, const Frame &f,
-            const std::vector<float> &rec, Shade shade, Load load) {
+            const std::vector<float> &rec, Shade shade, Ltc ltc, Load load) {
   const float *table = glint::ltc_table::table(glint::ltc_table::Ndf::kGgx);
   double sum = 0;
   for (size_t i = 0; i < wo.size(); ++i) {
-    if (row.method < 0) {
+    if (row.method == 0) {
+      const Real3 origin = {0, 0, 0};
+      sum += double(ltc(m, table, wo[i], 0, f, origin, rec.data(), 1u).x);
+    } else if (row.method < 0) {
       Real3 v[GLINT_POLYGON_MAX_VERTICES];
       load(rec.data(), 4, 0, f, wo[i], v);  // wo as the shading point: a different load per query
       sum += double(v[0].x) + double(v[3].z);
@@ -150,6 +154,7 @@ int main(int argc, char **argv) {
   const off::ShadingFrame f_off = off::frame_identity();
 
   const Row rows[] = {{"load", -1, 0},
+                      {"area_ltc_shade", 0, 0},
                       {"LTC", GLINT_AREA_LTC, 0},
                       {"LECOCQ", GLINT_AREA_LECOCQ, 0},
                       {"LECOCQ_PEARSON", GLINT_AREA_LECOCQ_PEARSON, 0},
@@ -157,10 +162,12 @@ int main(int argc, char **argv) {
                       {"REFERENCE 8", GLINT_AREA_REFERENCE, 8},
                       {"AUTO 5%", GLINT_AREA_AUTO, 50000}};
   auto run_on = [&](const Row &r) {
-    return Pass(r, wo_on, m_on, f_on, rec, on::area_shade_keyed, on::area_polygon_load_n);
+    return Pass(r, wo_on, m_on, f_on, rec, on::area_shade_keyed, on::area_ltc_shade,
+                on::area_polygon_load_n);
   };
   auto run_off = [&](const Row &r) {
-    return Pass(r, wo_off, m_off, f_off, rec, off::area_shade_keyed, off::area_polygon_load_n);
+    return Pass(r, wo_off, m_off, f_off, rec, off::area_shade_keyed, off::area_ltc_shade,
+                off::area_polygon_load_n);
   };
   if (!only.empty()) {
     double s = 0;

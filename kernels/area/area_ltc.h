@@ -30,6 +30,10 @@
  * area_polygon_load_n is the loader the methods use. */
 GLINT_FN void area_polygon_load_raw(const GLINT_GLOBAL float *rec, int n, int has_frame,
                                     ShadingFrame frame, real3 p, GLINT_PRIVATE real3 *v) {
+  /* Overwritten by the loop (n >= 3, validated); set first so that GCC, which
+   * cannot see n >= 1 where n is not a constant, does not warn that the rare
+   * path (area_polygon_load_far) reads unset vertices. */
+  v[0] = p;
   GLINT_UNROLL for (int i = 0; i < n; ++i) {
     const GLINT_GLOBAL float *q = rec + GLINT_POLYGON_VERTEX_OFFSET + 3 * i;
     real3 w = r3_sub(make_real3((real)q[0], (real)q[1], (real)q[2]), p);
@@ -38,7 +42,7 @@ GLINT_FN void area_polygon_load_raw(const GLINT_GLOBAL float *rec, int n, int ha
 }
 
 /* The rare part of area_polygon_load_n, for the lanes `odd` whose vertices
- * are out of polygon_rescale's range. In fp32 a vertex can overflow before
+ * are out of polygon_scale_odd's range. In fp32 a vertex can overflow before
  * the rescale: a vertex minus a shading point of opposite sign beyond ~1.7e38
  * (q - p > FLT_MAX), or a frame's rotation of a vector near FLT_MAX (a dot
  * product's partial sums reach sqrt(3) |w|). Those lanes are reloaded from

@@ -84,10 +84,4 @@ GLINT_FN void polygon_rescale_lanes(GLINT_PRIVATE real3 *v, int n, glint_mask od
   }
 }
 
-/* polygon_rescale_lanes in the lanes that need it (polygon_scale_odd). */
-GLINT_FN void polygon_rescale(GLINT_PRIVATE real3 *v, int n) {
-  glint_mask odd = polygon_scale_odd(v, n);
-  if (glint_any(odd)) polygon_rescale_lanes(v, n, odd);
-}
-
 #endif /* GLINT_POLYGON_SCALE_H */

@@ -25,16 +25,64 @@
  * most one vertex each to a convex polygon. */
 #define GLINT_AREA_MAX_VERTICES (GLINT_POLYGON_MAX_VERTICES + 2)
 
-/* Vertex count of a record, and its vertices relative to the shading point p
- * in the local frame (world = local when the queries carry no frame). The
- * count is the light's, the same in every lane. */
-GLINT_FN void area_polygon_load_n(const GLINT_GLOBAL float *rec, int n, int has_frame,
-                                  ShadingFrame frame, real3 p, GLINT_PRIVATE real3 *v) {
+/* A record's first n vertices relative to the shading point p in the local
+ * frame (world = local when the queries carry no frame), as they come:
+ * area_polygon_load_n is the loader the methods use. */
+GLINT_FN void area_polygon_load_raw(const GLINT_GLOBAL float *rec, int n, int has_frame,
+                                    ShadingFrame frame, real3 p, GLINT_PRIVATE real3 *v) {
+  /* Overwritten by the loop (n >= 3, validated); set first so that GCC, which
+   * cannot see n >= 1 where n is not a constant, does not warn that the rare
+   * path (area_polygon_load_far) reads unset vertices. */
+  v[0] = p;
   GLINT_UNROLL for (int i = 0; i < n; ++i) {
     const GLINT_GLOBAL float *q = rec + GLINT_POLYGON_VERTEX_OFFSET + 3 * i;
     real3 w = r3_sub(make_real3((real)q[0], (real)q[1], (real)q[2]), p);
     v[i] = has_frame ? frame_to_local(frame, w) : w;
   }
+}
+
+/* The rare part of area_polygon_load_n, for the lanes `odd` whose vertices
+ * are out of polygon_scale_odd's range. In fp32 a vertex can overflow before
+ * the rescale: a vertex minus a shading point of opposite sign beyond ~1.7e38
+ * (q - p > FLT_MAX), or a frame's rotation of a vector near FLT_MAX (a dot
+ * product's partial sums reach sqrt(3) |w|). Those lanes are reloaded from
+ * the coordinates times 2^-32 (exact: the inputs are floats, and any that
+ * falls into the subnormals by it is < 2^-94, below the rounding of the
+ * coordinates > 2^96 of the same vertex), so that they too keep their
+ * directions, then every odd lane is rescaled. Handled rather than refused:
+ * fp64 gets these lights right, and fp32 now agrees with it. */
+GLINT_FN void area_polygon_load_far(const GLINT_GLOBAL float *rec, int n, int has_frame,
+                                    ShadingFrame frame, real3 p, glint_mask odd,
+                                    GLINT_PRIVATE real3 *v) {
+  real m = polygon_scale_max(v, n);
+  glint_mask overflowed = odd & !(m - m == GLINT_R(0.0));
+  if (glint_any(overflowed)) {
+    real3 ps = r3_scale(p, GLINT_POLYGON_SCALE_2M32);
+    GLINT_UNROLL for (int i = 0; i < n; ++i) {
+      const GLINT_GLOBAL float *q = rec + GLINT_POLYGON_VERTEX_OFFSET + 3 * i;
+      real3 w = r3_sub(
+          r3_scale(make_real3((real)q[0], (real)q[1], (real)q[2]), GLINT_POLYGON_SCALE_2M32), ps);
+      v[i] = r3_select(v[i], has_frame ? frame_to_local(frame, w) : w, overflowed);
+    }
+  }
+  polygon_rescale_lanes(v, n, odd);
+}
+
+/* Vertex count of a record, and its vertices relative to the shading point p
+ * in the local frame (world = local when the queries carry no frame): the
+ * polygon as every area method and model receives it. Lights far from (or
+ * very near to) the shading point come scaled by a power of two, which keeps
+ * their directions exactly and every method's result (polygon_scale.h). The
+ * count is the light's, the same in every lane. */
+GLINT_FN void area_polygon_load_n(const GLINT_GLOBAL float *rec, int n, int has_frame,
+                                  ShadingFrame frame, real3 p, GLINT_PRIVATE real3 *v) {
+  area_polygon_load_raw(rec, n, has_frame, frame, p, v);
+  /* GLINT_POLYGON_SCALE_OFF: only bench/bench_polygon_scale.cpp sets it, to time
+   * the methods without the check (no kernel build option does). */
+#ifndef GLINT_POLYGON_SCALE_OFF
+  glint_mask odd = polygon_scale_odd(v, n);
+  if (glint_any(odd)) area_polygon_load_far(rec, n, has_frame, frame, p, odd, v);
+#endif
 }
 
 GLINT_FN int area_polygon_load(const GLINT_GLOBAL float *rec, int has_frame, ShadingFrame frame,
@@ -188,10 +236,9 @@ GLINT_FN real3 area_ltc_shade_light(real3 radiance, const GLINT_PRIVATE AreaLtcV
                                     int has_frame, ShadingFrame frame, real3 p,
                                     const GLINT_GLOBAL float *rec, int n) {
   real3 v[GLINT_POLYGON_MAX_VERTICES];
+  /* Far (or very near) lights come scaled into the range of the products
+   * below, exactly (polygon_scale.h). */
   area_polygon_load_n(rec, n, has_frame, frame, p, v);
-  /* Far (or very near) lights: into the range of the products below,
-   * exactly (polygon_scale.h). */
-  polygon_rescale(v, n);
   glint_mask facing = area_polygon_facing(v, n, rec[1] != 0.0f);
   if (!glint_any(facing)) return radiance;
   real3 L = make_real3((real)rec[2], (real)rec[3], (real)rec[4]);

@@ -1,23 +1,28 @@
 /* Power-of-two rescaling of a polygon's vertices (relative to the shading
- * point) into the range where the LTC pass's products neither overflow nor
+ * point) into the range where the area methods' products neither overflow nor
  * underflow, for lights very far from (or very close to) the shading point.
+ * Applied once, where every method receives the polygon (area_polygon_load_n,
+ * area_ltc.h), so LTC, LECOCQ, LECOCQ_PEARSON, MONTE_CARLO, REFERENCE, AUTO
+ * and the glint models' per-light paths all see the same scaled vertices.
  *
- * Why: LTC's integral depends only on the directions of the vertices, but
+ * Why: every method's result depends only on the directions of the vertices
+ * (homogeneous of degree 0 in them), but the code multiplies coordinates:
  * the facing test (area_polygon_facing: a cross product dotted with a vertex,
- * a cube of the coordinates) and the edge terms (polygon_wedge.h: cross
- * products of the transformed vertices) multiply coordinates. In fp32,
- * beyond ~1e12 the facing product overflows (to an infinity of the right
- * sign, or to NaN where two of its terms overflow with opposite signs: the
- * light is then taken as back-facing), and beyond ~1e19 the cross products
- * themselves overflow and the light gave 0 (issue 13); towards ~1e-13 the
- * products underflow into subnormals and lose their digits. Multiplying
- * every vertex by the same power of two is exact (no rounding while the
- * results stay normal), keeps every direction, and leaves the LTC result
- * bit-identical: every step of the pass is homogeneous in the vertices
- * (products, ratios, atan2 of two quantities of the same degree).
+ * a cube), LTC's edge terms (polygon_wedge.h: cross products), the vertex
+ * lengths REFERENCE, LECOCQ and the glint models normalise by (sums of
+ * squares), MONTE_CARLO's spherical triangles (products of three lengths). In
+ * fp32 the cubes overflow beyond ~1e12 and the squares beyond ~1e19, where
+ * every method gave 0 (issue 13); towards ~1e-13 and ~1e-19 they underflow
+ * into subnormals and then 0. Multiplying every vertex by the same power of
+ * two is exact (no rounding while the results stay normal) and keeps every
+ * direction; every later step of each method either is homogeneous (products,
+ * ratios, atan2 of two quantities of one degree, comparisons with 0) or
+ * normalises, so a scaled light gives the result of the unscaled one bit for
+ * bit: tests/service/area_far_light_test.cpp checks that for every method.
  *
  * Only lanes whose vertices are out of range are scaled, so a lane's result
- * never depends on its neighbours; the branch is uniform (glint_any). */
+ * never depends on its neighbours; the branch is uniform (glint_any) and an
+ * ordinary light pays one sum of squares and two comparisons. */
 #ifndef GLINT_POLYGON_SCALE_H
 #define GLINT_POLYGON_SCALE_H
 
@@ -25,31 +30,53 @@
 #include "kernels/compat.h"
 
 /* Exact powers of two (representable in fp32 and fp64). */
+#define GLINT_POLYGON_SCALE_2P16 GLINT_R(65536.0)
+#define GLINT_POLYGON_SCALE_2M16 GLINT_R(1.52587890625e-5)
 #define GLINT_POLYGON_SCALE_2P32 GLINT_R(4294967296.0)
 #define GLINT_POLYGON_SCALE_2M32 GLINT_R(2.3283064365386962890625e-10)
 #define GLINT_POLYGON_SCALE_2P60 GLINT_R(1152921504606846976.0)
 #define GLINT_POLYGON_SCALE_2M60 GLINT_R(8.67361737988403547205962240695953e-19)
 
-/* Rescales v[0 .. n) in the lanes where the sum of the squared vertex lengths
- * is outside [2^-60, 2^60] (or not finite), so that the largest coordinate
- * magnitude m lands in [2^-32, 2^32]: with it the facing product (<= ~6 n m^3)
- * and the edge terms' products stay far inside fp32's range
- * [2^-126, 2^128]. The vertices come from float records, so m <= 2^129 (in
- * fp64; in fp32 a vertex minus a position of opposite sign beyond ~1.7e38 is
- * already Inf before this point and the light gives 0) and the smallest
- * nonzero m is >= 2^-149: four steps of 2^32 each way reach the range. Lanes in range are left
- * alone (also in the branch, so that their results do not depend on their neighbours), and so is a
- * lane at the shading point (m = 0: it gives 0 anyway). */
-GLINT_FN void polygon_rescale(GLINT_PRIVATE real3 *v, int n) {
+/* The lanes whose vertices v[0 .. n) need polygon_rescale_lanes: the sum of
+ * the squared vertex lengths is outside [2^-60, 2^60] or not finite (a vertex
+ * overflowed, or the sum did). Lights between ~1e-9 and ~1e9 from the shading
+ * point are never touched, so their results are those of the unscaled code
+ * bit for bit. */
+GLINT_FN glint_mask polygon_scale_odd(const GLINT_PRIVATE real3 *v, int n) {
   real s2 = GLINT_R(0.0);
   GLINT_UNROLL for (int i = 0; i < n; ++i) s2 += r3_dot(v[i], v[i]);
-  glint_mask odd = !((s2 <= GLINT_POLYGON_SCALE_2P60) & (s2 >= GLINT_POLYGON_SCALE_2M60));
-  if (!glint_any(odd)) return;
+  return !((s2 <= GLINT_POLYGON_SCALE_2P60) & (s2 >= GLINT_POLYGON_SCALE_2M60));
+}
+
+/* The largest coordinate magnitude of v[0 .. n) (NaN when one is NaN:
+ * fmax would drop it, so NaNs are kept explicitly). */
+GLINT_FN real polygon_scale_max(const GLINT_PRIVATE real3 *v, int n) {
   real m = GLINT_R(0.0);
-  for (int i = 0; i < n; ++i) m = fmax(m, fmax(fabs(v[i].x), fmax(fabs(v[i].y), fabs(v[i].z))));
-  for (int step = 0; step < 4; ++step) {
-    glint_mask big = odd & (m > GLINT_POLYGON_SCALE_2P32);
-    glint_mask small = odd & (m < GLINT_POLYGON_SCALE_2M32) & (m > GLINT_R(0.0));
+  for (int i = 0; i < n; ++i) {
+    real c = fmax(fabs(v[i].x), fmax(fabs(v[i].y), fabs(v[i].z)));
+    glint_mask nan = (v[i].x != v[i].x) | (v[i].y != v[i].y) | (v[i].z != v[i].z);
+    m = glint_select(fmax(m, c), v[i].x + v[i].y + v[i].z, nan);
+  }
+  return m;
+}
+
+/* Multiplies v[0 .. n) in the lanes `odd` by the power of two 2^(32 k) that
+ * puts their largest coordinate magnitude m into [2^-16, 2^16]: there the
+ * facing product (<= ~6 n m^3), LTC's edge products and MONTE_CARLO's
+ * products of three lengths stay far inside fp32's normal range
+ * [2^-126, 2^128], and every vertex length is inside [1e-8, 1e8], where
+ * MONTE_CARLO's own (inexact) normalisation of long vertices
+ * (mc_polygon_setup) does not trigger, so a scaled light is that light at
+ * distance ~1 bit for bit. The vertices come from float records, so in fp64
+ * 2^-149 <= m <= 2^130 (with a frame's rotation): five steps of 2^32 each way
+ * reach the range (at most four are needed downwards). Lanes with m = 0 (all
+ * vertices at the shading point: 0 anyway) or m not finite (the caller has
+ * reloaded those, area_polygon_load_n) are left alone. */
+GLINT_FN void polygon_rescale_lanes(GLINT_PRIVATE real3 *v, int n, glint_mask odd) {
+  real m = polygon_scale_max(v, n);
+  for (int step = 0; step < 5; ++step) {
+    glint_mask big = odd & (m > GLINT_POLYGON_SCALE_2P16) & (m - m == GLINT_R(0.0));
+    glint_mask small = odd & (m < GLINT_POLYGON_SCALE_2M16) & (m > GLINT_R(0.0));
     real f = glint_select(glint_select(GLINT_R(1.0), GLINT_POLYGON_SCALE_2P32, small),
                           GLINT_POLYGON_SCALE_2M32, big);
     m = m * f;

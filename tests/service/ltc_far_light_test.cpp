@@ -1,5 +1,6 @@
-// LTC polygon lights far from (or very near to) the shading point: the smooth model's LTC pass
-// rescales such polygons by a power of two before its products (kernels/area/polygon_scale.h);
+// LTC polygon lights far from (or very near to) the shading point: the polygon loader
+// (area_polygon_load_n) rescales such polygons by a power of two before the products
+// (kernels/area/polygon_scale.h; every other method: area_far_light_test.cpp);
 // before that, fp32 dropped a quad beyond ~1e12 (the facing product overflowed to NaN) and gave
 // 0 beyond ~1e19 (issue 13). Device and host, fp32 and fp64:
 //  - a scale identity: a polygon's directions, hence LTC's integral, do not change when all its

@@ -10,7 +10,8 @@
  *     h = normalize(wi + wo), dwi = 4 (wo.h) dh:
  *       int_P f cos_i dwi = int_{P_h} D(h) (h.z) W(h) dh,  W = F G2 (wo.h) / (cos_o h.z)  (H1)
  *     The polygon's edges are split into short pieces whose h-images are taken as great arcs
- *     (the talk's "edge splitting strategy").
+ *     (the talk's "edge splitting strategy"); pieces near wi = -wo, where the map is singular
+ *     and a short piece's image sweeps half a great circle, are cut further (lecocq_subsplit).
  *  2. Anisotropy: GGX and Beckmann are slope-stretched families, so the linear map
  *     h' = normalize(sx h.x, sy h.y, h.z), s = sqrt(ax ay) / a{x,y}, turns D_aniso(h)(h.z)dh
  *     into D_iso(h')(h'.z)dh' with alpha = sqrt(ax ay), EXACTLY (H2); it keeps great arcs.

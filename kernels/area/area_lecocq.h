@@ -262,7 +262,8 @@ GLINT_FN void lecocq_region(const GLINT_PRIVATE real3 *w, int n, real3 wo, real 
       real par[4];
       int m = lecocq_subsplit(prev_w, wk, wo, &e, par);
       for (int j = 1; j < m; ++j) {
-        real t = par[0] + par[1] * tan(par[2] + (real)j * par[3]);
+        real psi = par[2] + (real)j * par[3]; /* in (-pi/2, pi/2): cos > 0 */
+        real t = par[0] + par[1] * sin(psi) / cos(psi);
         real3 wj = r3_add(r3_scale(prev_w, cos(t)), r3_scale(e, sin(t)));
         real3 hj = lecocq_to_h(wj, wo, sx, sy);
         lecocq_edge(prev, hj, N, pearson_w, acc);

@@ -915,7 +915,8 @@ double ContourKappa(const k64::real3 *w, int n, k64::real3 wo, double N, double 
       sub_w = m > 1 ? par[1] : 1.0;
       real3 sub = prev;
       for (int j = 1; j < m; ++j) {
-        real t = par[0] + par[1] * std::tan(par[2] + j * par[3]);
+        real psi = par[2] + j * par[3];
+        real t = par[0] + par[1] * std::sin(psi) / std::cos(psi);
         real3 wj = r3_add(r3_scale(prev, std::cos(t)), r3_scale(e, std::sin(t)));
         edge(sub, wj);
         sub = wj;

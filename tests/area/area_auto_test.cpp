@@ -8,6 +8,8 @@
 
 #include <cassert>
 #include <cmath>
+#include <cstdio>
+#include <map>
 #include <vector>
 
 #include "client/lib/glint_client.h"
@@ -161,6 +163,71 @@ TEST(AreaAuto, PicksLtcWhereLtcMeetsTheBudget) {
   const double p = 1 - kErrorQuantile;
   EXPECT_GE(double(ltc_within) / double(ltc), 1 - (2 * p + Allowance(2 * p, ltc)))
       << ltc_within << " of " << ltc;
+}
+
+// Near-horizon views, outside the training range (theta_o <= 89 deg, wo.z >= 0.0175; they fall
+// in the 70-90 deg view bin): wo.z 0.01, 1e-3, 3e-4 on held-out lights (seed 5). Where the
+// table predicts a candidate meets the budget, the stated fraction holds as on the held-out set
+// above; and where AUTO picked LECOCQ or LECOCQ_PEARSON, whose errors grow from 85 deg to the
+// horizon (tests/area/lecocq_test.cpp GrazingViews*), the fraction of those over the budget is
+// held to the same statement (printed: how often AUTO picks them there). Before the fix of
+// kernels/area/area_lecocq.h's near-horizon pieces the two methods reached 24x the truth there.
+// Measured (session 10): AUTO picks LECOCQ / LECOCQ_PEARSON there only at budget 0.5 (3 of 96
+// Beckmann queries, none over). The queries over the budget are REFERENCE's (GLINT_AREA 5; 4-8
+// nodes miss the streak a grazing lobe makes along the horizon) and a few LTC / MONTE_CARLO: 7-15%
+// of the covered queries (e.g. GGX budget 0.05: 11 of 72, 6 of them REFERENCE), above the stated
+// 10% but within its 3-standard-error allowance at these counts. Not fixed here (the table's
+// training views stop at 89 deg).
+TEST(AreaAuto, GrazingViewsExceedTheBudgetAtMostTheStatedFraction) {
+  for (int ndf : {GLINT_NDF_GGX, GLINT_NDF_BECKMANN}) {
+    std::vector<Config> set = MakeConfigs(5, 16, 6, ndf);
+    for (Config &c : set) {
+      const double zs[3] = {0.01, 1e-3, 3e-4};
+      for (size_t v = 0; v < c.wo.size(); ++v) {
+        // Keep each view's azimuth, move it to the horizon.
+        const double z = zs[v % 3], r = std::hypot(c.wo[v][0], c.wo[v][1]);
+        const double s = std::sqrt(1 - z * z);
+        c.wo[v] = r > 0 ? V3{s * c.wo[v][0] / r, s * c.wo[v][1] / r, z} : V3{s, 0, z};
+      }
+    }
+    std::vector<std::vector<double>> truth;
+    for (const Config &c : set) truth.push_back(Truth(c));
+    for (float budget : {0.05f, 0.2f, 0.5f}) {
+      size_t n = 0, above = 0, lecocq = 0, lecocq_above = 0;
+      std::map<int, int> over_by_method;  // GLINT_AREA_* -> queries over the budget
+      for (size_t i = 0; i < set.size(); ++i) {
+        const auto x = HostRed(MakeRequest(set[i], glint::v1::AUTO, 0, 11, budget));
+        const std::vector<int> cells = Cells(set[i]);
+        const std::vector<Choice> choice = Choices(set[i], budget);
+        for (size_t v = 0; v < x.size(); ++v) {
+          if (cells[v] < 0 || !(choice[v].predicted <= budget)) continue;
+          const bool over = RelativeError(x[v], truth[i][v]) > double(budget);
+          ++n;
+          above += over;
+          if (over) ++over_by_method[choice[v].method];
+          if (choice[v].method == GLINT_AREA_LECOCQ ||
+              choice[v].method == GLINT_AREA_LECOCQ_PEARSON) {
+            ++lecocq;
+            lecocq_above += over;
+          }
+        }
+      }
+      std::printf("grazing AUTO ndf %d budget %.2f: %zu of %zu over (by GLINT_AREA_*:", ndf,
+                  double(budget), above, n);
+      for (auto [method, count] : over_by_method) std::printf(" %d: %d", method, count);
+      std::printf("); LECOCQ/PEARSON chosen %zu, %zu over\n", lecocq, lecocq_above);
+      ASSERT_GT(n, 30u) << "ndf " << ndf << " budget " << budget;
+      EXPECT_LE(double(above) / double(n),
+                kStatedExceedFraction + Allowance(kStatedExceedFraction, n))
+          << "ndf " << ndf << " budget " << budget << ": " << above << " of " << n;
+      if (lecocq > 0) {
+        EXPECT_LE(double(lecocq_above) / double(lecocq),
+                  kStatedExceedFraction + Allowance(kStatedExceedFraction, lecocq))
+            << "ndf " << ndf << " budget " << budget << ": LECOCQ " << lecocq_above << " of "
+            << lecocq;
+      }
+    }
+  }
 }
 
 // The choice and the Monte Carlo keys depend only on each query's own inputs: any chunking

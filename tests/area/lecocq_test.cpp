@@ -14,9 +14,8 @@
 #include <vector>
 
 #include "data/ltc/ltc_table.h"
-#include "tests/support/plane_adaptive.h"
-
 #include "tests/support/kernels_both_precisions.h"
+#include "tests/support/plane_adaptive.h"
 
 namespace {
 
@@ -192,12 +191,15 @@ bool TailLit(const Mat &mat, V3 wo, double ref) {
 // at normal view, where W = G2, the hemisphere normaliser W(h_H) = G2(n, n) = 1 while the lobe
 // average of G2 is the albedo, 0.31; the medium light comes out 36% low) and the great-arc chords
 // of step 1 (pi/16 pieces in wi space, whose h-images curve strongly near the lobe at grazing
-// views: Beckmann alpha 0.05, view 85, a wall holding the whole lobe gets 0.71 instead of 0.94;
-// pi/64 pieces give 0.935). The components that do have a fitted accuracy are asserted against it
-// below (PhongLobeWithinTheFittedKs, PeakFunctionsWithinTheFittedSupError,
-// ContourSumsMatchThePhongLobeMassWithinTheFit). Bounds: the measured value's next round level
-// (1, 1.5, 2, 3, 5, 7 x 10^k). Tail-lit cases (see TailLit) are left out of the relative
-// statistics and checked against the KS bound on the absolute error, 2 KS x albedo.
+// views: Beckmann alpha 0.05, view 85, a wall holding the whole lobe got 0.71 instead of 0.94;
+// pi/64 pieces gave 0.935; since session 10 the pieces near wi = -wo are cut further by
+// lecocq_subsplit, and a wall 2 m away at the mirror azimuth, 0 to 0.6 m high, holding that lobe
+// gets 0.936 against REFERENCE 0.935 instead of 0.863). The components that do have a fitted
+// accuracy are asserted against it below (PhongLobeWithinTheFittedKs,
+// PeakFunctionsWithinTheFittedSupError, ContourSumsMatchThePhongLobeMassWithinTheFit). Bounds: the
+// measured value's next round level (1, 1.5, 2, 3, 5, 7 x 10^k). Tail-lit cases (see TailLit) are
+// left out of the relative statistics and checked against the KS bound on the absolute error, 2 KS
+// x albedo.
 TEST(AreaLecocq, AgreesWithReferencePerRegionRegressionGuard) {
   struct Region {
     const char *name;
@@ -209,23 +211,28 @@ TEST(AreaLecocq, AgreesWithReferencePerRegionRegressionGuard) {
   };
   std::vector<Region> regions = {
       // Measured (LECOCQ | PEARSON mean / p95 / max) in the comments.
+      // Session 10 (lecocq_subsplit near wi = -wo, views beyond ~48 deg) moved the 50-85 deg
+      // rows; before it: 0.034 / 0.147 / 0.231 | 0.035 / 0.159 / 0.243, 0.075 / 0.250 / 0.435 |
+      // 0.077 / 0.261 / 0.443, 0.057 / 0.177 / 0.199 | 0.056 / 0.172 / 0.185, 0.079 / 0.482 /
+      // 0.516 | 0.080 / 0.480 / 0.523, 0.101 / 0.249 / 0.293 | 0.102 / 0.250 / 0.293, 0.100 /
+      // 0.266 / 0.320 | 0.101 / 0.266 / 0.327.
       // 0.023 / 0.130 / 0.190 | 0.023 / 0.117 / 0.184
       {"a 0.05-0.15, view < 50", 0.05, 0.15, 0, 50, {0.03, 0.15, 0.2}, {0.03, 0.15, 0.2}, {}},
-      // 0.034 / 0.147 / 0.231 | 0.035 / 0.159 / 0.243
+      // 0.034 / 0.153 / 0.231 | 0.035 / 0.159 / 0.243
       {"a 0.05-0.15, view 50-75", 0.05, 0.15, 50, 75, {0.05, 0.2, 0.3}, {0.05, 0.2, 0.3}, {}},
-      // 0.074 / 0.250 / 0.435 | 0.076 / 0.261 / 0.443
+      // 0.068 / 0.250 / 0.373 | 0.070 / 0.262 / 0.382
       {"a 0.05-0.15, view 75-85", 0.05, 0.15, 75, 86, {0.1, 0.3, 0.5}, {0.1, 0.3, 0.5}, {}},
       // 0.038 / 0.165 / 0.240 | 0.032 / 0.159 / 0.230
       {"a 0.15-0.4, view < 50", 0.15, 0.4, 0, 50, {0.05, 0.2, 0.3}, {0.05, 0.2, 0.3}, {}},
-      // 0.057 / 0.177 / 0.199 | 0.056 / 0.172 / 0.185
+      // 0.058 / 0.177 / 0.196 | 0.058 / 0.172 / 0.181
       {"a 0.15-0.4, view 50-75", 0.15, 0.4, 50, 75, {0.07, 0.2, 0.2}, {0.07, 0.2, 0.2}, {}},
-      // 0.079 / 0.482 / 0.516 | 0.080 / 0.480 / 0.523
+      // 0.084 / 0.436 / 0.495 | 0.086 / 0.436 / 0.501
       {"a 0.15-0.4, view 75-85", 0.15, 0.4, 75, 86, {0.1, 0.5, 0.7}, {0.1, 0.5, 0.7}, {}},
       // 0.113 / 0.319 / 0.342 | 0.112 / 0.313 / 0.342
       {"a 0.4-1, view < 50", 0.4, 1.01, 0, 50, {0.15, 0.5, 0.5}, {0.15, 0.5, 0.5}, {}},
-      // 0.101 / 0.249 / 0.293 | 0.102 / 0.250 / 0.293
+      // 0.101 / 0.250 / 0.293 | 0.102 / 0.251 / 0.293
       {"a 0.4-1, view 50-75", 0.4, 1.01, 50, 75, {0.15, 0.3, 0.3}, {0.15, 0.3, 0.3}, {}},
-      // 0.100 / 0.266 / 0.320 | 0.101 / 0.266 / 0.327
+      // 0.102 / 0.266 / 0.315 | 0.102 / 0.266 / 0.322
       {"a 0.4-1, view 75-85", 0.4, 1.01, 75, 86, {0.15, 0.3, 0.5}, {0.15, 0.3, 0.5}, {}},
   };
   double worst_tail_abs = 0;
@@ -570,6 +577,219 @@ TEST(AreaLecocq, SubdivisionOfTheLight) {
   }
 }
 
+// ---------------------------------------------------------------------------------------------
+// Grazing views (wo.z -> 0): the session 9 probe found LECOCQ / LECOCQ_PEARSON up to 10x the
+// REFERENCE value at wo.z < 0.01, and a quad split into two triangles giving twice the quad.
+// Root cause: the hemisphere normaliser's contour (step 6) crosses the half-vector map's singular
+// point wi = -wo, where a uniform wi-space piece has nearly antipodal h-images and its great arc
+// missed the lobe (lecocq_subsplit in kernels/area/area_lecocq.h). Views in wo's azimuth plane
+// and 200 deg away hit a hemisphere vertex or not; 20 and 333 deg are generic.
+V3 GrazingWo(double woz, double phi_deg) {
+  const double s = std::sqrt(1 - woz * woz), p = phi_deg * M_PI / 180;
+  return {s * std::cos(p), s * std::sin(p), woz};
+}
+// int_{-pi/2}^{pi/2} cos^k = sqrt(pi) Gamma((k + 1) / 2) / Gamma(k / 2 + 1).
+double CosPowerIntegral(double k) {
+  return std::sqrt(M_PI) * std::exp(std::lgamma((k + 1) / 2) - std::lgamma(k / 2 + 1));
+}
+
+// The hemisphere normaliser tau(H) against its closed-form limit. h = normalize(wi + wo) halves
+// the polar angle about wo, so as wo.z = eps -> 0 the h-image of the upper hemisphere (wi.z >= 0
+// <=> 2 (wo.h) h.z >= eps) tends to the quarter sphere {h.x' > 0, h.z > 0} (x' along wo's
+// azimuth): exactly half of the Phong lobe, tau(H) -> (1/2) (N + 1) int_{h.z>0} (h.z)^N = pi
+// (isotropic, no stretch). To first order in eps the image also holds the strip 0 > h.x' >
+// -eps (h.z - 1 / (2 h.z)) beyond the great semicircle x' = 0 through the lobe, of Phong mass
+// eps (N + 1) (C_{N+1} - C_{N-1} / 2), C_k = int cos^k over the semicircle.
+// Tolerance: that first-order term again (the remainder is O(eps^2) with a constant of the same
+// kind) plus the peak functions' fitted error. On the limit lune the contour sum is exact (the
+// horizon edge has s = 1, where I = 1 and both peak functions are exact; the edge through the
+// lobe has s = 0 and contributes nothing); at finite eps the pieces leaving its two corners
+// (0, +-1, 0) carry a fitted error of at most 2 sup int_0^(pi/2) |s| I dt <= pi sup each
+// (|s| I <= |s| / (s^2 + c^2 sin^2 t), whose half-range integral is pi / 2): 2 pi sup in all.
+// Before the fix tau(H) was 0.0017 instead of 3.27 (GGX alpha 0.1, wo.z 0.01, azimuth 20) and
+// 0.71 instead of 3.18 (alpha 0.3): half the lobe or more lost.
+TEST(AreaLecocq, GrazingViewsHemisphereNormaliserIsHalfTheLobe) {
+  using namespace k64;
+  real3 hemi[8];
+  for (int k = 0; k < 8; ++k)
+    hemi[k] = make_real3(std::cos(k * M_PI / 4), std::sin(k * M_PI / 4), 0);
+  double worst = 0;
+  for (double woz : {1e-2, 1e-3, 3e-4}) {
+    for (double phi : {0.0, 20.0, 200.0, 333.0}) {
+      for (double a : {0.05, 0.1, 0.3, 0.6, 1.0}) {
+        for (int pearson : {0, 1}) {
+          const double N = lecocq_phong_exponent(GLINT_NDF_GGX, a);
+          const double pw = pearson ? std::clamp((N - 3) / 2, 0.0, 1.0) : 0.0;
+          const V3 o = GrazingWo(woz, phi);
+          double acc[4];
+          lecocq_region(hemi, 8, make_real3(o.x, o.y, o.z), 1, 1, N, pw, acc);
+          const double first =
+              woz * (N + 1) * (CosPowerIntegral(N + 1) - CosPowerIntegral(N - 1) / 2);
+          const double tol = std::fabs(first) + 2 * M_PI * (pearson ? kSupPearson : kSupLorentz);
+          const double err = std::fabs(-acc[0] - (M_PI + first));
+          worst = std::max(worst, err / tol);
+          EXPECT_LT(err, tol) << "wo.z " << woz << " azimuth " << phi << " alpha " << a
+                              << " pearson " << pearson << " tau(H) " << -acc[0] << " limit "
+                              << M_PI + first;
+        }
+      }
+    }
+  }
+  std::printf("grazing tau(H) vs pi + O(wo.z): worst error / tolerance %.3f\n", worst);
+}
+
+// Light subdivision at grazing views: a tilted quad overhead (the probe's case) and its two
+// triangles. The contour sums are additive (interior edges cancel, as in SubdivisionOfTheLight),
+// so with C = albedo / (W(h_H) tau(H)) the quad gives C tau W(h_Q) and the triangles
+// C (tau_1 W(h_1) + tau_2 W(h_2)), tau = tau_1 + tau_2. h_Q is the direction of the summed
+// moments, on the arc between h_1 and h_2, where acc_t = (1 - t) acc_1 + t acc_2 sweeps it;
+// both results lie in C tau [min W, max W] over that arc, so they differ by at most
+// C tau (max W - min W): the bound asserted, computed from the kernel's own W (lecocq_weight)
+// on 1001 points of the arc. Before the fix the triangles gave 2.2x the quad at wo.z 1e-3 (each
+// clamped to the albedo), far outside it.
+TEST(AreaLecocq, GrazingViewsSubdivisionOfTheLight) {
+  using namespace k64;
+  const auto q = Facing(Quad({0.2, 0.1, 1.0}, {0.5, 0, 0.15}, {0, 0.5, 0}));
+  const std::vector<V3> t1 = {q[0], q[1], q[2]}, t2 = {q[0], q[2], q[3]};
+  double worst = 0, max_share = 0;
+  for (double woz : {0.05, 0.01, 1e-3, 3e-4}) {
+    for (double phi : {20.0, 200.0}) {
+      for (double a : {0.1, 0.3, 0.6}) {
+        for (double aniso : {1.0, 0.5}) {
+          for (Method method : {kLorentz, kPearson}) {
+            const Mat mat{GLINT_NDF_GGX, a, a * aniso, 1.0};
+            const V3 o = GrazingWo(woz, phi);
+            const double whole = Eval64(mat, o, q, method);
+            const double parts = Eval64(mat, o, t1, method) + Eval64(mat, o, t2, method);
+            // The pieces of the bound, as area_lecocq_polygon forms them.
+            SmoothMaterial m = Material<SmoothMaterial, double>(mat);
+            const real3 wo = make_real3(o.x, o.y, o.z);
+            const double alpha = std::sqrt(mat.ax * mat.ay), sx = alpha / mat.ax,
+                         sy = alpha / mat.ay;
+            const double N = lecocq_phong_exponent(m.ndf, alpha);
+            const double pw = method == kPearson ? std::clamp((N - 3) / 2, 0.0, 1.0) : 0.0;
+            double acc[4][4];  // quad, t1, t2, hemisphere
+            const std::vector<V3> *polys[3] = {&q, &t1, &t2};
+            for (int k = 0; k < 3; ++k) {
+              real3 w[4];
+              for (size_t i = 0; i < polys[k]->size(); ++i) {
+                const V3 &p = (*polys[k])[i];
+                w[i] = r3_normalize(make_real3(p.x, p.y, p.z));
+              }
+              lecocq_region(w, int(polys[k]->size()), wo, sx, sy, N, pw, acc[k]);
+            }
+            real3 hemi[8];
+            for (int k = 0; k < 8; ++k)
+              hemi[k] = make_real3(std::cos(k * M_PI / 4), std::sin(k * M_PI / 4), 0);
+            lecocq_region(hemi, 8, wo, sx, sy, N, pw, acc[3]);
+            for (int j = 0; j < 4; ++j) {
+              EXPECT_NEAR(acc[0][j], acc[1][j] + acc[2][j], 1e-12 + 1e-9 * std::fabs(acc[0][j]))
+                  << "wo.z " << woz << " moment " << j;
+            }
+            // The argument needs the albedo clamp of area_lecocq_polygon inactive: the quad is a
+            // small part of the hemisphere, so its Phong-lobe share tau / tau(H) is well below 1
+            // (measured <= 0.22; asserted < 0.5). Before the fix tau(H) had lost the lobe and
+            // the share reached 1e14: whole and parts were both clamped to the albedo.
+            max_share = std::max(max_share, std::fabs(acc[0][0] / acc[3][0]));
+            EXPECT_LT(std::fabs(acc[0][0]), 0.5 * std::fabs(acc[3][0]))
+                << "wo.z " << woz << " azimuth " << phi << " alpha " << a;
+            double wmin = 1e300, wmax = 0;
+            for (int i = 0; i <= 1000; ++i) {
+              const double t = i / 1000.0;
+              double at[4];
+              for (int j = 0; j < 4; ++j) at[j] = (1 - t) * acc[1][j] + t * acc[2][j];
+              const double wt = lecocq_weight(m, mat.ax, mat.ay, wo, at).x;
+              wmin = std::min(wmin, wt);
+              wmax = std::max(wmax, wt);
+            }
+            const double albedo = TableAlbedo(mat, o);
+            const double wh = lecocq_weight(m, mat.ax, mat.ay, wo, acc[3]).x;
+            const double bound =
+                albedo / (wh * std::fabs(acc[3][0])) * std::fabs(acc[0][0]) * (wmax - wmin);
+            worst = std::max(worst, std::fabs(whole - parts) / bound);
+            EXPECT_LE(std::fabs(whole - parts), bound + 1e-12 * whole)
+                << "wo.z " << woz << " azimuth " << phi << " alpha " << a << "," << a * aniso
+                << " method " << method << " quad " << whole << " triangles " << parts;
+          }
+        }
+      }
+    }
+  }
+  std::printf(
+      "grazing quad vs two triangles: worst |difference| / bound %.3f, largest share %.3f\n", worst,
+      max_share);
+}
+
+// Both methods against REFERENCE at grazing views, wo.z 0.05 / 0.01 / 1e-3 / 3e-4 (87.1 to 89.98
+// deg), the lights of the sweep above plus the probe's tilted quad overhead. A REGRESSION GUARD
+// like AgreesWithReferencePerRegionRegressionGuard (no error analysis bounds the end-to-end
+// error; bounds at the next round level above the measured value), with the tail-lit cases left
+// out the same way. What it guards: before the fix, LECOCQ's mean / p95 / max relative error
+// was 0.70 / 2.9 / 4.2 (alpha 0.05-0.15), 0.51 / 1.6 / 2.0 (0.15-0.4), 0.43 / 1.0 / 1.8 (0.4-1).
+// Now what is left is the method's own approximations (H3 and N2, as at 75-85 deg), converged: a
+// split fine enough to be exact (pi/256 pieces, pi/64 sub-pieces) gives the same statistics to
+// 0.01. The errors grow from 85 deg to the horizon and then stop changing (band means at wo.z
+// 1e-3 and 3e-4 agree to 0.002): W of Eq. N2, taken at the mean half vector, is what degrades
+// (G2 and wo.h vary most across the lobe there). LTC is better at alpha >= 0.15 (printed).
+// alpha < 0.15: as at 85 deg, the Phong lobe misses GGX's tail, and a few lit cases return ~0.
+TEST(AreaLecocq, GrazingViewsAgreeWithReferenceRegressionGuard) {
+  struct Band {
+    const char *name;
+    double a_lo, a_hi;
+    double bound[2][3];  // (mean, p95, max) for LECOCQ and LECOCQ_PEARSON; 0: not asserted
+    Stats s[3];
+    int tail = 0;
+  };
+  std::vector<Band> bands = {
+      // Measured (LECOCQ | PEARSON mean / p95 / max) in the comments.
+      // 0.215 / 0.753 / 1.000 | 0.215 / 0.757 / 0.978 (max: a lit light returned 0; see above)
+      {"a 0.05-0.15", 0.05, 0.15, {{0.3, 1.0, 0}, {0.3, 1.0, 0}}, {}},
+      // 0.131 / 0.595 / 0.759 | 0.131 / 0.600 / 0.764
+      {"a 0.15-0.4", 0.15, 0.4, {{0.15, 0.7, 1.0}, {0.15, 0.7, 1.0}}, {}},
+      // 0.158 / 0.462 / 0.605 | 0.159 / 0.462 / 0.605
+      {"a 0.4-1", 0.4, 1.01, {{0.2, 0.5, 0.7}, {0.2, 0.5, 0.7}}, {}},
+  };
+  std::vector<Light> lights = Lights();
+  lights.push_back({"tilted-overhead", Facing(Quad({0.2, 0.1, 1.0}, {0.5, 0, 0.15}, {0, 0.5, 0}))});
+  for (int ndf : {GLINT_NDF_GGX, GLINT_NDF_BECKMANN}) {
+    for (double a : {0.05, 0.08, 0.12, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0}) {
+      for (double woz : {0.05, 0.01, 1e-3, 3e-4}) {
+        for (const Light &l : lights) {
+          const Mat m{ndf, a, a, 1.0};
+          const V3 wo = GrazingWo(woz, 20);
+          const double ref = Eval64(m, wo, l.poly, kReference, a < 0.15 ? 160 : 96);
+          for (Band &b : bands) {
+            if (a < b.a_lo || a >= b.a_hi) continue;
+            if (TailLit(m, wo, ref)) {
+              ++b.tail;
+              continue;
+            }
+            const double x[3] = {Eval64(m, wo, l.poly, kLorentz), Eval64(m, wo, l.poly, kPearson),
+                                 Eval64(m, wo, l.poly, kLtc)};
+            for (int k = 0; k < 3; ++k) b.s[k].e.push_back(RelErr(x[k], ref));
+          }
+        }
+      }
+    }
+  }
+  const char *names[3] = {"LECOCQ", "PEARSON", "(LTC)"};
+  for (const Band &b : bands) {
+    for (int k = 0; k < 3; ++k) {
+      std::printf("grazing %-12s %-8s %7.3f %7.3f %7.3f  (n=%zu, %d tail-lit)\n", b.name, names[k],
+                  b.s[k].Mean(), b.s[k].Pct(0.95), b.s[k].Max(), b.s[k].e.size(), b.tail);
+    }
+    for (int k = 0; k < 2; ++k) {
+      EXPECT_LT(b.s[k].Mean(), b.bound[k][0]) << b.name << " " << names[k];
+      if (b.bound[k][1] > 0) {
+        EXPECT_LT(b.s[k].Pct(0.95), b.bound[k][1]) << b.name << " " << names[k];
+      }
+      if (b.bound[k][2] > 0) {
+        EXPECT_LT(b.s[k].Max(), b.bound[k][2]) << b.name << " " << names[k];
+      }
+    }
+  }
+}
+
 // Anisotropic alpha: the stretch of step 2 is exact for D, the albedo uses sqrt(ax ay); W of
 // step 6 is evaluated with the true alpha_x, alpha_y. A REGRESSION GUARD (no error bound, as for
 // the isotropic sweep); tail-lit cases are left out as there (TailLit: the KS argument holds in
@@ -656,26 +876,59 @@ TEST(AreaLecocq, ExtremesAreFiniteAndNonNegativeInFp32) {
 }
 
 // Condition number of a contour sum: sum over edge pieces of |term| / |sum| (acc[0], Eq. E3),
-// with the pieces of lecocq_region, in double. Rounding errors of size u in each term move the
-// sum by ~u sum |term|, i.e. by u kappa relative.
-double ContourKappa(const k64::real3 *w, int n, k64::real3 wo, double N, double pw) {
+// with the pieces of lecocq_region (uniform pieces, and sub-pieces near wi = -wo), in double.
+// Rounding errors of size u in each term move the sum by ~u sum |term|, i.e. by u kappa
+// relative. Also returns in *amplified that kappa divided by the smallest of 1, |wi + wo| and w
+// over the pieces: the half vector normalize(wi + wo) of a point near -wo carries a rounding
+// error amplified by 1 / |wi + wo| (cancellation in the sum), and the points of a sub-split
+// piece (lecocq_subsplit) are placed from w and theta_c, themselves dot products of unit
+// vectors with absolute error ~u, so a point at offset |theta - theta_c| <= |wi + wo| moves by
+// ~u |theta - theta_c| / w and its half vector by up to ~u / w. (Amplifying only the terms of
+// the pieces near -wo undercounts: lights clipped at the horizon near -wo came out up to 4x
+// over that finer estimate, for reasons not traced; this coarser one holds.) The replica is
+// checked against lecocq_region.
+double ContourKappa(const k64::real3 *w, int n, k64::real3 wo, double N, double pw,
+                    double *amplified = nullptr) {
   using namespace k64;
-  double sum = 0, abs_sum = 0;
+  double sum = 0, abs_sum = 0, nearest = 1, check[4] = {0, 0, 0, 0};
+  double sub_w = 1;  // w of lecocq_subsplit for the current piece's sub-pieces, else 1
+  auto edge = [&](real3 wa, real3 wb) {
+    double acc[4] = {0, 0, 0, 0};
+    lecocq_edge(lecocq_to_h(wa, wo, 1, 1), lecocq_to_h(wb, wo, 1, 1), N, pw, acc);
+    for (int j = 0; j < 4; ++j) check[j] += acc[j];
+    sum += acc[0];
+    abs_sum += std::fabs(acc[0]);
+    const double near = std::min({1.0, r3_length(r3_add(wa, wo)), r3_length(r3_add(wb, wo))});
+    nearest = std::min({nearest, near, sub_w});
+  };
   for (int i = 0; i < n; ++i) {
     real3 a = w[i], b = w[(i + 1) % n];
     real theta = atan2(r3_length(r3_cross(a, b)), r3_dot(a, b));
     int pieces = std::min((int)(theta / GLINT_LECOCQ_SPLIT - 1e-3) + 1, GLINT_LECOCQ_MAX_SPLIT);
-    real3 prev = lecocq_to_h(a, wo, 1, 1);
+    real3 prev = a;
     for (int k = 1; k <= pieces; ++k) {
       real u = (real)k / (real)pieces;
-      real3 next = lecocq_to_h(r3_normalize(r3_add(r3_scale(a, 1 - u), r3_scale(b, u))), wo, 1, 1);
-      double acc[4] = {0, 0, 0, 0};
-      lecocq_edge(prev, next, N, pw, acc);
-      sum += acc[0];
-      abs_sum += std::fabs(acc[0]);
+      real3 next = r3_normalize(r3_add(r3_scale(a, 1 - u), r3_scale(b, u)));
+      real3 e;
+      real par[4];
+      const int m = lecocq_subsplit(prev, next, wo, &e, par);
+      sub_w = m > 1 ? par[1] : 1.0;
+      real3 sub = prev;
+      for (int j = 1; j < m; ++j) {
+        real psi = par[2] + j * par[3];
+        real t = par[0] + par[1] * std::sin(psi) / std::cos(psi);
+        real3 wj = r3_add(r3_scale(prev, std::cos(t)), r3_scale(e, std::sin(t)));
+        edge(sub, wj);
+        sub = wj;
+      }
+      edge(sub, next);
       prev = next;
     }
   }
+  double acc[4];
+  lecocq_region(w, n, wo, 1, 1, N, pw, acc);
+  for (int j = 0; j < 4; ++j) EXPECT_EQ(acc[j], check[j]) << "ContourKappa's pieces, moment " << j;
+  if (amplified) *amplified = abs_sum / nearest / std::fabs(sum);
   return abs_sum / std::fabs(sum);
 }
 
@@ -737,6 +990,78 @@ TEST(AreaLecocq, Fp32MatchesFp64WhereWellConditioned) {
       "fp32 vs fp64 (%d values): worst |x32 - x64| / x64 = %.1f eps_32 kappa "
       "(largest kappa %.1f)\n",
       compared, worst, worst_kappa);
+}
+
+// fp32 against fp64 at grazing views (wo.z 0.05 to 3e-4) on identical float-rounded inputs, lights
+// that are not tail-lit. The tolerance of Fp32MatchesFp64WhereWellConditioned, 64 eps_32
+// (kappa_P + kappa_H), with each contour term's share of kappa amplified by the cancellation in
+// wi + wo near the singular point and by the placing of sub-split points (ContourKappa's
+// `amplified`: the sub-pieces of
+// lecocq_subsplit come within ~wo.z of -wo), plus W's own amplification 1 / wi.z (below). Both
+// exactly 0 (a lit GGX alpha 0.05 light whose
+// tiny Phong mass lost its sign, see TailLitLightsAreThePhongLobesMissingTail) counts as equal.
+TEST(AreaLecocq, GrazingViewsFp32MatchesFp64) {
+  const double eps32 = std::ldexp(1.0, -24);
+  double worst = 0;
+  int compared = 0;
+  std::vector<Light> lights = Lights();
+  lights.push_back({"tilted-overhead", Facing(Quad({0.2, 0.1, 1.0}, {0.5, 0, 0.15}, {0, 0.5, 0}))});
+  for (int ndf : {GLINT_NDF_GGX, GLINT_NDF_BECKMANN}) {
+    for (double a : {0.05, 0.1, 0.3, 0.6, 1.0}) {
+      for (double woz : {0.05, 0.01, 1e-3, 3e-4}) {
+        for (const Light &l : lights) {
+          Mat m{ndf, double(float(a)), double(float(a)), 1.0};
+          V3 wo = GrazingWo(woz, 20);
+          wo = {double(float(wo.x)), double(float(wo.y)), double(float(wo.z))};
+          std::vector<V3> poly;
+          for (V3 v : l.poly)
+            poly.push_back({double(float(v.x)), double(float(v.y)), double(float(v.z))});
+          const double ref = Eval64(m, wo, poly, kReference, a < 0.15 ? 160 : 96);
+          if (TailLit(m, wo, ref)) continue;
+          using namespace k64;
+          real3 v[GLINT_POLYGON_MAX_VERTICES], w[GLINT_POLYGON_MAX_CLIPPED], hemi[8];
+          for (size_t i = 0; i < poly.size(); ++i)
+            v[i] = make_real3(poly[i].x, poly[i].y, poly[i].z);
+          int nc = polygon_clip_to_horizon(v, int(poly.size()), w);
+          for (int i = 0; i < nc; ++i) w[i] = r3_normalize(w[i]);
+          for (int k = 0; k < 8; ++k)
+            hemi[k] = make_real3(std::cos(k * M_PI / 4), std::sin(k * M_PI / 4), 0);
+          real3 w64 = r3_normalize(make_real3(wo.x, wo.y, wo.z));
+          const double N = lecocq_phong_exponent(ndf, m.ax);
+          for (int pearson : {0, 1}) {
+            const double pw = pearson ? std::clamp((N - 3) / 2, 0.0, 1.0) : 0.0;
+            double amp_p = 0, amp_h = 0;
+            ContourKappa(w, nc, w64, N, pw, &amp_p);
+            ContourKappa(hemi, 8, w64, N, pw, &amp_h);
+            // W (Eq. N2) at wi = reflect(wo, h) of the mean half vector: wi.z = 2 (wo.h) h.z -
+            // wo.z cancels for a light near the horizon, and G2 follows wi.z, so W's rounding is
+            // amplified by 1 / wi.z (isotropic here: h is the direction of the moments).
+            auto wi_z = [&](const real3 *poly_w, int count) {
+              double acc[4];
+              lecocq_region(poly_w, count, w64, 1, 1, N, pw, acc);
+              const double sg = acc[0] < 0 ? -1 : 1;
+              real3 h =
+                  r3_normalize(make_real3(sg * acc[2], sg * acc[3], std::max(sg * acc[1], 0.0)));
+              return std::max(2 * std::max(r3_dot(w64, h), 0.0) * h.z - w64.z, 1e-6);
+            };
+            const double kappa =
+                amp_p + amp_h + 1 / std::min(1.0, wi_z(w, nc)) + 1 / std::min(1.0, wi_z(hemi, 8));
+            const double tol = 64 * eps32 * kappa;
+            const double x64 = Eval64(m, wo, poly, Method(pearson));
+            const double x32 = Lecocq32(m, wo, poly, pearson).x;
+            const double rel = x64 == x32 ? 0.0 : std::fabs(x32 - x64) / x64;
+            worst = std::max(worst, rel / tol);
+            ++compared;
+            EXPECT_LT(rel, tol) << "ndf " << ndf << " alpha " << a << " wo.z " << woz << " "
+                                << l.name << " pearson " << pearson << " fp64 " << x64 << " fp32 "
+                                << x32 << " kappa " << kappa;
+          }
+        }
+      }
+    }
+  }
+  std::printf("grazing fp32 vs fp64 (%d values): worst |x32 - x64| / x64 / tolerance %.3f\n",
+              compared, worst);
 }
 
 }  // namespace

@@ -991,7 +991,8 @@ TEST(BinomialModel, UnbiasedOverRandomFootprintsAndViewsAcrossSeeds) {
   // the seed), so the standard error of the mean of D over K seeds is their spread / sqrt(K),
   // valid however skewed one seed's D is (bench/binomial_bias.cpp measured a kurtosis of ~60
   // for the bench's 16384 queries); within 4 of it. At K = 256, Q = 2048 that standard error
-  // is ~8e-4, so a bias of the size once reported (8.6e-3) would fail by > 10 of them. Also
+  // is ~5e-4 (asserted below 2e-3), so a bias of the size once reported (8.6e-3) would fail by
+  // > 10 of them (and one of 2e-3, by 4). Also
   // printed: the one-seed delta-method standard error (bench_models' old statistic) against
   // the spread of D it claims to describe.
   const int queries = 2048, seeds = 256;

@@ -63,6 +63,7 @@ int main(int argc, char **argv) {
   bool fp64 = false, vary_uv = false;
   uint64_t seed_base = 0, seed_step = 0x100000001ull;
   std::string lights_name = "quad", interpolation = "trilinear", dump;
+  int group = 16;  // bench_models' --error-seeds: its statistic over consecutive seeds
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has = i + 1 < argc;
@@ -84,6 +85,8 @@ int main(int argc, char **argv) {
       interpolation = argv[++i];
     } else if (has && a == "--threads") {
       threads = std::stoi(argv[++i]);
+    } else if (has && a == "--group") {
+      group = std::max(1, std::stoi(argv[++i]));
     } else if (has && a == "--dump") {
       dump = argv[++i];
     } else if (has && a == "--seed-step") {
@@ -133,6 +136,10 @@ int main(int argc, char **argv) {
 
   // Per seed: bench_models' statistic (relative difference, delta-method s.e.).
   std::vector<double> diffs, ses;
+  // Per seed: sum_i g^2 and sum_i g s, for bench_models' pooled statistic over a group of seeds.
+  std::vector<double> seed_g2, seed_gs;
+  double sum_s2 = 0;
+  for (double v : sv) sum_s2 += v * v;
   // Per query: sums over seeds of g and g^2.
   std::vector<double> sum_g(n, 0.0), sum_g2(n, 0.0);
   for (int k = 0; k < seeds; ++k) {
@@ -156,6 +163,10 @@ int main(int argc, char **argv) {
     var /= (n - 1);
     diffs.push_back(ratio - 1.0);
     ses.push_back(std::sqrt(var / n) / mean_s);
+    double g2 = 0, gs = 0;
+    for (uint32_t i = 0; i < n; ++i) g2 += gv[i] * gv[i], gs += gv[i] * sv[i];
+    seed_g2.push_back(g2);
+    seed_gs.push_back(gs);
     if (k < 10 || (k + 1) % 50 == 0)
       std::printf("seed %4d: rel diff %+.5f  s.e. %.5f  (%+.2f s.e.)\n", k, ratio - 1.0, ses.back(),
                   (ratio - 1.0) / ses.back());
@@ -211,6 +222,43 @@ int main(int argc, char **argv) {
                               sorted_diffs.begin());
   std::printf("  seed 0 (bench_models' seed): diff %+.6f, %.4f of the seeds below it\n", diffs[0],
               below / seeds);
+
+  // bench_models' statistic (Driver::Errors) over groups of `group` consecutive seeds: the mean
+  // ratio, the larger of the pooled delta-method variance and the groups' own spread; how often
+  // |mean - 1| exceeds 2 and 3 of it, and the spread of the group means against its median.
+  if (group > 1 && seeds / group >= 2) {
+    const int groups = seeds / group;
+    std::vector<double> gmean, gse;
+    int beyond2 = 0, beyond3g = 0;
+    for (int j = 0; j < groups; ++j) {
+      double r = 0, g2 = 0, gs = 0;
+      for (int k = j * group; k < (j + 1) * group; ++k)
+        r += (diffs[k] + 1.0) / group, g2 += seed_g2[k], gs += seed_gs[k];
+      // sum over seeds x queries of (g - r s)^2 = sum g^2 - 2 r sum g s + r^2 seeds sum s^2
+      const double total = double(group) * n;
+      const double pooled =
+          (g2 - 2 * r * gs + r * r * group * sum_s2) / ((total - 1) * total) / (mean_s * mean_s);
+      double spread = 0;
+      for (int k = j * group; k < (j + 1) * group; ++k)
+        spread += std::pow(diffs[k] + 1.0 - r, 2) / ((group - 1) * double(group));
+      gmean.push_back(r - 1.0);
+      gse.push_back(std::sqrt(std::max(pooled, spread)));
+      beyond2 += std::fabs(r - 1.0) > 2 * gse.back();
+      beyond3g += std::fabs(r - 1.0) > 3 * gse.back();
+    }
+    double mg = 0, vg = 0;
+    for (double x : gmean) mg += x / groups;
+    for (double x : gmean) vg += (x - mg) * (x - mg) / (groups - 1);
+    std::vector<double> sorted_gse = gse;
+    std::sort(sorted_gse.begin(), sorted_gse.end());
+    std::printf(
+        "\n  bench_models' statistic over %d seeds, %d groups: spread of the group means %.6f, "
+        "their s.e. median %.6f (ratio %.3f); |mean| > 2 s.e. in %d (normal: %.1f), > 3 s.e. "
+        "in %d (normal: %.1f)\n",
+        group, groups, std::sqrt(vg), sorted_gse[groups / 2],
+        std::sqrt(vg) / sorted_gse[groups / 2], beyond2, 0.0455 * groups, beyond3g,
+        0.0027 * groups);
+  }
 
   // Where: per-query mean over seeds minus the smooth value, summed by N_P bin, relative to the
   // batch's smooth sum; with its standard error from the per-query spread over seeds.

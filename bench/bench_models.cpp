@@ -27,7 +27,8 @@
 //                    max of the per-query relative error for the smooth model (fp64 host for
 //                    probes and point-like lights, fp64 REFERENCE quadrature for polygons), the
 //                    relative bias of the batch mean against the smooth model for glint models:
-//                    the mean over --error-seeds request seeds (16; 2 with --tiny), error_mean
+//                    the mean over request seeds (the case's error_seeds: 16 for BINOMIAL,
+//                    1 for the others; --error-seeds S for all; 2 with --tiny), error_mean
 //                    its absolute value, error_signed with the sign, error_se its standard
 //                    error (the larger of the delta method over seeds x queries and the spread
 //                    of the per-seed means; Driver::Errors says why one seed is not enough).
@@ -81,7 +82,7 @@ struct Options {
   int repeat = 5;
   bool area_truth_tiny = false;    // --tiny: REFERENCE at 16 nodes, a smoke value, not a truth
   bool shm_direct_output = false;  // --shm-direct-output (glintd's flag) on shared_memory rows
-  int error_seeds = 16;            // --error-seeds: request seeds behind a glint model's bias
+  int error_seeds = 0;             // --error-seeds: seeds behind a glint bias; 0 = the case's
   std::set<std::string> models, lights, precisions, paths;
   std::string json, note, cache_dir = DefaultCacheDir();
   std::string command;
@@ -402,7 +403,8 @@ void Driver::Errors(const Model &model, const ModelBenchCase &c, Lights lights,
     row->error_reference = "REFERENCE fp64 host";
     row->error_queries = uint32_t(truth.size());
   } else if (c.error == ErrorReference::kSmoothMean) {
-    // The glint model's mean over o_.error_seeds request seeds (the first the request's own; the
+    // The glint model's mean over the case's error_seeds request seeds (16 for BINOMIAL; or
+    // --error-seeds) (the first the request's own; the
     // others differ in both halves, seed_lo and seed_hi, and the models hash every glint from
     // the seed, so each is an independent realisation) against the smooth model's. One seed is
     // not enough: where a footprint holds few facets that reflect the light (BINOMIAL at N_P p
@@ -416,7 +418,7 @@ void Driver::Errors(const Model &model, const ModelBenchCase &c, Lights lights,
     // groups): still a little small where N_P p << 1.
     const auto &sv = SmoothReference(light_key, AsSmooth(request, model));
     const uint32_t n = uint32_t(sv.size());
-    const int seeds = std::max(1, o_.error_seeds);
+    const int seeds = std::max(1, o_.error_seeds ? o_.error_seeds : c.error_seeds);
     std::vector<std::vector<double>> gv;
     for (int k = 0; k < seeds; ++k) {
       glint::v1::EvaluateRequest r = request;

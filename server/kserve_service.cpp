@@ -280,7 +280,13 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
         // EstimateQueriesCost), once the tensors are decoded: a preset's polygon lights under
         // area_method REFERENCE and area_samples 1024, or a NORMAL_MAP preset's big footprints,
         // are refused as over glint.v1 instead of running unbounded.
-        if (st.ok()) st = glint_->Admit(*settings, queries);
+        // Only the cost, and only for a model that counts each query (the count-based check
+        // before queueing covered the others): a call queued before shutdown began still runs
+        // during --shutdown-grace, as every queued glint.v1 call does.
+        const Model *costed = FindModel(settings->material().model());
+        if (st.ok() && costed && costed->query_costs)
+          st = CheckRequestCost(EstimateQueriesCost(*settings, queries), queries.count(),
+                                glint_->options().cost);
         const auto decoded = Clock::now();
         t.input_ns = NsBetween(started, decoded);
         glint::v1::EvaluateResponse evaluated;

@@ -32,7 +32,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Sample(grpc::CallbackServerContext *
     return reactor;
   }
   if (shutting_down_) {
-    reactor->Finish(ToGrpcStatus(AdmitCount({}, 0)));
+    reactor->Finish(ToGrpcStatus(ShutdownStatus()));
     return reactor;
   }
   if (Status full = undelivered_.Admit(); !full.ok()) {

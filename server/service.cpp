@@ -148,17 +148,22 @@ void GlintServiceImpl::LogLine(const std::string &line) {
 
 Status GlintServiceImpl::Admit(const glint::v1::EvaluateRequest &settings,
                                const glint::v1::QueryBatch &queries, uint64_t first_query) const {
-  if (Status s = AdmitCount({}, 0); !s.ok()) return s;
+  if (Status s = ShutdownStatus(); !s.ok()) return s;
   return CheckRequestCost(EstimateQueriesCost(settings, queries, first_query), queries.count(),
                           options_.cost);
 }
 
-Status GlintServiceImpl::AdmitCount(const glint::v1::EvaluateRequest &settings,
-                                    uint64_t query_count) const {
+Status GlintServiceImpl::ShutdownStatus() const {
   if (shutting_down_)
     return Status::Unavailable(
         "server shutting down: no new work accepted; send to another "
         "replica");
+  return Status::Ok();
+}
+
+Status GlintServiceImpl::AdmitCount(const glint::v1::EvaluateRequest &settings,
+                                    uint64_t query_count) const {
+  if (Status s = ShutdownStatus(); !s.ok()) return s;
   const Model *model = FindModel(settings.material().model());
   if (model && model->query_costs) return Status::Ok();  // RunShared admits it with its queries
   return CheckRequestCost(EstimateRequestCost(settings, query_count), query_count, options_.cost);
@@ -335,7 +340,7 @@ class GlintServiceImpl::StreamReactor
     {
       std::lock_guard<std::mutex> lock(mu_);
       if (service_->shutting_down_) {
-        failure_ = ToGrpcStatus(service_->AdmitCount({}, 0));
+        failure_ = ToGrpcStatus(service_->ShutdownStatus());
       } else if (!room) {
         Status busy = OverloadStatus(service_->scheduler());
         AddRetryPushback(ctx_, service_->options().slice_ms);

@@ -133,6 +133,8 @@ class GlintServiceImpl final : public GlintRawService {
   // read): the settings' estimate (EstimateRequestCost). A model that counts each query
   // (Model::query_costs) is admitted by RunShared once it has copied them, not here.
   Status AdmitCount(const glint::v1::EvaluateRequest &settings, uint64_t query_count) const;
+  // UNAVAILABLE once shutdown has begun (no new work accepted), else OK.
+  Status ShutdownStatus() const;
   // Why work for `ctx` must stop now (OK: go on).
   Status StopReason(grpc::CallbackServerContext *ctx) const;
   // The scheduler's Dead check (server/scheduler.h) of a job answering `ctx`: once StopReason

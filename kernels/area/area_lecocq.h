@@ -258,8 +258,8 @@ GLINT_FN void lecocq_region(const GLINT_PRIVATE real3 *w, int n, real3 wo, real 
       /* A point of the chord a-b, normalised, lies on the great arc a-b. */
       real u = (real)k / (real)pieces;
       real3 wk = r3_normalize(r3_add(r3_scale(a, GLINT_R(1.0) - u), r3_scale(b, u)));
-      real3 e;
-      real par[4];
+      real3 e = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+      real par[4] = {GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0)};
       int m = lecocq_subsplit(prev_w, wk, wo, &e, par);
       for (int j = 1; j < m; ++j) {
         real psi = par[2] + (real)j * par[3]; /* in (-pi/2, pi/2): cos > 0 */

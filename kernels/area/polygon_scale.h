@@ -54,8 +54,9 @@ GLINT_FN real polygon_scale_max(const GLINT_PRIVATE real3 *v, int n) {
   real m = GLINT_R(0.0);
   for (int i = 0; i < n; ++i) {
     real c = fmax(fabs(v[i].x), fmax(fabs(v[i].y), fabs(v[i].z)));
-    glint_mask nan = (v[i].x != v[i].x) | (v[i].y != v[i].y) | (v[i].z != v[i].z);
-    m = glint_select(fmax(m, c), v[i].x + v[i].y + v[i].z, nan);
+    /* Sticky: once m is NaN it stays NaN (fmax(NaN, c) would return c). */
+    glint_mask nan = (m != m) | (v[i].x != v[i].x) | (v[i].y != v[i].y) | (v[i].z != v[i].z);
+    m = glint_select(fmax(m, c), m + v[i].x + v[i].y + v[i].z, nan);
   }
   return m;
 }

@@ -14,12 +14,6 @@
 namespace glint::nm_cost {
 #define GLINT_USE_DOUBLE 1
 #include "models/normal_map/normal_map_pndf.h"
-std::string NormalMapPolygonMethod(const glint::v1::EvaluateRequest &settings) {
-  const std::string n = std::to_string(settings.area_samples() ? settings.area_samples() : 64);
-  return "NORMAL_MAP's own MIS (" + n + " light + " + n +
-         " P-NDF samples, area_samples; area_method does not apply)";
-}
-
 }  // namespace glint::nm_cost
 
 namespace glint {

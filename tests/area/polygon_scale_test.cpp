@@ -218,6 +218,42 @@ TEST(PolygonScale, OverflowedDifferencesAreReloadedFp64) {
   OverflowedDifferencesAreReloaded<K64>();
 }
 
+// Only some vertices overflow, the overflowed ones first, under an explicit identity frame: the
+// frame's zero components turn (Inf, y, z) into (Inf, NaN, NaN), and the largest-magnitude scan
+// must keep that NaN past the later finite vertices (fmax(NaN, c) = c) for the lane to be
+// reloaded (session 10 review: it was lost, and the light came out 0 or NaN).
+template <class K>
+void PartlyOverflowedLightsAreReloaded() {
+  // x: 1.875 and 0.125 (times 2^e); at e = 127 the first two differences from the shading
+  // point's -2^127 exceed FLT_MAX in fp32, the last two do not.
+  const std::vector<double> quad = {1.875, 0.125, 0.25, 1.875, 0.875, 0.25,
+                                    0.125, 0.875, 0.25, 0.125, 0.125, 0.25};
+  const double p[3] = {-1, -0.5, -0.75};
+  for (bool framed : {false, true}) {
+    const typename K::Frame f = K::Identity();
+    typename K::real3 v0[GLINT_POLYGON_MAX_VERTICES], v[GLINT_POLYGON_MAX_VERTICES];
+    const std::vector<float> r0 = ScaledRecord<K>(quad, 0, false);
+    const std::vector<float> r127 = ScaledRecord<K>(quad, 127, false);
+    area_polygon_load_n(r0.data(), 4, framed, f, K::Make(p[0], p[1], p[2]), v0);
+    const typename K::real3 p127 =
+        K::Make(std::ldexp(p[0], 127), std::ldexp(p[1], 127), std::ldexp(p[2], 127));
+    if (std::strcmp(K::kName, "fp32") == 0) {
+      area_polygon_load_raw(r127.data(), 4, framed, f, p127, v);
+      ASSERT_FALSE(std::isfinite(v[0].x)) << "the test must overflow the first vertex";
+      ASSERT_TRUE(std::isfinite(v[3].x) && std::isfinite(v[3].y) && std::isfinite(v[3].z))
+          << "and leave the last one finite";
+    }
+    area_polygon_load_n(r127.data(), 4, framed, f, p127, v);
+    EXPECT_NE(PowerOfTwo<K>(v0, v, 4), -9999) << K::kName << " framed " << framed;
+  }
+}
+TEST(PolygonScale, PartlyOverflowedLightsAreReloadedFp32) {
+  PartlyOverflowedLightsAreReloaded<K32>();
+}
+TEST(PolygonScale, PartlyOverflowedLightsAreReloadedFp64) {
+  PartlyOverflowedLightsAreReloaded<K64>();
+}
+
 template <class K>
 typename K::Material Material() {
   typename K::Material m;

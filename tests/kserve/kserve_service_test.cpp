@@ -491,7 +491,7 @@ TEST(KServeAdmission, AnAbandonedModelInferStopsAtTheNextSlice) {
                                      : inference::InferStatistics();
   };
   const inference::InferStatistics before = stats("sparkle");
-  // 1000 queries x 1.6e5 units: 5-20 s of the worker at any load; the deadline passes
+  // 1000 queries x ~1.6e6 units: 5-20 s of the worker at any load; the deadline passes
   // within its first second.
   {
     grpc::ClientContext ctx;

@@ -276,13 +276,11 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
                                        " queries per ModelInfer call (glintd --max-batch); split "
                                        "the request");
         }
-        // Cost admission as Evaluate's, by the same per-query cost (server/request_cost.h
-        // EstimateQueriesCost), once the tensors are decoded: a preset's polygon lights under
-        // area_method REFERENCE and area_samples 1024, or a NORMAL_MAP preset's big footprints,
-        // are refused as over glint.v1 instead of running unbounded.
-        // Only the cost, and only for a model that counts each query (the count-based check
-        // before queueing covered the others): a call queued before shutdown began still runs
-        // during --shutdown-grace, as every queued glint.v1 call does.
+        // A model whose cost depends on each query (NORMAL_MAP's footprints) is admitted again
+        // now that the tensors are decoded, by Evaluate's per-query cost (server/request_cost.h
+        // EstimateQueriesCost); the count-based check before queueing covered the others. Only
+        // the cost: a call queued before shutdown began still runs during --shutdown-grace, as
+        // every queued glint.v1 call does.
         const Model *costed = FindModel(settings->material().model());
         if (st.ok() && costed && costed->query_costs)
           st = CheckRequestCost(EstimateQueriesCost(*settings, queries), queries.count(),

@@ -40,24 +40,15 @@
 #include "server/model_table.h"
 #include "server/validation.h"
 #include "test_queries.h"
+#include "tests/support/device_engine_fixture.h"
 
 namespace glint {
 namespace {
 
 using glint::v1::EvaluateRequest;
 
-class AreaFarLight : public ::testing::Test {
+class AreaFarLight : public test::DeviceEngineTest {
  protected:
-  static void SetUpTestSuite() {
-    DeviceEngineOptions o;
-    const char *cache = std::getenv("GLINT_CACHE_DIR");
-    o.cache_dir = cache ? cache : "";
-    o.workers = 1;
-    Status s = DeviceEngine::Create(o, &engine_);
-    ASSERT_TRUE(s.ok()) << s.message();
-  }
-  static void TearDownTestSuite() { engine_.reset(); }
-
   // The radiance of `r` for `q` on the device or the host path, after the server's validation.
   static std::vector<float> Run(const EvaluateRequest &r, const v1::QueryBatch &q, bool device) {
     Status s = ValidateSettings(r, {});
@@ -74,10 +65,7 @@ class AreaFarLight : public ::testing::Test {
     }
     return out;
   }
-
-  static std::unique_ptr<DeviceEngine> engine_;
 };
-std::unique_ptr<DeviceEngine> AreaFarLight::engine_;
 
 struct Method {
   v1::AreaMethod method;

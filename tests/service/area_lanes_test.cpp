@@ -20,34 +20,22 @@
 #include "server/host_path.h"
 #include "server/validation.h"
 #include "test_queries.h"
+#include "tests/support/device_engine_fixture.h"
 
 namespace glint {
 namespace {
 
 using glint::v1::EvaluateRequest;
 
-class AreaLanes : public ::testing::Test {
+class AreaLanes : public test::DeviceEngineTest {
  protected:
-  static void SetUpTestSuite() {
-    DeviceEngineOptions o;
-    const char *cache = std::getenv("GLINT_CACHE_DIR");
-    o.cache_dir = cache ? cache : "";
-    o.workers = 1;
-    Status s = DeviceEngine::Create(o, &engine_);
-    ASSERT_TRUE(s.ok()) << s.message();
-  }
-  static void TearDownTestSuite() { engine_.reset(); }
-
   static std::vector<float> Device(const EvalPlan &plan, const v1::QueryBatch &q) {
     std::vector<float> out(3 * q.count(), -1.0f);
     Status s = engine_->Evaluate(0, plan, q, out.data());
     EXPECT_TRUE(s.ok()) << s.message();
     return out;
   }
-
-  static std::unique_ptr<DeviceEngine> engine_;
 };
-std::unique_ptr<DeviceEngine> AreaLanes::engine_;
 
 void AddPolygon(EvaluateRequest *r, const std::vector<float> &xyz, bool two_sided) {
   auto *p = r->add_lights()->mutable_polygon();

@@ -29,6 +29,7 @@
 #include "server/host_path.h"
 #include "server/validation.h"
 #include "test_queries.h"
+#include "tests/support/device_engine_fixture.h"
 
 namespace k64 {
 #define GLINT_USE_DOUBLE 1
@@ -40,18 +41,8 @@ namespace {
 
 using glint::v1::EvaluateRequest;
 
-class LtcFarLight : public ::testing::Test {
+class LtcFarLight : public test::DeviceEngineTest {
  protected:
-  static void SetUpTestSuite() {
-    DeviceEngineOptions o;
-    const char *cache = std::getenv("GLINT_CACHE_DIR");
-    o.cache_dir = cache ? cache : "";
-    o.workers = 1;
-    Status s = DeviceEngine::Create(o, &engine_);
-    ASSERT_TRUE(s.ok()) << s.message();
-  }
-  static void TearDownTestSuite() { engine_.reset(); }
-
   // The radiance of `r` for `q` on the device or the host path, after the server's validation.
   static std::vector<float> Run(const EvaluateRequest &r, const v1::QueryBatch &q, bool device) {
     EXPECT_TRUE(ValidateSettings(r, {}).ok()) << ValidateSettings(r, {}).message();
@@ -66,10 +57,7 @@ class LtcFarLight : public ::testing::Test {
     }
     return out;
   }
-
-  static std::unique_ptr<DeviceEngine> engine_;
 };
-std::unique_ptr<DeviceEngine> LtcFarLight::engine_;
 
 EvaluateRequest Settings(double alpha, bool fp64) {
   EvaluateRequest r;

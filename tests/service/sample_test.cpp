@@ -28,6 +28,7 @@
 #include "server/device_engine.h"
 #include "server/eval_plan.h"
 #include "server/host_path.h"
+#include "tests/support/device_engine_fixture.h"
 
 namespace kd {
 #define GLINT_USE_DOUBLE 1
@@ -546,18 +547,8 @@ TEST(SampleRefusals, BadRequests) {
 
 // ------------------------------------------------------------ the device
 
-class SampleDeviceTest : public ::testing::Test {
+class SampleDeviceTest : public test::DeviceEngineTest {
  protected:
-  static void SetUpTestSuite() {
-    DeviceEngineOptions o;
-    const char *cache = std::getenv("GLINT_CACHE_DIR");
-    o.cache_dir = cache ? cache : "";
-    o.workers = 1;
-    Status s = DeviceEngine::Create(o, &engine_);
-    ASSERT_TRUE(s.ok()) << s.message();
-  }
-  static void TearDownTestSuite() { engine_.reset(); }
-
   static SampleResponse Device(const SampleRequest &r) {
     SampleResponse out;
     ValidationLimits limits;
@@ -565,10 +556,7 @@ class SampleDeviceTest : public ::testing::Test {
     EXPECT_TRUE(s.ok()) << s.message();
     return out;
   }
-
-  static std::unique_ptr<DeviceEngine> engine_;
 };
-std::unique_ptr<DeviceEngine> SampleDeviceTest::engine_;
 
 // 37 different queries (views and uv) of one material.
 SampleRequest Batch(const v1::Material &m, uint32_t k) {

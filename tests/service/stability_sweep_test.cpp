@@ -35,6 +35,7 @@
 #include "server/host_path.h"
 #include "server/normal_map_store.h"
 #include "server/validation.h"
+#include "tests/support/device_engine_fixture.h"
 
 // Last: the kernels' LTC lookup in double (compat.h defines the macro GLINT_R(x)).
 namespace sweep_k {
@@ -472,15 +473,11 @@ std::string Json(const EvaluateRequest &settings, const QueryBatch &q, uint32_t 
   return out;
 }
 
-class StabilitySweep : public ::testing::Test {
+class StabilitySweep : public test::DeviceEngineTest {
  protected:
   static void SetUpTestSuite() {
-    DeviceEngineOptions o;
-    const char *cache = std::getenv("GLINT_CACHE_DIR");
-    o.cache_dir = cache ? cache : "";
-    o.workers = 1;
-    Status s = DeviceEngine::Create(o, &engine_);
-    ASSERT_TRUE(s.ok()) << s.message();
+    CreateEngine(1);
+    if (HasFatalFailure()) return;
     DecodedNormalMap bumps;
     bumps.width = bumps.height = 16;
     for (int j = 0; j < 16; ++j)
@@ -491,14 +488,11 @@ class StabilitySweep : public ::testing::Test {
         for (double c : {sx / len, sy / len, 1.0 / len}) bumps.xyz.push_back(float(c));
       }
     v1::NormalMapInfo info;
-    s = NormalMaps().Insert("sweep bumps", bumps, &info);
+    Status s = NormalMaps().Insert("sweep bumps", bumps, &info);
     ASSERT_TRUE(s.ok()) << s.message();
     sweep_normal_map_digest = info.digest();
   }
-  static void TearDownTestSuite() { engine_.reset(); }
-  static std::unique_ptr<DeviceEngine> engine_;
 };
-std::unique_ptr<DeviceEngine> StabilitySweep::engine_;
 
 struct Tally {
   int requests = 0, queries = 0, bad = 0, nonzero = 0;

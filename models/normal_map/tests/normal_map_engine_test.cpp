@@ -15,6 +15,7 @@
 #include "server/host_path.h"
 #include "server/normal_map_store.h"
 #include "server/validation.h"
+#include "tests/support/device_engine_fixture.h"
 
 namespace glint {
 namespace {
@@ -42,17 +43,9 @@ std::string Put(const DecodedNormalMap &m) {
   return info.digest();
 }
 
-class NormalMapEngineTest : public ::testing::Test {
+class NormalMapEngineTest : public test::DeviceEngineTest {
  protected:
-  static void SetUpTestSuite() {
-    DeviceEngineOptions o;
-    const char *cache = std::getenv("GLINT_CACHE_DIR");
-    o.cache_dir = cache ? cache : "";
-    o.workers = 2;
-    Status s = DeviceEngine::Create(o, &engine_);
-    ASSERT_TRUE(s.ok()) << s.message();
-  }
-  static void TearDownTestSuite() { engine_.reset(); }
+  static void SetUpTestSuite() { CreateEngine(2); }
 
   static Status Plan(const EvaluateRequest &r, EvalPlan *plan) {
     Status s = ValidateSettings(r, {});
@@ -73,9 +66,7 @@ class NormalMapEngineTest : public ::testing::Test {
     HostEvaluate(plan, q, out.data());
     return out;
   }
-  static std::unique_ptr<DeviceEngine> engine_;
 };
-std::unique_ptr<DeviceEngine> NormalMapEngineTest::engine_;
 
 EvaluateRequest Request(const std::string &digest, float sigma_r, int n, bool probe) {
   EvaluateRequest r;

@@ -15,22 +15,16 @@
 #include "server/eval_plan.h"
 #include "server/host_path.h"
 #include "server/validation.h"
+#include "tests/support/device_engine_fixture.h"
 
 namespace glint {
 namespace {
 
 using glint::v1::EvaluateRequest;
 
-class ChermainEngineTest : public ::testing::Test {
+class ChermainEngineTest : public test::DeviceEngineTest {
  protected:
-  static void SetUpTestSuite() {
-    DeviceEngineOptions o;
-    o.cache_dir = "";
-    o.workers = 2;
-    Status s = DeviceEngine::Create(o, &engine_);
-    ASSERT_TRUE(s.ok()) << s.message();
-  }
-  static void TearDownTestSuite() { engine_.reset(); }
+  static void SetUpTestSuite() { CreateEngine(2, /*from_source=*/true); }
 
   std::vector<float> Device(const EvalPlan &plan, const v1::QueryBatch &q, int lane = 0) {
     std::vector<float> out(3 * q.count(), -1.0f);
@@ -43,9 +37,7 @@ class ChermainEngineTest : public ::testing::Test {
     HostEvaluate(plan, q, out.data());
     return out;
   }
-  static std::unique_ptr<DeviceEngine> engine_;
 };
-std::unique_ptr<DeviceEngine> ChermainEngineTest::engine_;
 
 EvaluateRequest Settings(bool lights, bool fp64, float log_density = 20.0f, bool polygon = false) {
   EvaluateRequest r;

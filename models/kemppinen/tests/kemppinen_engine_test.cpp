@@ -18,22 +18,17 @@
 #include "server/request_cost.h"
 #include "server/validation.h"
 #include "test_queries.h"
+#include "tests/support/device_engine_fixture.h"
 
 namespace glint {
 namespace {
 
 using glint::v1::EvaluateRequest;
 
-class KemppinenEngineTest : public ::testing::Test {
+class KemppinenEngineTest : public test::DeviceEngineTest {
  protected:
-  static void SetUpTestSuite() {
-    DeviceEngineOptions o;
-    o.cache_dir = "";  // compile from source: the test must see real build results
-    o.workers = 2;
-    Status s = DeviceEngine::Create(o, &engine_);
-    ASSERT_TRUE(s.ok()) << s.message();
-  }
-  static void TearDownTestSuite() { engine_.reset(); }
+  // compile from source: the test must see real build results
+  static void SetUpTestSuite() { CreateEngine(2, /*from_source=*/true); }
 
   std::vector<float> Device(const EvalPlan &plan, const v1::QueryBatch &q, int lane = 0) {
     std::vector<float> out(3 * q.count(), -1.0f);
@@ -46,10 +41,7 @@ class KemppinenEngineTest : public ::testing::Test {
     HostEvaluate(plan, q, out.data());
     return out;
   }
-
-  static std::unique_ptr<DeviceEngine> engine_;
 };
-std::unique_ptr<DeviceEngine> KemppinenEngineTest::engine_;
 
 EvaluateRequest MakeSettings(v1::Ndf ndf, bool lights, bool polygon, bool fp64, int neighbors) {
   EvaluateRequest r;

@@ -55,8 +55,10 @@ std::vector<Program> WarmPrograms() {
   for (const KernelSpec &spec : WarmSpecsFor(WarmMode::kCommon, true)) {
     const Model *model = FindModel(spec.model);
     if (!model) continue;
-    EvalPlan plan;
-    plan.spec = spec;  // area_method defaults to LTC
+    EvalPlan plan;  // one light of each kind the spec has; area_method defaults to LTC
+    plan.spec = spec;
+    plan.n_directional = spec.has_directional, plan.n_point = spec.has_point;
+    plan.n_polygon = spec.has_polygon;
     for (const ModelPass &pass : model->passes) {
       if (pass.needed && !pass.needed(plan)) continue;
       Program p{spec.Describe() + " " + pass.entry, pass.kernel_file,

@@ -57,10 +57,12 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -223,8 +225,8 @@ class Driver {
 
   // Builds every kernel variant the run needs before any row is timed (see the definition).
   void WarmUp();
-  // --compile-worker: builds the variants this process claims, then returns.
-  void CompileWorker(const std::string &claim_dir);
+  // --compile-worker: builds the variants this process claims; false if one failed.
+  bool CompileWorker(const std::string &claim_dir);
   void Run();
   const std::vector<Row> &rows() const { return rows_; }
   const std::vector<Skipped> &skipped() const { return skipped_; }
@@ -232,6 +234,7 @@ class Driver {
   double warm_up_seconds() const { return warm_up_seconds_; }
   int warm_up_variants() const { return warm_up_variants_; }
   int warm_up_processes() const { return warm_up_processes_; }
+  int warm_up_child_failures() const { return warm_up_child_failures_; }
 
  private:
   struct ModelRun {
@@ -251,10 +254,11 @@ class Driver {
   // Calls fn for every combination the options select, in the order of the rows.
   void ForEach(const std::function<void(Combination &)> &fn) const;
   std::vector<WarmItem> WarmItems() const;
-  // Runs the item's kernels once on worker 0 (building or loading them); with `large_grids`,
-  // also once on a grid PoCL compiles separately when the rows may reach it (see the
-  // definition). Prints `who` and the seconds; false (and a message) on failure.
-  bool WarmOne(const WarmItem &item, const char *who, bool large_grids);
+  // Runs the item's kernels once on worker 0 (building or loading them); when that compiled
+  // them, also once on a grid PoCL compiles separately when the rows may reach it (see the
+  // definition). Prints what it did (compile or load; `child`: in a compile child) and the
+  // seconds. *compiled: whether it compiled. False (and a message) on failure.
+  bool WarmOne(const WarmItem &item, bool child, bool *compiled = nullptr);
   // Claims `item` for this process: true for exactly one process of the run.
   static bool Claim(const std::string &claim_dir, const WarmItem &item);
   // Times `request` on `path`; false (and *why) when the path fails.
@@ -289,6 +293,7 @@ class Driver {
   double reference_seconds_ = 0;          // running total of the reference computations
   double warm_up_seconds_ = 0;
   int warm_up_variants_ = 0, warm_up_processes_ = 1;
+  int warm_up_child_failures_ = 0;  // compile children not started, or not ending with 0
 };
 
 Driver::Driver(Options o, DeviceEngine *engine) : o_(std::move(o)), engine_(engine) {
@@ -690,7 +695,7 @@ std::vector<Driver::WarmItem> Driver::WarmItems() const {
 // two threads use when measuring), 5 x min_time here covers every batch a row reaches. The growth
 // costs ~2 x 5 x min_time per variant; an over-reach costs one unneeded large-grid compile, an
 // under-reach leaves that compile to the row, as before.
-bool Driver::WarmOne(const WarmItem &item, const char *who, bool large_grids) {
+bool Driver::WarmOne(const WarmItem &item, bool child, bool *compiled) {
   constexpr double kGrowthMargin = 5;
   const auto t0 = Clock::now();
   std::vector<float> out;
@@ -698,9 +703,10 @@ bool Driver::WarmOne(const WarmItem &item, const char *who, bool large_grids) {
   const int compiled_before = engine_->runtime().programs_compiled();
   bool ok = Eval("device", item.request, 1, &out, &why);
   const double small = std::chrono::duration<double>(Clock::now() - t0).count();
-  // A variant loaded from the disk cache was compiled by an earlier run, whose growth here
-  // built its large-grid function into PoCL's cache too: no growth then (a warm run).
-  if (engine_->runtime().programs_compiled() == compiled_before) large_grids = false;
+  // A variant loaded from the disk cache was compiled by an earlier run or a compile child,
+  // whose growth here built its large-grid function into PoCL's cache too: no growth then.
+  const bool large_grids = engine_->runtime().programs_compiled() != compiled_before;
+  if (compiled) *compiled = large_grids;
   const auto t1 = Clock::now();
   uint32_t n = std::min(o_.base_queries, 256u), largest = 0;
   while (ok && large_grids && o_.min_time > 0) {
@@ -714,13 +720,14 @@ bool Driver::WarmOne(const WarmItem &item, const char *who, bool large_grids) {
                   kGrowthMargin * o_.min_time, o_.max_batch);
   }
   const double growth = std::chrono::duration<double>(Clock::now() - t1).count();
-  if (who) {
+  {
     char grown[80] = "";
     if (largest)
       std::snprintf(grown, sizeof grown, " + %.1f s growth to %u queries (%s grid)", growth,
                     largest,
                     (largest + item.lanes_min - 1) / item.lanes_min > 65408 ? "large" : "small");
-    std::fprintf(stderr, "  %s %.1f s%s: %s%s\n", who, small, grown, item.key.c_str(),
+    std::fprintf(stderr, "  %s%s %.1f s%s: %s%s\n", large_grids ? "compile" : "load",
+                 child ? " (child)" : "", small, grown, item.key.c_str(),
                  ok ? "" : (" failed: " + why).c_str());
   }
   return ok;
@@ -744,10 +751,13 @@ bool Driver::Claim(const std::string &claim_dir, const WarmItem &item) {
 // pocl_check_kernel_dlhandle_cache), so threads, even with one cl_context each, take turns.
 // The children (this binary with --compile-worker and the same selection) and this process
 // claim variants one by one (an O_EXCL file per variant in a fresh directory); each compiles its
-// claims into the shared kernel cache (--cache-dir: program binaries, and PoCL's compiled
-// work-group functions under its pocl/ directory). Then this process runs every variant once,
-// loading the children's from the disk cache. Without a disk cache, or with --compile-jobs 1,
-// it compiles them all itself, still before any row, so no row's first run compiles.
+// claims into the shared kernel cache (--cache-dir; on PoCL its own cache under pocl/, which
+// holds the compiled programs and work-group functions, server/cl_runtime.h ProgramStore). Then
+// this process runs every variant once, loading the children's from the disk cache. Without a
+// disk cache, or with --compile-jobs 1, it compiles them all itself, still before any row, so no
+// row's first run compiles. A child that cannot be started, or ends with a failure or a signal,
+// is reported on stderr (and counted in the JSON's time breakdown); the variants it did not leave
+// in the cache are then compiled here like the others, large grids included.
 void Driver::WarmUp() {
   const auto t0 = Clock::now();
   const std::vector<WarmItem> items = WarmItems();
@@ -759,6 +769,7 @@ void Driver::WarmUp() {
     if (mkdtemp(dir)) claim_dir = dir;
   }
   std::set<std::string> built_here;
+  warm_up_child_failures_ = 0;
   if (!claim_dir.empty()) {
     std::vector<pid_t> children;
     for (int j = 1; j < jobs; ++j) {
@@ -771,33 +782,63 @@ void Driver::WarmUp() {
       for (std::string &a : args) argv.push_back(a.data());
       argv.push_back(nullptr);
       pid_t pid = 0;
-      if (posix_spawn(&pid, "/proc/self/exe", nullptr, nullptr, argv.data(), environ) == 0)
+      if (const int err =
+              posix_spawn(&pid, "/proc/self/exe", nullptr, nullptr, argv.data(), environ);
+          err == 0) {
         children.push_back(pid);
+      } else {
+        ++warm_up_child_failures_;
+        std::fprintf(stderr, "bench_models: could not start compile process %d: %s\n", j,
+                     std::strerror(err));
+      }
     }
     for (const WarmItem &item : items)
       if (Claim(claim_dir, item)) {
-        WarmOne(item, "compile", true);
+        WarmOne(item, false);
         built_here.insert(item.key);
       }
     for (pid_t pid : children) {
       int status = 0;
-      waitpid(pid, &status, 0);
+      if (waitpid(pid, &status, 0) != pid) {
+        ++warm_up_child_failures_;
+        std::fprintf(stderr, "bench_models: compile process %d: waitpid: %s\n", int(pid),
+                     std::strerror(errno));
+      } else if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+        ++warm_up_child_failures_;
+        if (WIFSIGNALED(status))
+          std::fprintf(stderr, "bench_models: compile process %d ended by signal %d (%s)\n",
+                       int(pid), WTERMSIG(status), strsignal(WTERMSIG(status)));
+        else
+          std::fprintf(stderr, "bench_models: compile process %d exited with status %d\n", int(pid),
+                       WEXITSTATUS(status));
+      }
     }
     warm_up_processes_ = 1 + int(children.size());
     std::error_code ec;
     std::filesystem::remove_all(claim_dir, ec);
   }
   // Every variant on this engine: built here already, loaded from the disk cache (a child's),
-  // or compiled now (no children, or a child failed).
-  for (const WarmItem &item : items)
-    if (!built_here.count(item.key))
-      WarmOne(item, claim_dir.empty() ? "compile" : "load", claim_dir.empty());
+  // or compiled now (no children, or a child failed: then with its large-grid compile too).
+  int fallback = 0;
+  for (const WarmItem &item : items) {
+    if (built_here.count(item.key)) continue;
+    bool compiled = false;
+    WarmOne(item, false, &compiled);
+    fallback += compiled && !claim_dir.empty();
+  }
+  if (fallback)
+    std::fprintf(stderr,
+                 "bench_models: %d variants were not in the cache after the compile processes "
+                 "(%d failed to start or finish): compiled in this process\n",
+                 fallback, warm_up_child_failures_);
   warm_up_seconds_ = std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-void Driver::CompileWorker(const std::string &claim_dir) {
+bool Driver::CompileWorker(const std::string &claim_dir) {
+  bool failed = false;
   for (const WarmItem &item : WarmItems())
-    if (Claim(claim_dir, item)) WarmOne(item, "compile (child)", true);
+    if (Claim(claim_dir, item) && !WarmOne(item, true)) failed = true;
+  return !failed;
 }
 
 void Driver::Run() {
@@ -990,8 +1031,7 @@ int Main(int argc, char **argv) {
     // A compile child ends with the run that started it (killed or not).
     prctl(PR_SET_PDEATHSIG, SIGTERM);
     if (getppid() == 1) return 1;
-    Driver(o, engine.get()).CompileWorker(o.compile_worker);
-    return 0;
+    return Driver(o, engine.get()).CompileWorker(o.compile_worker) ? 0 : 1;
   }
   const std::string load_start = LoadAverage(), started = UtcNow();
   const auto t0 = Clock::now();
@@ -1001,9 +1041,11 @@ int Main(int argc, char **argv) {
   const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
   const std::string load_end = LoadAverage();
   // Where the time went (issue 13: --quick from a cold cache in under 3 minutes).
-  nlohmann::ordered_json breakdown = {{"kernel_warm_up_s", Num(driver.warm_up_seconds())},
-                                      {"kernel_warm_up_variants", driver.warm_up_variants()},
-                                      {"kernel_warm_up_processes", driver.warm_up_processes()}};
+  nlohmann::ordered_json breakdown = {
+      {"kernel_warm_up_s", Num(driver.warm_up_seconds())},
+      {"kernel_warm_up_variants", driver.warm_up_variants()},
+      {"kernel_warm_up_processes", driver.warm_up_processes()},
+      {"kernel_warm_up_child_failures", driver.warm_up_child_failures()}};
   std::fprintf(stderr, "\ntime: %.1f s wall; kernel warm-up %.1f s (%d variants, %d processes)\n",
                wall, driver.warm_up_seconds(), driver.warm_up_variants(),
                driver.warm_up_processes());

@@ -10,10 +10,11 @@ this process loads them from the shared disk cache) and with --compile-jobs 1 (t
 compiles all four). Checks:
   - the JSON passes bench_tables.py --validate;
   - the processes warmed four variants, and this process built each program once: compiled
-    plus loaded is 4, and with two processes at least one was loaded from the child's binaries
-    (a child that failed or never ran leaves this process compiling all four: loaded 0);
+    plus loaded is 4, and with two processes at least one was loaded from the child's compile
+    in the shared cache (PoCL's own cache on PoCL, program binaries elsewhere; a child that
+    failed or never ran leaves this process compiling all four: loaded 0), and no child failed;
   - the rows' errors (against the fp64 host path) are the same numbers in both runs: kernels
-    loaded from another process's binaries compute the same bits as kernels compiled here.
+    loaded from another process's compile compute the same bits as kernels compiled here.
 """
 
 import json
@@ -30,7 +31,12 @@ def run(binary, jobs, workdir):
     shutil.rmtree(cache, ignore_errors=True)
     cmd = [binary, "--tiny", "--models", "SMOOTH", "--lights", "probe", "--paths", "device",
            "--compile-jobs", str(jobs), "--cache-dir", cache, "--json", out]
-    done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    # PoCL's cache under the fresh --cache-dir too (bench_models points it there when unset): a
+    # POCL_CACHE_DIR from the caller would hold the first run's compiles for the second.
+    env = dict(os.environ)
+    env.pop("POCL_CACHE_DIR", None)
+    done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                          env=env)
     if done.returncode != 0:
         sys.exit(f"{' '.join(cmd)} failed ({done.returncode}):\n{done.stderr}")
     with open(out, encoding="utf-8") as f:
@@ -55,6 +61,9 @@ def main():
             if warm["kernel_warm_up_variants"] != 4:
                 failures.append(f"--compile-jobs {jobs}: {warm['kernel_warm_up_variants']} "
                                 "variants warmed; expected 4")
+            if warm["kernel_warm_up_child_failures"] != 0:
+                failures.append(f"--compile-jobs {jobs}: "
+                                f"{warm['kernel_warm_up_child_failures']} compile children failed")
             if warm["kernel_warm_up_processes"] != jobs:
                 failures.append(f"--compile-jobs {jobs}: {warm['kernel_warm_up_processes']} "
                                 "processes")

@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <sstream>
 
 namespace glint {
@@ -33,7 +34,19 @@ struct DeviceHandle {
   DeviceInfo info;
 };
 
+// POCL_CACHE_DIR as PoCL reads it: once, at its initialisation inside this process's first
+// clGetPlatformIDs (every OpenCL call of glint comes after one here). "" when unset.
+std::string &PoclCacheDirAtInit() {
+  static std::string dir;
+  return dir;
+}
+
 std::vector<DeviceHandle> EnumerateDevices() {
+  static std::once_flag first;
+  std::call_once(first, [] {
+    const char *dir = std::getenv("POCL_CACHE_DIR");
+    PoclCacheDirAtInit() = dir ? dir : "";
+  });
   std::vector<DeviceHandle> out;
   cl_uint np = 0;
   if (clGetPlatformIDs(0, nullptr, &np) != CL_SUCCESS || np == 0) return out;
@@ -83,6 +96,24 @@ std::string BuildLog(cl_program program, cl_device_id device) {
   return log;
 }
 
+bool IsPocl(const DeviceInfo &info) {
+  return info.platform_name.find("Portable Computing Language") != std::string::npos;
+}
+
+// PoCL's kernel cache directory in this process (pocl_cache.c, pocl_cache_init_topdir):
+// POCL_CACHE_DIR, else $XDG_CACHE_HOME/pocl/kcache, else $HOME/.cache/pocl/kcache; "" when its
+// cache is off (POCL_KERNEL_CACHE=0) or there is no such place.
+std::string PoclCacheDir() {
+  const char *use = std::getenv("POCL_KERNEL_CACHE");
+  if (use && (std::string(use) == "0" || std::string(use) == "false")) return "";
+  if (!PoclCacheDirAtInit().empty()) return PoclCacheDirAtInit();
+  const char *xdg = std::getenv("XDG_CACHE_HOME");
+  if (xdg && *xdg) return std::string(xdg) + "/pocl/kcache";
+  const char *home = std::getenv("HOME");
+  if (home && *home) return std::string(home) + "/.cache/pocl/kcache";
+  return "";
+}
+
 }  // namespace
 
 std::string ClErrorName(cl_int err) {
@@ -121,7 +152,7 @@ std::vector<DeviceInfo> ListDevices() {
 }
 
 Status ClRuntime::Create(const std::string &selector, const std::string &cache_dir,
-                         std::unique_ptr<ClRuntime> *out) {
+                         std::unique_ptr<ClRuntime> *out, ProgramStore store) {
   // PoCL keeps its own compiled-kernel cache; point it at ours unless the
   // user chose one, so one --cache-dir holds everything.
   if (!cache_dir.empty() && std::getenv("POCL_CACHE_DIR") == nullptr) {
@@ -174,6 +205,13 @@ Status ClRuntime::Create(const std::string &selector, const std::string &cache_d
     std::filesystem::create_directories(cache_dir, ec);
     if (ec) rt->cache_dir_.clear();  // no disk cache, still serve
   }
+  // PoCL: its own cache (which it keeps in any case) instead of program binaries, unless the
+  // caller asks for binaries or PoCL's cache is off.
+  rt->store_ = ProgramStore::kBinaries;
+  if (store != ProgramStore::kBinaries && IsPocl(rt->info_)) {
+    rt->platform_cache_dir_ = PoclCacheDir();
+    if (!rt->platform_cache_dir_.empty()) rt->store_ = ProgramStore::kPlatformCache;
+  }
   *out = std::move(rt);
   return Status::Ok();
 }
@@ -208,8 +246,9 @@ Status ClRuntime::GetProgram(const std::string &source, const std::string &optio
     if (!s) s = std::make_shared<ProgramSlot>();
     slot = s;
   }
-  // Two requests needing the same new kernel compile it once (the second waits here); builds of
-  // different programs run at the same time.
+  // Two requests needing the same new kernel compile it once (the second waits here). Builds of
+  // different programs do not wait for each other here, though PoCL 3.1 serialises them inside
+  // its compiler (one at a time per process).
   std::lock_guard<std::mutex> build(slot->build);
   if (slot->program) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -217,27 +256,49 @@ Status ClRuntime::GetProgram(const std::string &source, const std::string &optio
     *out = slot->program.get();
     return Status::Ok();
   }
-  std::string path;
+  std::string name;
   if (!cache_dir_.empty()) {
-    std::ostringstream name;
-    name << std::hex
+    std::ostringstream hash;
+    hash << std::hex
          << Fnv1a(key + '\n' + info_.platform_name + '\n' + info_.name + '\n' +
-                  info_.driver_version)
-         << ".clbin";
-    path = (std::filesystem::path(cache_dir_) / name.str()).string();
+                  info_.driver_version);
+    name = hash.str();
   }
   ClProgram program;
-  if (!path.empty() && LoadBinary(path, options, &program)) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ++loaded_;
-  } else {
+  if (store_ == ProgramStore::kPlatformCache) {
+    // Built from source every time; PoCL finds its earlier compile of the same source, options
+    // and device in its cache (and the work-group functions compiled at first enqueue).
+    const std::string stamp = name.empty() ? "" : StampPath(name);
+    std::error_code ec;
+    // PoCL fails a build when its cache directory has gone (someone cleared the cache while
+    // this process runs): make it again.
+    std::filesystem::create_directories(platform_cache_dir_, ec);
+    const bool seen = !stamp.empty() && std::filesystem::exists(stamp, ec);
     Status s = BuildFromSource(source, options, &program);
     if (!s.ok()) return s;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      ++compiled_;
+      ++(seen ? loaded_ : compiled_);
     }
-    if (!path.empty()) SaveBinary(path, program.get());
+    if (!stamp.empty() && !seen) {
+      std::filesystem::create_directories(std::filesystem::path(stamp).parent_path(), ec);
+      if (!ec) std::ofstream(stamp) << options << '\n';
+    }
+  } else {
+    const std::string path =
+        name.empty() ? "" : (std::filesystem::path(cache_dir_) / (name + ".clbin")).string();
+    if (!path.empty() && LoadBinary(path, options, &program)) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++loaded_;
+    } else {
+      Status s = BuildFromSource(source, options, &program);
+      if (!s.ok()) return s;
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        ++compiled_;
+      }
+      if (!path.empty()) SaveBinary(path, program.get());
+    }
   }
   *out = program.get();
   slot->program = std::move(program);
@@ -261,6 +322,14 @@ Status ClRuntime::BuildFromSource(const std::string &source, const std::string &
   }
   *out = std::move(program);
   return Status::Ok();
+}
+
+// In PoCL's cache directory, so that clearing that cache clears the stamps with it. A stamp
+// written after a build whose PoCL cache write failed (a full disk) miscounts the next build as
+// loaded; the build itself is right either way.
+std::string ClRuntime::StampPath(const std::string &name) const {
+  return (std::filesystem::path(platform_cache_dir_) / "glint-programs" / (name + ".built"))
+      .string();
 }
 
 bool ClRuntime::LoadBinary(const std::string &path, const std::string &options, ClProgram *out) {

@@ -1,5 +1,5 @@
 // OpenCL runtime: device choice, context, and a program cache (memory, then
-// disk binaries, then compiling). One ClRuntime per process; thread-safe.
+// the disk, then compiling). One ClRuntime per process; thread-safe.
 #pragma once
 
 #include <map>
@@ -23,14 +23,32 @@ struct DeviceInfo {
 // order; the index is what `glintd --device N` selects.
 std::vector<DeviceInfo> ListDevices();
 
+// How compiled programs outlive the process (with a cache directory).
+enum class ProgramStore {
+  // kPlatformCache on PoCL with its kernel cache on (POCL_KERNEL_CACHE not 0), else kBinaries.
+  kAuto,
+  // Program binaries in `cache_dir` (<hash>.clbin): clGetProgramInfo(CL_PROGRAM_BINARIES) after a
+  // compile, clCreateProgramWithBinary at the next process's first use. For drivers without a
+  // cache of their own.
+  kBinaries,
+  // The platform's own compiled-kernel cache (PoCL's, keyed by source, options and device; in
+  // `cache_dir`/pocl unless POCL_CACHE_DIR says otherwise): a program is built from source every
+  // time and the platform finds its earlier compile. No binaries are asked for: on PoCL 3.1
+  // CL_PROGRAM_BINARIES compiles one more (generic) work-group function of every kernel of the
+  // program for the binary, as long as the first build again, and the specialised one compiled at
+  // the first enqueue is what runs anyway (bench/bench_program_cache.cpp measures both).
+  kPlatformCache,
+};
+
 class ClRuntime {
  public:
   // `device_selector`: "" picks PoCL's CPU device if present, else the first
   // device; a number picks that index of ListDevices(); anything else picks
   // the first device whose device or platform name contains it.
-  // `cache_dir`: where program binaries are kept ("" disables the disk cache).
+  // `cache_dir`: the disk cache ("" disables it: every process compiles its programs, though
+  // PoCL still keeps its own cache in its default place). `store`: how programs are kept there.
   static Status Create(const std::string &device_selector, const std::string &cache_dir,
-                       std::unique_ptr<ClRuntime> *out);
+                       std::unique_ptr<ClRuntime> *out, ProgramStore store = ProgramStore::kAuto);
   ~ClRuntime();
   ClRuntime(const ClRuntime &) = delete;
   ClRuntime &operator=(const ClRuntime &) = delete;
@@ -39,16 +57,23 @@ class ClRuntime {
   cl_context context() const { return context_.get(); }
   cl_device_id device() const { return device_; }
 
-  // The built program for (source, options): from memory, else from a disk
-  // binary, else compiled. A build failure returns Internal with the build log.
-  // The runtime keeps ownership of the program. Different programs build
-  // concurrently (parallel warm-up, server/warmup.h); callers asking for the
-  // same one while it builds wait for that build.
+  // The built program for (source, options): from memory, else from the disk
+  // cache, else compiled. A build failure returns Internal with the build log.
+  // The runtime keeps ownership of the program. Callers asking for the same
+  // program while it builds wait for that build; callers of different programs
+  // do not wait for each other here, but PoCL 3.1 itself compiles one program
+  // at a time per process (bench/bench_models.cpp, Driver::WarmUp).
   Status GetProgram(const std::string &source, const std::string &options, cl_program *out);
 
-  // Counters for capabilities/logs: programs compiled from source and loaded from disk.
+  // Counters for capabilities/logs: programs compiled from source and loaded from disk. With
+  // kPlatformCache a program counts as loaded when this cache directory saw it built before
+  // (a stamp file next to the platform's cache, so deleting that cache resets it).
   int programs_compiled() const;
   int programs_loaded_from_disk() const;
+  // kBinaries or kPlatformCache (never kAuto); with no cache directory, what it would be.
+  ProgramStore program_store() const { return store_; }
+  // kPlatformCache: the directory of PoCL's cache this process uses ("" otherwise).
+  const std::string &platform_cache_dir() const { return platform_cache_dir_; }
   // Lookups answered from the in-memory cache (for /metrics).
   int programs_memory_hits() const;
 
@@ -57,12 +82,16 @@ class ClRuntime {
   Status BuildFromSource(const std::string &source, const std::string &options, ClProgram *out);
   bool LoadBinary(const std::string &path, const std::string &options, ClProgram *out);
   void SaveBinary(const std::string &path, cl_program program);
+  // kPlatformCache: the stamp saying this program was built with the platform's cache before.
+  std::string StampPath(const std::string &name) const;
 
   DeviceInfo info_;
   cl_platform_id platform_ = nullptr;
   cl_device_id device_ = nullptr;
   ClContext context_;
   std::string cache_dir_;
+  ProgramStore store_ = ProgramStore::kBinaries;
+  std::string platform_cache_dir_;
 
   // One slot per program, its own lock held while it is built, so that only
   // callers of the same program wait for a build.

@@ -1,7 +1,11 @@
 // Kernel warm-up before glintd reports SERVING (issue 13, first-request latency): the kernel
 // variants the models declare (Model::warm_specs) are built (from the disk cache when present)
-// and run once on every device queue, in parallel over the queues, while the health service says
-// NOT_SERVING. A request of a warmed variant then compiles nothing. `--warm` chooses how much:
+// and run once on every device queue while the health service says NOT_SERVING. A request of a
+// warmed variant then compiles nothing. The threads (one per queue) overlap the disk loads,
+// kernel creation and first runs, but not cold compiles: PoCL 3.1 compiles one program, and one
+// work-group function, at a time per process (clBuildProgram holds the context's LLVM lock, the
+// first-enqueue compile a process-wide lock; bench/bench_models.cpp Driver::WarmUp compiles in
+// several processes for that reason). `--warm` chooses how much:
 //   none    nothing: SERVING at once, each variant is built by its first request (tests, tools)
 //   common  every model's warm_specs (the default)
 //   all     those shapes with every Fresnel kind and, where the device has fp64, both precisions
@@ -31,9 +35,9 @@ struct WarmTiming {
 };
 
 // Warms `specs`: min(threads, engine->workers()) threads each take the next spec and run it on
-// their own queue (builds of different programs run concurrently, server/cl_runtime.h), then every
-// spec runs once on the other queues. Returns the first failure, naming the spec; `timings` (if
-// not null) gets each spec's first run.
+// their own queue (their cold compiles take turns inside PoCL, see above), then every spec runs
+// once on the other queues. Returns the first failure, naming the spec; `timings` (if not null)
+// gets each spec's first run (a cold one includes waiting for the other thread's compile).
 Status WarmKernels(DeviceEngine *engine, const std::vector<KernelSpec> &specs, int threads,
                    std::vector<WarmTiming> *timings = nullptr);
 

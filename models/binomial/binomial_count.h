@@ -304,22 +304,64 @@ GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mas
   real ratio = q / (GLINT_R(1.0) - q);
   real eps = binomial_eps();
   real rel_error = GLINT_R(2.0) * eps * (GLINT_R(8.0) - GLINT_R(5.0) * log_pmf0);
+  /* A lane that still searches has searched every step so far, so its k is the step count i,
+   * the same in every lane: pmf and cdf advance with i in all lanes, unmasked, and only k
+   * freezes where a lane stops (the stopped lanes' pmf and cdf are not read again). The steps
+   * go 4 at a time: the 4 factors (n - i) / (i + 1) q / (1 - q) and the running pmf and CDF
+   * of steps i .. i + 3, then each lane's stop as the first of the 4 comparisons that fails
+   * (the CDF never falls, so the comparisons fail in order), with one `any` per 4 steps.
+   * Should a searching lane's v be near the CDF at any of the 4 (so that the tail decides,
+   * binomial_exact_beyond), the block is dropped and that one step taken as the 1-step
+   * recurrence. Per searching lane every value and comparison is the 1-step search's, bit for
+   * bit; what changes is the work-item's cost: the factors' divisions no longer wait for the
+   * previous comparison, and the loop control (a horizontal `any`, a branch) is paid once per
+   * 4 steps (models/binomial/README.md "Cost"). */
   real k = GLINT_R(0.0);
+  real i = GLINT_R(0.0);
   glint_mask searching = active & (k < cap);
   while (glint_any(searching)) {
-    real tol = (rel_error + GLINT_R(14.0) * eps * k) * cdf;
-    glint_mask near = !(fabs(vs - cdf) > tol);
-    glint_mask beyond = vs > cdf;
-    if (glint_any(searching & near)) {
-      glint_mask tail_says =
-          binomial_exact_beyond(n, k, cap, pmf, cdf, ratio, v, flip, searching & near);
-      beyond = ((!near) & beyond) | (near & tail_says);
+    real i1 = i + GLINT_R(1.0), i2 = i + GLINT_R(2.0), i3 = i + GLINT_R(3.0);
+    real i4 = i + GLINT_R(4.0);
+    real pmf1 = pmf * ((n - i) / i1 * ratio);
+    real cdf1 = cdf + pmf1;
+    real pmf2 = pmf1 * ((n - i1) / i2 * ratio);
+    real cdf2 = cdf1 + pmf2;
+    real pmf3 = pmf2 * ((n - i2) / i3 * ratio);
+    real cdf3 = cdf2 + pmf3;
+    real pmf4 = pmf3 * ((n - i3) / i4 * ratio);
+    real cdf4 = cdf3 + pmf4;
+    glint_mask near = !(fabs(vs - cdf) > (rel_error + GLINT_R(14.0) * eps * i) * cdf);
+    glint_mask near_later = !(fabs(vs - cdf1) > (rel_error + GLINT_R(14.0) * eps * i1) * cdf1) |
+                            !(fabs(vs - cdf2) > (rel_error + GLINT_R(14.0) * eps * i2) * cdf2) |
+                            !(fabs(vs - cdf3) > (rel_error + GLINT_R(14.0) * eps * i3) * cdf3);
+    if (glint_any(searching & (near | near_later))) {
+      /* One step of the 1-step search at i. */
+      glint_mask beyond = vs > cdf;
+      if (glint_any(searching & near)) {
+        glint_mask tail_says =
+            binomial_exact_beyond(n, i, cap, pmf, cdf, ratio, v, flip, searching & near);
+        beyond = ((!near) & beyond) | (near & tail_says);
+      }
+      searching = searching & beyond;
+      pmf = pmf1;
+      cdf = cdf1;
+      i = i1;
+      k = glint_select(k, i, searching);
+      searching = searching & (i < cap);
+      continue;
     }
-    searching = searching & beyond;
-    pmf = glint_select(pmf, pmf * ((n - k) / (k + GLINT_R(1.0)) * ratio), searching);
-    k = glint_select(k, k + GLINT_R(1.0), searching);
-    cdf = glint_select(cdf, cdf + pmf, searching);
-    searching = searching & (k < cap);
+    glint_mask s1 = searching & (vs > cdf);
+    glint_mask s2 = s1 & (i1 < cap) & (vs > cdf1);
+    glint_mask s3 = s2 & (i2 < cap) & (vs > cdf2);
+    glint_mask s4 = s3 & (i3 < cap) & (vs > cdf3);
+    k = glint_select(k, i1, s1);
+    k = glint_select(k, i2, s2);
+    k = glint_select(k, i3, s3);
+    k = glint_select(k, i4, s4);
+    searching = s4 & (i4 < cap);
+    pmf = pmf4;
+    cdf = cdf4;
+    i = i4;
   }
   return glint_select(k, n - k, flip);
 }
@@ -488,6 +530,7 @@ GLINT_FN real binomial_whole_prob(real n, BinomialProb prob, real threshold, rea
     approx = approx & !(p < p1);
   }
   real x = GLINT_R(0.0);
+  glint_mask near_p1 = approx & !approx; /* no lane */
   if (glint_any(approx)) {
     /* asin(sqrt(fmin(p, p2))): the light's theta unless p > p2 */
     real theta = prob.theta;
@@ -499,20 +542,34 @@ GLINT_FN real binomial_whole_prob(real n, BinomialProb prob, real threshold, rea
      * rounding; plus one count for a comparison that rounding decides, binomial_exact).
      * Whether it is skipped depends on u and on x, which grows with p: once skipped, it stays
      * skipped. */
-    glint_mask near_p1 = approx & (x < binomial_exact_cap(n, p1));
+    near_p1 = approx & (x < binomial_exact_cap(n, p1));
     if (glint_any(near_p1)) {
       real level = GLINT_R(1.001) * -log1p(-u) + GLINT_R(0.001);
       near_p1 = near_p1 & (x < binomial_quantile_bound(n, p1, level) + GLINT_R(1.0));
     }
-    if (glint_any(near_p1))
-      x = glint_select(x, fmax(x, binomial_exact(n, p1, u, near_p1)), near_p1);
   }
   /* E(p): the whole answer below p1 (or clearly exact), the last maximum above p2. */
   glint_mask exact = active & !approx;
   glint_mask search = exact | (approx & (p > p2));
-  if (glint_any(search)) {
-    real e = binomial_exact_log(n, p, u, prob.log1m_q, search);
-    x = glint_select(x, glint_select(e, fmax(x, e), approx), search);
+  /* One search for both: E(p1) in the lanes near p1, E(p) in the others that need it (each
+   * lane's own arithmetic, as two searches would do it), so a work-item whose lanes straddle a
+   * switch pays one set-up and the longer of the two loops instead of both. A lane that needs
+   * both (approximated above p2 yet near p1: only where p1 and p2 nearly meet, n ~ 4 threshold)
+   * gets its E(p) in a second search. The maxima commute, so the order does not matter. */
+  glint_mask first = near_p1 | search;
+  if (glint_any(first)) {
+    real p_first = p, log1m_first = prob.log1m_q;
+    if (glint_any(near_p1)) {
+      p_first = glint_select(p, p1, near_p1);
+      log1m_first = glint_select(prob.log1m_q, binomial_log1m_rarer(p1), near_p1);
+    }
+    real e = binomial_exact_log(n, p_first, u, log1m_first, first);
+    x = glint_select(x, glint_select(e, fmax(x, e), approx), first);
+  }
+  glint_mask both = near_p1 & search;
+  if (glint_any(both)) {
+    real e = binomial_exact_log(n, p, u, prob.log1m_q, both);
+    x = glint_select(x, fmax(x, e), both);
   }
   return x;
 }

@@ -333,6 +333,107 @@ TEST(BinomialDraw, CountNeverFallsAsPGrowsForAnyKeyInAnyRegimeInFp32) {
   ExpectCountNeverFalls("fp32", k32::Draw);
 }
 
+// The exact quantile search as it was written before it took 4 steps per loop trip (one step
+// per trip, every update masked): the reference the 4-step search must equal bit for bit, since
+// both are meant to do the same arithmetic per lane. Written here in plain C++ on the kernel
+// header's pieces (binomial_exact_cap, binomial_exact_beyond, binomial_eps) of precision T.
+template <typename T, typename Cap, typename Beyond>
+T OneStepSearch(T n, T p, T u, T log1m_q, T eps, Cap cap_of, Beyond beyond_of) {
+  const bool flip = p > T(0.5);
+  const T q = flip ? T(1) - p : p, v = flip ? T(1) - u : u;
+  const T vs = v * T(1237940039285380274899124224.0);  // 2^90
+  const T cap = cap_of(n, q);
+  const T log_pmf0 = n * log1m_q;
+  const T pmf_sqrt = std::exp(T(0.5) * log_pmf0) * T(35184372088832.0);  // 2^45
+  T pmf = pmf_sqrt * pmf_sqrt, cdf = pmf;
+  const T ratio = q / (T(1) - q);
+  const T rel_error = T(2) * eps * (T(8) - T(5) * log_pmf0);
+  T k = 0;
+  bool searching = k < cap;
+  while (searching) {
+    const T tol = (rel_error + T(14) * eps * k) * cdf;
+    const bool near = !(std::fabs(vs - cdf) > tol);
+    bool beyond = vs > cdf;
+    if (near) beyond = beyond_of(n, k, cap, pmf, cdf, ratio, v, flip);
+    searching = beyond;
+    if (searching) {
+      pmf = pmf * ((n - k) / (k + T(1)) * ratio);
+      k = k + T(1);
+      cdf = cdf + pmf;
+    }
+    searching = searching && k < cap;
+  }
+  return flip ? n - k : k;
+}
+
+template <typename T, typename Search, typename Log1m, typename Cap, typename Beyond>
+void ExpectFourStepSearchEqualsOneStep(const char *precision, T eps, Search search, Log1m log1m,
+                                       Cap cap_of, Beyond beyond_of) {
+  std::mt19937_64 rng(29);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  long compared = 0, ties = 0, mismatches = 0;
+  for (double n : {1.0, 2.0, 3.0, 5.0, 8.0, 13.0, 31.0, 64.0, 65.0, 100.0, 400.0, 1000.0, 1e5}) {
+    for (int ip = 0; ip < 60; ++ip) {
+      // p from 1e-6 to 1, log-spaced, and its mirror 1 - p (the failures side)
+      const double base = std::pow(10.0, -6.0 + 6.0 * ip / 59.0);
+      for (double pd : {base, 1.0 - base * 0.999}) {
+        const T p = T(pd);
+        if (!(p > T(0)) || !(p <= T(1))) continue;
+        const T lq = log1m(p);
+        // Random uniforms on the 2^-24 grid, plus the uniforms that sit on the CDF's values
+        // F(k) for k around the mean (where the comparison is near and the tail decides).
+        std::vector<T> us;
+        for (int j = 0; j < 200; ++j)
+          us.push_back(T(std::floor(uni(rng) * 16777216.0) / 16777216.0));
+        double pmf = std::exp(n * std::log1p(-pd)), cdf = pmf;
+        for (int k = 0; k < 80 && k < n; ++k) {
+          if (std::fabs(k - n * pd) < 12.0) {
+            const double t = std::floor(cdf * 16777216.0) / 16777216.0;
+            for (double d : {-1.0, 0.0, 1.0})
+              us.push_back(T(std::clamp(t + d / 16777216.0, 0.0, 1.0 - 1.0 / 16777216.0)));
+            ++ties;
+          }
+          pmf *= (n - k) / (k + 1.0) * pd / (1.0 - pd);
+          cdf += pmf;
+        }
+        for (T u : us) {
+          const T a = search(T(n), p, u, lq);
+          const T b = OneStepSearch<T>(T(n), p, u, lq, eps, cap_of, beyond_of);
+          ++compared;
+          if (!(a == b)) {
+            if (++mismatches <= 5)
+              ADD_FAILURE() << precision << " n " << n << " p " << double(p) << " u " << double(u)
+                            << ": 4-step " << double(a) << ", 1-step " << double(b);
+          }
+        }
+      }
+    }
+  }
+  std::printf("%s: %ld searches compared (%ld CDF-tie uniforms), %ld mismatches\n", precision,
+              compared, ties, mismatches);
+  EXPECT_EQ(mismatches, 0);
+}
+
+TEST(BinomialDraw, FourStepSearchEqualsTheOneStepSearchBitForBit) {
+  ExpectFourStepSearchEqualsOneStep<double>(
+      "fp64", k64::binomial_eps(),
+      [](double n, double p, double u, double lq) {
+        return k64::binomial_exact_log(n, p, u, lq, 1);
+      },
+      k64::binomial_log1m_rarer, k64::binomial_exact_cap,
+      [](double n, double k, double cap, double pmf, double cdf, double ratio, double v,
+         bool flip) {
+        return bool(k64::binomial_exact_beyond(n, k, cap, pmf, cdf, ratio, v, flip, 1));
+      });
+  ExpectFourStepSearchEqualsOneStep<float>(
+      "fp32", k32::binomial_eps(),
+      [](float n, float p, float u, float lq) { return k32::binomial_exact_log(n, p, u, lq, 1); },
+      k32::binomial_log1m_rarer, k32::binomial_exact_cap,
+      [](float n, float k, float cap, float pmf, float cdf, float ratio, float v, bool flip) {
+        return bool(k32::binomial_exact_beyond(n, k, cap, pmf, cdf, ratio, v, flip, 1));
+      });
+}
+
 // ---------------------------------------------------------------------------------------------
 // Footprint grids.
 

@@ -150,7 +150,7 @@ GLINT_FN real kemppinen_lines_tc(real h, real t, real qh) {
   real at = fabs(t);
   real T = at > GLINT_R(GLINT_KEMPPINEN_FAR_SIGMAS)
                ? GLINT_R(0.5) * qh
-               : kemppinen_owen_t(h, at / fmax(h, GLINT_R(1e-30)));
+               : kemppinen_owen_t_q(h, at / fmax(h, GLINT_R(1e-30)), qh);
   return t < GLINT_R(0.0) ? -T : T;
 }
 
@@ -206,7 +206,9 @@ GLINT_FN real kemppinen_lines_mass(const GLINT_PRIVATE KemppinenUPolygon *R,
     real ta = ax * L->ux[k] + ay * L->uy[k], tb = ta + L->len[k];
     if (h < GLINT_R(GLINT_KEMPPINEN_BOUNDARY_SIGMAS))
       return kemppinen_image_mass_triangles(R, gx, gy, sx, sy);
-    real qh = GLINT_R(0.5) * kemppinen_erfc_abs(h);
+    /* Q(h) enters only through an end beyond h along the line (Owen's
+     * identity, or T(h, inf) beyond FAR >= h): one erfc, skipped otherwise. */
+    real qh = fmax(fabs(ta), fabs(tb)) > h ? GLINT_R(0.5) * kemppinen_erfc_abs(h) : GLINT_R(0.0);
     real s = d > GLINT_R(0.0) ? GLINT_R(1.0) : GLINT_R(-1.0);
     corr -= s * (kemppinen_lines_tc(h, tb, qh) - kemppinen_lines_tc(h, ta, qh));
   }

@@ -311,6 +311,70 @@ TEST(PolygonLobeMass, BlockMassOfARectangleAgainstClosedForm) {
   }
 }
 
+// The block mass of a rotated square (edges at 30 and 120 degrees, so every edge takes the
+// Gauss-Legendre pieces and the slanted closed forms of kemppinen_image_block_mass) with
+// isotropic lobes, against E = int_B M(g) dg (the symmetry stated there), M(g) the lobe's mass
+// over the square in closed form (a product of interval masses in the square's frame, libm
+// erfc), integrated over the axis-aligned block by composite 8-point Gauss-Legendre with panels
+// of at most sigma / 2 (M is analytic with derivatives ~ sigma^-k: each panel is exact to
+// ~1e-12). Blocks from 0.5 to 8 sigma wide crossing edges and corners, lobes as in the polygon
+// pass (the four-quad rig's images are 3-5 lobes wide). Tolerance: what E already carries from
+// A&S 7.1.26 (|error of Phi| <= 7.5e-8) along the line integral, whose integrand Qx qy has
+// Qx = sx (psi - psi) off by 2 sx (zmax + 1) 7.5e-8 (zmax = (width + 5.7 sigma) / sigma) and qy
+// off by 2 7.5e-8 times |Qx| <= width, over at most the perimeter: the pieces' quadrature is
+// asked to add no more than that (8 nodes: max error 6.9e-10 here; 5 nodes gave 3.3e-7 and
+// fail).
+TEST(PolygonLobeMass, BlockMassOfARotatedSquareAgainstQuadrature) {
+  const double c30 = std::cos(M_PI / 6), s30 = std::sin(M_PI / 6), half = 0.05;
+  const double cx = 0.5, cy = 0.5;
+  Poly2 R;
+  for (int k = 0; k < 4; ++k) {
+    double u = (k == 1 || k == 2) ? half : -half, v = k >= 2 ? half : -half;
+    R.push_back({cx + c30 * u - s30 * v, cy + s30 * u + c30 * v});
+  }
+  auto M = [&](double gx, double gy, double s) {
+    double u = c30 * (gx - cx) + s30 * (gy - cy), v = -s30 * (gx - cx) + c30 * (gy - cy);
+    return (PhiRef((half - u) / s) - PhiRef((-half - u) / s)) *
+           (PhiRef((half - v) / s) - PhiRef((-half - v) / s));
+  };
+  const double xg[4] = {0.1834346424956498, 0.5255324099163290, 0.7966664774136267,
+                        0.9602898564975363};
+  const double wg[4] = {0.3626837833783620, 0.3137066458778873, 0.2223810344533745,
+                        0.1012285362903763};
+  auto integrate = [&](double x0, double x1, double y0, double y1, double s) {
+    int nx = int(std::ceil((x1 - x0) / (0.5 * s))), ny = int(std::ceil((y1 - y0) / (0.5 * s)));
+    double hx = (x1 - x0) / nx, hy = (y1 - y0) / ny, sum = 0;
+    for (int i = 0; i < nx; ++i)
+      for (int a = 0; a < 8; ++a) {
+        double xa = a < 4 ? -xg[3 - a] : xg[a - 4], wa = a < 4 ? wg[3 - a] : wg[a - 4];
+        double x = x0 + hx * (i + 0.5 * (1 + xa));
+        for (int j = 0; j < ny; ++j)
+          for (int b = 0; b < 8; ++b) {
+            double yb = b < 4 ? -xg[3 - b] : xg[b - 4], wb = b < 4 ? wg[3 - b] : wg[b - 4];
+            sum += wa * wb * M(x, y0 + hy * (j + 0.5 * (1 + yb)), s);
+          }
+      }
+    return sum * 0.25 * hx * hy;
+  };
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  double worst = 0, worst_rel = 0;
+  for (int c = 0; c < 40; ++c) {
+    double s = 0.01 + 0.03 * uni(rng);
+    double w = s * (0.5 + 7.5 * uni(rng)), h = s * (0.5 + 7.5 * uni(rng));
+    double bx0 = cx - 0.1 + 0.2 * uni(rng) - 0.5 * w, by0 = cy - 0.1 + 0.2 * uni(rng) - 0.5 * h;
+    double ref = integrate(bx0, bx0 + w, by0, by0 + h, s);
+    double got = k64::BlockMass(R, bx0, bx0 + w, by0, by0 + h, s, s);
+    double wm = std::max(w, h), zmax = (wm + 5.7 * s) / s;
+    double tol = 8 * half * (2 * s * (zmax + 1) + 2 * wm) * 7.5e-8;
+    worst = std::max(worst, std::fabs(got - ref));
+    if (ref > 1e-4 * w * h) worst_rel = std::max(worst_rel, std::fabs(got - ref) / ref);
+    EXPECT_NEAR(got, ref, tol) << "case " << c << " block " << bx0 << "," << by0 << " " << w << "x"
+                               << h << " sigma " << s;
+  }
+  std::printf("rotated square: block mass max |error| %.3g, max relative %.3g\n", worst, worst_rel);
+}
+
 // The image clipped to a rectangle: a square [0.4, 0.6]^2 clipped to [0.5, 0.9] x [0.3, 0.55]
 // is [0.5, 0.6] x [0.4, 0.55]: area 0.015, centroid (0.55, 0.475) (by hand).
 TEST(PolygonLobeMass, ClipToRectangleByHand) {

@@ -20,7 +20,7 @@
  * T(h, a) = int_a^inf, below Q(a h) / 2), one erfc. So a facet near one edge
  * costs one erfc, one at a corner two Owen's T per near edge, and the result
  * is exact up to n Q(FAR) (n edges; Q(5.7) = 6.0e-9), the erfc (A&S 7.1.26,
- * |error| <= 1.5e-7 / 2 per Q) and Owen's T (8-point Gauss-Legendre, 3.5e-8)
+ * |error| <= 1.5e-7 / 2 per Q) and Owen's T (5-point Gauss-Legendre, 1.9e-8)
  * for convex and non-convex R alike. h and t come from the differences
  * x_k - gx (exact when g is close, Sterbenz), as in
  * kemppinen_image_mass_triangles, not from the line form a gx + b gy + c

@@ -34,7 +34,7 @@ using glint::test::Summarise;
 using glint::test::V3;
 using Poly2 = std::vector<std::array<double, 2>>;
 
-// Owen's T (kemppinen_image.h: 8-point Gauss-Legendre, a > 1 by Owen's identity) against
+// Owen's T (kemppinen_image.h: 5-point Gauss-Legendre, a > 1 by Owen's identity) against
 // composite Simpson on its defining integral in the angle (x = tan t), 20000 intervals. The
 // bound 1e-6 absolute: each edge of a polygon adds two T values to a facet's mass, which enters
 // S next to erfc terms good to 1.5e-7 (A&S 7.1.26); 1e-6 keeps a 16-edge mass within 3.2e-5.

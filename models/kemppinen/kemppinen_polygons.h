@@ -54,6 +54,11 @@
  * lambda_min dist^2, dist the distance from 0 to [dxc - 1, dxc] x
  * [dyc - 1, dyc]; lambda_min the smallest eigenvalue of [[qxx, qxy / 2],
  * [qxy / 2, qyy]] (clamped at 0 against rounding). */
+GLINT_FN real kemppinen_filter_min_eigen(real qxx, real qxy, real qyy) {
+  real d = GLINT_R(0.5) * (qxx - qyy), o = GLINT_R(0.5) * qxy;
+  return fmax(GLINT_R(0.5) * (qxx + qyy) - sqrt(d * d + o * o), GLINT_R(0.0));
+}
+
 GLINT_FN real kemppinen_filter_cell_bound(real lmin, real dxc, real dyc) {
   real ex = fmax(fmax(dxc - GLINT_R(1.0), -dxc), GLINT_R(0.0));
   real ey = fmax(fmax(dyc - GLINT_R(1.0), -dyc), GLINT_R(0.0));
@@ -133,10 +138,7 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
      * without a division per cell and facet. */
     real inv_res_a = GLINT_R(1.0) / res_a;
     /* The filter's smallest eigenvalue, for the per-cell bound. */
-    real lmin = fmax(
-        GLINT_R(0.5) * (b.qxx + b.qyy) -
-            sqrt(GLINT_R(0.25) * (b.qxx - b.qyy) * (b.qxx - b.qyy) + GLINT_R(0.25) * b.qxy * b.qxy),
-        GLINT_R(0.0));
+    real lmin = kemppinen_filter_min_eigen(b.qxx, b.qxy, b.qyy);
     for (int j = 0; j < 4; ++j) {
       real cx = b.bs_x + (real)(j & 1);
       real cy = b.bs_y + (real)(j >> 1);

@@ -375,6 +375,34 @@ TEST(PolygonLobeMass, BlockMassOfARotatedSquareAgainstQuadrature) {
   std::printf("rotated square: block mass max |error| %.3g, max relative %.3g\n", worst, worst_rel);
 }
 
+// The pixel-filter cut of the polygon pass (kemppinen_polygons.h): the per-cell lower bound of
+// the filter exponent q(d) = qxx dx^2 + qxy dx dy + qyy dy^2 over a spatial cell's facets
+// (offsets in [0, 1)^2) against the minimum over a 201 x 201 grid of the cell (q is convex, so
+// the grid minimum is within its spacing of the true one: the bound must not exceed it), for
+// random positive definite filters from isotropic to 1:1000 and cells near and far; and the
+// smallest eigenvalue against the closed form of a diagonal and a rotated matrix.
+TEST(PolygonLights, FilterCutCellBoundIsALowerBound) {
+  std::mt19937_64 rng(41);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  for (int c = 0; c < 200; ++c) {
+    double l1 = std::exp(-3 + 6 * uni(rng)), l2 = l1 * std::exp(std::log(1e-3) * uni(rng));
+    double th = M_PI * uni(rng), co = std::cos(th), si = std::sin(th);
+    // [[qxx, qxy / 2], [qxy / 2, qyy]] = Rot diag(l1, l2) Rot^T
+    double qxx = l1 * co * co + l2 * si * si, qyy = l1 * si * si + l2 * co * co;
+    double qxy = 2 * (l1 - l2) * co * si;
+    double lmin = k64::kemppinen_filter_min_eigen(qxx, qxy, qyy);
+    EXPECT_NEAR(lmin, std::min(l1, l2), 1e-9 * l1) << "case " << c;
+    double dxc = -3 + 6 * uni(rng), dyc = -3 + 6 * uni(rng);
+    double bound = k64::kemppinen_filter_cell_bound(lmin, dxc, dyc), best = 1e300;
+    for (int i = 0; i <= 200; ++i)
+      for (int j = 0; j <= 200; ++j) {
+        double dx = dxc - i / 200.0, dy = dyc - j / 200.0;
+        best = std::min(best, qxx * dx * dx + qxy * dx * dy + qyy * dy * dy);
+      }
+    EXPECT_LE(bound, best * (1 + 1e-12)) << "case " << c;
+  }
+}
+
 // The image clipped to a rectangle: a square [0.4, 0.6]^2 clipped to [0.5, 0.9] x [0.3, 0.55]
 // is [0.5, 0.6] x [0.4, 0.55]: area 0.015, centroid (0.55, 0.475) (by hand).
 TEST(PolygonLobeMass, ClipToRectangleByHand) {

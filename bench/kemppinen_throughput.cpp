@@ -10,7 +10,9 @@
 //   kemppinen_throughput [--lights directional_point|probe|quad|four_quads] [--ks 1,4,9,16]
 //                        [--density D] [--queries N] [--rounds R] [--min-time S]
 //                        [--neighborhoods paper,one_level,one_cell]
-//                        [--cache-dir DIR] [--json PATH] [--out PREFIX]
+//                        [--cache-dir DIR] [--json PATH] [--out PREFIX] [--path device|host]
+// --path host runs the host scalar path (HostEvaluate, one thread) instead of the device: the
+// driver for callgrind instruction counts of the same math (repeatable under load).
 // --neighborhoods: glint.v1.KemppinenNeighborhood settings to run at each k (default paper).
 // --out writes each configuration's output (RGB float32 per query) to PREFIX.<k or smooth>.f32,
 // to check that a change of the kernels keeps the output (cmp, or a tolerance).
@@ -25,6 +27,7 @@
 
 #include "bench/lib/bench_lib.h"
 #include "server/eval_plan.h"
+#include "server/host_path.h"
 
 namespace {
 
@@ -45,7 +48,7 @@ struct Config {
 
 static int Run(int argc, char **argv) {
   std::string lights_name = "directional_point", ks = "1,4,9,16", json, out_prefix;
-  std::string hoods = "paper";
+  std::string hoods = "paper", path = "device";
   std::string cache_dir = glint::bench::DefaultCacheDir();
   double density = 1e5, min_time = 0.3;
   uint32_t queries = 65536;
@@ -73,6 +76,8 @@ static int Run(int argc, char **argv) {
         json = v;
       else if (a == "--out")
         out_prefix = v;
+      else if (a == "--path")
+        path = v;
       else
         return Fail("unknown option " + a);
     } catch (const std::exception &) {  // std::stod / stoul / stoi
@@ -85,6 +90,8 @@ static int Run(int argc, char **argv) {
     if (lights_name == glint::bench::LightsName(l)) lights = l, found = true;
   if (!found) return Fail("--lights: expected probe, directional_point, quad or four_quads");
   if (queries == 0 || rounds < 1) return Fail("--queries and --rounds must be positive");
+  if (path != "device" && path != "host") return Fail("--path: expected device or host");
+  const bool host = path == "host";
 
   std::unique_ptr<glint::DeviceEngine> engine;
   if (glint::Status s = glint::bench::CreateEngine(cache_dir, &engine); !s.ok())
@@ -141,6 +148,10 @@ static int Run(int argc, char **argv) {
   std::vector<float> out(3 * size_t(queries));
   auto run = [&](const Config &c) {
     const glint::EvalPlan plan = glint::MakeEvalPlan(c.request, c.request.queries());
+    if (host) {
+      glint::HostEvaluate(plan, c.request.queries(), out.data());
+      return;
+    }
     glint::Status s = engine->Evaluate(0, plan, c.request.queries(), out.data());
     if (!s.ok()) throw std::runtime_error(c.name + ": " + s.message());
   };
@@ -174,9 +185,9 @@ static int Run(int argc, char **argv) {
   double load[3] = {0, 0, 0};
   if (std::ifstream f("/proc/loadavg"); f) f >> load[0] >> load[1] >> load[2];
   std::printf(
-      "lights %s, %u queries, %d rounds, load average %.2f %.2f %.2f at end (loaded "
+      "lights %s, %s path, %u queries, %d rounds, load average %.2f %.2f %.2f at end (loaded "
       "machine: compare ratios)\n",
-      lights_name.c_str(), queries, rounds, load[0], load[1], load[2]);
+      lights_name.c_str(), path.c_str(), queries, rounds, load[0], load[1], load[2]);
   std::printf(
       "| model | M evals / CPU-s | ratio to SMOOTH (CPU) | M evals / s (wall) | ratio (wall) |\n"
       "|---|---|---|---|---|\n");

@@ -38,6 +38,33 @@
 /* Widest explicit angular block for a polygon light (cells per axis). */
 #define GLINT_KEMPPINEN_POLYGON_MAX_SIDE 4
 
+/* A facet whose pixel-filter exponent e (ns = sn exp(-e)) exceeds this, i.e.
+ * farther than 7 standard scores from the query in the filter's metric
+ * (7^2 / 2), is left out before its lobe mass: its term keep ns M <= sn
+ * e^-24.5 = 2.3e-11 sn, and all the 2 x 4 x 16 facets of a light together
+ * below 3e-9 of one facet at the filter's peak, under the fp32 resolution of
+ * that facet's term (the point pass's erfc is dropped at 6 scores already,
+ * GLINT_KEMPPINEN_ERFC_CUT). A spatial cell whose nearest point is that far
+ * (bounded by the filter's smallest eigenvalue) is skipped before its hashes. */
+#define GLINT_KEMPPINEN_FILTER_CUT 24.5
+
+/* Lower bound of the pixel-filter exponent q(d) = qxx dx^2 + qxy dx dy +
+ * qyy dy^2 over the facets of a spatial cell: d = (dxc - sx, dyc - sy) with
+ * the facet's offsets sx, sy in [0, 1), so q >= lambda_min |d|^2 >=
+ * lambda_min dist^2, dist the distance from 0 to [dxc - 1, dxc] x
+ * [dyc - 1, dyc]; lambda_min the smallest eigenvalue of [[qxx, qxy / 2],
+ * [qxy / 2, qyy]] (clamped at 0 against rounding). */
+GLINT_FN real kemppinen_filter_min_eigen(real qxx, real qxy, real qyy) {
+  real d = GLINT_R(0.5) * (qxx - qyy), o = GLINT_R(0.5) * qxy;
+  return fmax(GLINT_R(0.5) * (qxx + qyy) - sqrt(d * d + o * o), GLINT_R(0.0));
+}
+
+GLINT_FN real kemppinen_filter_cell_bound(real lmin, real dxc, real dyc) {
+  real ex = fmax(fmax(dxc - GLINT_R(1.0), -dxc), GLINT_R(0.0));
+  real ey = fmax(fmax(dyc - GLINT_R(1.0), -dyc), GLINT_R(0.0));
+  return lmin * (ex * ex + ey * ey);
+}
+
 /* rho at U point (x, y) (see the header comment), RGB, without L. */
 GLINT_FN real3 kemppinen_image_rho(SmoothMaterial m, real3 wo, real x, real y) {
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
@@ -110,9 +137,14 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
     /* res_a = 2^l (l <= 24): a product by inv_res_a is the exact quotient,
      * without a division per cell and facet. */
     real inv_res_a = GLINT_R(1.0) / res_a;
+    /* The filter's smallest eigenvalue, for the per-cell bound. */
+    real lmin = kemppinen_filter_min_eigen(b.qxx, b.qxy, b.qyy);
     for (int j = 0; j < 4; ++j) {
       real cx = b.bs_x + (real)(j & 1);
       real cy = b.bs_y + (real)(j >> 1);
+      if (kemppinen_filter_cell_bound(lmin, b.ts_x - cx, b.ts_y - cy) >
+          GLINT_R(GLINT_KEMPPINEN_FILTER_CUT))
+        continue;
       kemp_uint key = kemppinen_spatial_key(fp.seed_key, level, cx, cy);
       /* Rows outer, columns inner, in the order of the former single loop
        * over mm (ix = mm % n, iy = mm / n): the same sum, no integer division. */
@@ -133,7 +165,9 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
           real ox = gx - GLINT_R(0.5), oy = gy - GLINT_R(0.5);
           if (ox * ox + oy * oy >= GLINT_R(0.25)) continue; /* rejected (3.3.1) */
           real dx = b.ts_x - cx - g.sx, dy = b.ts_y - cy - g.sy;
-          real ns = sn * exp(-(b.qxx * dx * dx + b.qxy * dx * dy + b.qyy * dy * dy));
+          real es = b.qxx * dx * dx + b.qxy * dx * dy + b.qyy * dy * dy;
+          if (es > GLINT_R(GLINT_KEMPPINEN_FILTER_CUT)) continue;
+          real ns = sn * exp(-es);
           real mass = kemppinen_lines_mass(R, &lines, gx, gy, a.sx, a.sy);
           sum = r3_add(sum, r3_scale(kemppinen_facet_color(p, g), keep * ns * mass));
         }

@@ -34,7 +34,7 @@ using glint::test::Summarise;
 using glint::test::V3;
 using Poly2 = std::vector<std::array<double, 2>>;
 
-// Owen's T (kemppinen_image.h: 8-point Gauss-Legendre, a > 1 by Owen's identity) against
+// Owen's T (kemppinen_image.h: 5-point Gauss-Legendre, a > 1 by Owen's identity) against
 // composite Simpson on its defining integral in the angle (x = tan t), 20000 intervals. The
 // bound 1e-6 absolute: each edge of a polygon adds two T values to a facet's mass, which enters
 // S next to erfc terms good to 1.5e-7 (A&S 7.1.26); 1e-6 keeps a 16-edge mass within 3.2e-5.
@@ -308,6 +308,98 @@ TEST(PolygonLobeMass, BlockMassOfARectangleAgainstClosedForm) {
     double tol = 8 * sx * w * (zmax + 1) * 7.5e-8;
     EXPECT_NEAR(got, ref, tol + 1e-12) << "case " << c << " block " << bx0 << "," << by0 << " " << w
                                        << "x" << h << " sigma " << sx;
+  }
+}
+
+// The block mass of a rotated square (edges at 30 and 120 degrees, so every edge takes the
+// Gauss-Legendre pieces and the slanted closed forms of kemppinen_image_block_mass) with
+// isotropic lobes, against E = int_B M(g) dg (the symmetry stated there), M(g) the lobe's mass
+// over the square in closed form (a product of interval masses in the square's frame, libm
+// erfc), integrated over the axis-aligned block by composite 8-point Gauss-Legendre with panels
+// of at most sigma / 2 (M is analytic with derivatives ~ sigma^-k: each panel is exact to
+// ~1e-12). Blocks from 0.5 to 8 sigma wide crossing edges and corners, lobes as in the polygon
+// pass (the four-quad rig's images are 3-5 lobes wide). Tolerance: what E already carries from
+// A&S 7.1.26 (|error of Phi| <= 7.5e-8) along the line integral, whose integrand Qx qy has
+// Qx = sx (psi - psi) off by 2 sx (zmax + 1) 7.5e-8 (zmax = (width + 5.7 sigma) / sigma) and qy
+// off by 2 7.5e-8 times |Qx| <= width, over at most the perimeter: the pieces' quadrature is
+// asked to add no more than that (8 nodes: max error 6.9e-10 here; 5 nodes gave 3.3e-7 and
+// fail).
+TEST(PolygonLobeMass, BlockMassOfARotatedSquareAgainstQuadrature) {
+  const double c30 = std::cos(M_PI / 6), s30 = std::sin(M_PI / 6), half = 0.05;
+  const double cx = 0.5, cy = 0.5;
+  Poly2 R;
+  for (int k = 0; k < 4; ++k) {
+    double u = (k == 1 || k == 2) ? half : -half, v = k >= 2 ? half : -half;
+    R.push_back({cx + c30 * u - s30 * v, cy + s30 * u + c30 * v});
+  }
+  auto M = [&](double gx, double gy, double s) {
+    double u = c30 * (gx - cx) + s30 * (gy - cy), v = -s30 * (gx - cx) + c30 * (gy - cy);
+    return (PhiRef((half - u) / s) - PhiRef((-half - u) / s)) *
+           (PhiRef((half - v) / s) - PhiRef((-half - v) / s));
+  };
+  const double xg[4] = {0.1834346424956498, 0.5255324099163290, 0.7966664774136267,
+                        0.9602898564975363};
+  const double wg[4] = {0.3626837833783620, 0.3137066458778873, 0.2223810344533745,
+                        0.1012285362903763};
+  auto integrate = [&](double x0, double x1, double y0, double y1, double s) {
+    int nx = int(std::ceil((x1 - x0) / (0.5 * s))), ny = int(std::ceil((y1 - y0) / (0.5 * s)));
+    double hx = (x1 - x0) / nx, hy = (y1 - y0) / ny, sum = 0;
+    for (int i = 0; i < nx; ++i)
+      for (int a = 0; a < 8; ++a) {
+        double xa = a < 4 ? -xg[3 - a] : xg[a - 4], wa = a < 4 ? wg[3 - a] : wg[a - 4];
+        double x = x0 + hx * (i + 0.5 * (1 + xa));
+        for (int j = 0; j < ny; ++j)
+          for (int b = 0; b < 8; ++b) {
+            double yb = b < 4 ? -xg[3 - b] : xg[b - 4], wb = b < 4 ? wg[3 - b] : wg[b - 4];
+            sum += wa * wb * M(x, y0 + hy * (j + 0.5 * (1 + yb)), s);
+          }
+      }
+    return sum * 0.25 * hx * hy;
+  };
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  double worst = 0, worst_rel = 0;
+  for (int c = 0; c < 40; ++c) {
+    double s = 0.01 + 0.03 * uni(rng);
+    double w = s * (0.5 + 7.5 * uni(rng)), h = s * (0.5 + 7.5 * uni(rng));
+    double bx0 = cx - 0.1 + 0.2 * uni(rng) - 0.5 * w, by0 = cy - 0.1 + 0.2 * uni(rng) - 0.5 * h;
+    double ref = integrate(bx0, bx0 + w, by0, by0 + h, s);
+    double got = k64::BlockMass(R, bx0, bx0 + w, by0, by0 + h, s, s);
+    double wm = std::max(w, h), zmax = (wm + 5.7 * s) / s;
+    double tol = 8 * half * (2 * s * (zmax + 1) + 2 * wm) * 7.5e-8;
+    worst = std::max(worst, std::fabs(got - ref));
+    if (ref > 1e-4 * w * h) worst_rel = std::max(worst_rel, std::fabs(got - ref) / ref);
+    EXPECT_NEAR(got, ref, tol) << "case " << c << " block " << bx0 << "," << by0 << " " << w << "x"
+                               << h << " sigma " << s;
+  }
+  std::printf("rotated square: block mass max |error| %.3g, max relative %.3g\n", worst, worst_rel);
+}
+
+// The pixel-filter cut of the polygon pass (kemppinen_polygons.h): the per-cell lower bound of
+// the filter exponent q(d) = qxx dx^2 + qxy dx dy + qyy dy^2 over a spatial cell's facets
+// (offsets in [0, 1)^2) against the minimum over a 201 x 201 grid of the cell (q is convex, so
+// the grid minimum is within its spacing of the true one: the bound must not exceed it), for
+// random positive definite filters from isotropic to 1:1000 and cells near and far; and the
+// smallest eigenvalue against the closed form of a diagonal and a rotated matrix.
+TEST(PolygonLights, FilterCutCellBoundIsALowerBound) {
+  std::mt19937_64 rng(41);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  for (int c = 0; c < 200; ++c) {
+    double l1 = std::exp(-3 + 6 * uni(rng)), l2 = l1 * std::exp(std::log(1e-3) * uni(rng));
+    double th = M_PI * uni(rng), co = std::cos(th), si = std::sin(th);
+    // [[qxx, qxy / 2], [qxy / 2, qyy]] = Rot diag(l1, l2) Rot^T
+    double qxx = l1 * co * co + l2 * si * si, qyy = l1 * si * si + l2 * co * co;
+    double qxy = 2 * (l1 - l2) * co * si;
+    double lmin = k64::kemppinen_filter_min_eigen(qxx, qxy, qyy);
+    EXPECT_NEAR(lmin, std::min(l1, l2), 1e-9 * l1) << "case " << c;
+    double dxc = -3 + 6 * uni(rng), dyc = -3 + 6 * uni(rng);
+    double bound = k64::kemppinen_filter_cell_bound(lmin, dxc, dyc), best = 1e300;
+    for (int i = 0; i <= 200; ++i)
+      for (int j = 0; j <= 200; ++j) {
+        double dx = dxc - i / 200.0, dy = dyc - j / 200.0;
+        best = std::min(best, qxx * dx * dx + qxy * dx * dy + qyy * dy * dy);
+      }
+    EXPECT_LE(bound, best * (1 + 1e-12)) << "case " << c;
   }
 }
 

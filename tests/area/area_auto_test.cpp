@@ -84,6 +84,34 @@ TEST(AreaAuto, CheckedInTableAgreesWithItsRegeneratedTrainingSample) {
   }
 }
 
+// The table header carries the measurements of its first training queries (fit_area_auto.cpp):
+// measured again with today's kernels, truth and training set they must be the same. A table
+// fitted before a change of a method (as the previous one was, before LECOCQ's near-horizon
+// sub-splitting), of the adaptive truth or of MakeConfigs fails here even where its quantiles
+// still happen to cover the regenerated sample above. Tolerance: the host path is deterministic,
+// but another compiler may contract the fp32 arithmetic differently, moving an output by a few
+// ulps, i.e. an error by up to ~4 x 6e-8 / kFloor = 2.4e-4 at the floor; 1e-3 relative + 3e-4
+// absolute is far below the smallest budget validated (0.005), so no choice depends on it.
+TEST(AreaAuto, CheckedInTableIsFromTodaysMeasurements) {
+  for (int ndf : {GLINT_NDF_GGX, GLINT_NDF_BECKMANN}) {
+    const int configs = (GLINT_AUTO_FINGERPRINT_QUERIES + 7) / 8;
+    const std::vector<Sample> samples = Measure(MakeConfigs(kTrainSeed, configs, 8, ndf), 2);
+    ASSERT_GE(samples.size(), size_t(GLINT_AUTO_FINGERPRINT_QUERIES));
+    const float *fp = kf::glint_area_auto_fingerprint + (ndf == GLINT_NDF_BECKMANN) *
+                                                            GLINT_AUTO_FINGERPRINT_QUERIES *
+                                                            GLINT_AUTO_CELL_FLOATS;
+    for (int q = 0; q < GLINT_AUTO_FINGERPRINT_QUERIES; ++q) {
+      for (int k = 0; k <= kCandidates; ++k) {
+        const double now = k < kCandidates ? samples[size_t(q)].error[k] : samples[size_t(q)].cv;
+        const double then = fp[q * GLINT_AUTO_CELL_FLOATS + k];
+        EXPECT_NEAR(now, then, 3e-4 + 1e-3 * std::max(now, then))
+            << "ndf " << ndf << " query " << q << " candidate " << k
+            << " (7 = MONTE_CARLO's cv): regenerate models/smooth/area_auto_table.h";
+      }
+    }
+  }
+}
+
 // Every table entry is a finite, non-negative error (or 1e30 for "never measured finite").
 TEST(AreaAuto, TableEntriesAreNonNegative) {
   for (size_t i = 0; i < sizeof kf::glint_area_auto_error / sizeof(float); ++i) {

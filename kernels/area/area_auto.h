@@ -35,6 +35,16 @@
 #include "kernels/layout.h"
 #include "models/smooth/area_auto_table.h"
 
+/* A table fitted for other bins would be read at the wrong cells (and a shorter
+ * initialiser is silently zero-filled: "LTC is exact"); refuse to build. */
+#if GLINT_AUTO_TABLE_ALPHA_BINS != GLINT_AUTO_ALPHA_BINS ||         \
+    GLINT_AUTO_TABLE_VIEW_BINS != GLINT_AUTO_VIEW_BINS ||           \
+    GLINT_AUTO_TABLE_OMEGA_BINS != GLINT_AUTO_OMEGA_BINS ||         \
+    GLINT_AUTO_TABLE_ELEVATION_BINS != GLINT_AUTO_ELEVATION_BINS || \
+    GLINT_AUTO_TABLE_ALIGN_BINS != GLINT_AUTO_ALIGN_BINS
+#error "models/smooth/area_auto_table.h was fitted for other cells: regenerate it (tools/area_auto)"
+#endif
+
 /* Deterministic candidates k = 0 .. GLINT_AUTO_CANDIDATES - 1 of the table. */
 GLINT_FN int area_auto_candidate_method(int k) {
   return k == 0   ? GLINT_AREA_LTC

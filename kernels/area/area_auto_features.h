@@ -8,6 +8,10 @@
  *  - alpha = sqrt(alpha_x alpha_y) (the LTC tables' isotropic lookup): the lobe
  *    width; every method's error grows as it narrows;
  *  - view theta_o: LTC's fit and REFERENCE's nodes degrade at grazing views;
+ *    the last bin, 85 deg to the horizon, is where REFERENCE's 4-8 nodes miss
+ *    the streak a lobe makes along the horizon and LECOCQ's sub-splitting
+ *    (area_lecocq.h lecocq_subsplit) works hardest: pooled with 70-85 deg, its
+ *    few training queries were outvoted and AUTO exceeded the budget there;
  *  - the solid angle Omega of the light clipped to the horizon: REFERENCE's
  *    nodes spread over it, MONTE_CARLO's light sampling wastes samples on big
  *    lights and its lobe sampling misses small ones;
@@ -26,7 +30,7 @@
 #include "kernels/compat.h"
 
 #define GLINT_AUTO_ALPHA_BINS 6     /* edges 0.02, 0.05, 0.12, 0.3, 0.6 */
-#define GLINT_AUTO_VIEW_BINS 3      /* theta_o edges 40, 70 deg */
+#define GLINT_AUTO_VIEW_BINS 4      /* theta_o edges 40, 70, 85 deg */
 #define GLINT_AUTO_OMEGA_BINS 4     /* Omega edges 0.02, 0.2, 1.5 sr */
 #define GLINT_AUTO_ELEVATION_BINS 2 /* centre elevation edge 25 deg */
 #define GLINT_AUTO_ALIGN_BINS 3     /* u edges 0, 2.5 */
@@ -77,7 +81,7 @@ GLINT_FN int area_auto_cell(real alpha, real3 wo, const GLINT_PRIVATE real3 *v, 
                          GLINT_R(0.6), 5);
   /* theta_o >= 40 deg <=> wo.z <= cos 40; counted as "above the edge" by -wo.z. */
   int bv = area_auto_bin(-wo.z, GLINT_R(-0.766044443118978), GLINT_R(-0.342020143325669),
-                         GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0), 2);
+                         GLINT_R(-0.0871557427476582), GLINT_R(0.0), GLINT_R(0.0), 3);
   int bo = area_auto_bin(omega, GLINT_R(0.02), GLINT_R(0.2), GLINT_R(1.5), GLINT_R(0.0),
                          GLINT_R(0.0), 3);
   int be = area_auto_bin(centre.z, GLINT_R(0.422618261740699), GLINT_R(0.0), GLINT_R(0.0),

@@ -64,8 +64,17 @@ std::vector<Config> MakeConfigs(uint64_t seed, int count, int views, int ndf) {
       c.polygon.push_back(Add(centre, Add(Scale(p1, sx), Scale(p2, sy))));
     }
     for (int v = 0; v < views; ++v) {
-      const double th = uniform(0, 89) * kPi / 180, ph = uniform(0, 2 * kPi);
-      c.wo.push_back({std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), std::cos(th)});
+      // Every fourth view in the grazing band (the table's last view bin), its cos theta_o
+      // log-uniform down to kGrazingMinCos: uniform theta_o would put 1 view in 18 there and
+      // hardly any within a degree of the horizon, where REFERENCE's few nodes miss the
+      // lobe's streak along the horizon and LECOCQ's sub-splitting works hardest.
+      const bool grazing = v % 4 == 3;
+      const double u = uniform(0, 1), ph = uniform(0, 2 * kPi);
+      const double z = grazing ? std::exp(std::log(kGrazingMinCos) +
+                                          u * (std::log(kGrazingMaxCos) - std::log(kGrazingMinCos)))
+                               : std::cos(u * kGrazingFromDeg * kPi / 180);
+      const double s = std::sqrt(std::max(0.0, 1 - z * z));
+      c.wo.push_back({s * std::cos(ph), s * std::sin(ph), z});
     }
     out.push_back(std::move(c));
   }

@@ -25,11 +25,19 @@ struct Config {
   std::vector<V3> wo;  // unit, local
 };
 
+// The views' range: theta_o uniform in [0, kGrazingFromDeg] for three views in four, and for
+// every fourth (views 3, 7, ...) the grazing band up to the horizon, cos theta_o log-uniform in
+// [kGrazingMinCos, kGrazingMaxCos = cos kGrazingFromDeg] (89.994 .. 85 deg). The band is the
+// error table's last view bin (kernels/area/area_auto_features.h, edge 85 deg).
+constexpr double kGrazingFromDeg = 85.0;
+constexpr double kGrazingMaxCos = 0.08715574274765817;  // cos 85 deg
+constexpr double kGrazingMinCos = 1e-4;
+
 // `count` configurations of `views` queries each for one NDF: alpha log-uniform in [0.01, 1];
 // a convex polygon of 3 to 6 vertices on an ellipse (aspect 0.3-1, random spin), distance
 // log-uniform in [0.02, 30] (solid angles ~1e-3 to ~6 sr), centre elevation uniform in
-// [-10, 90] deg, plane tilted by up to 45 deg; views with theta_o uniform in [0, 89] deg and a
-// uniform azimuth. Deterministic in (seed, count, views, ndf).
+// [-10, 90] deg, plane tilted by up to 45 deg; views as above, with a uniform azimuth.
+// Deterministic in (seed, count, views, ndf).
 std::vector<Config> MakeConfigs(uint64_t seed, int count, int views, int ndf);
 
 // The request of a configuration (fp32 unless told) for an area method.

@@ -22,6 +22,9 @@ constexpr int kMinPerCell = 12;
 constexpr int kCvSeeds = 16;
 constexpr uint32_t kCvSamples = 16;
 constexpr uint64_t kTrainSeed = 1;
+// The table header also carries the measurements of the first kFingerprintQueries training
+// queries per NDF (the first two lights' 8 views: two of them grazing), re-measured by the test.
+constexpr int kFingerprintQueries = 16;
 
 glint::v1::AreaMethod CandidateMethod(int k);
 uint32_t CandidateSamples(int k);

@@ -108,8 +108,9 @@ int main(int argc, char **argv) {
     << configs
     << " random lights x 8 views\n"
        " * per NDF (tools/area_auto/area_auto_data.h MakeConfigs, seed "
-    << kTrainSeed
-    << "); truth by adaptive integration in double.\n"
+    << kTrainSeed << "; theta_o 0-" << kGrazingFromDeg
+    << " deg, every fourth view from there to cos theta_o " << kGrazingMinCos
+    << ");\n * truth by adaptive integration in double.\n"
        " * Per NDF (GGX, then Beckmann) and cell (kernels/area/area_auto_features.h), "
        "GLINT_AUTO_CELL_FLOATS floats:\n"
        " * the "
@@ -131,6 +132,13 @@ int main(int argc, char **argv) {
        "#define GLINT_AUTO_CANDIDATES "
     << kCandidates << "\n#define GLINT_AUTO_CELL_FLOATS " << kCandidates + 1
     << "\n#define GLINT_AUTO_COSTS " << kCandidates + 2
+    << "\n\n/* The cells the table was fitted for (kernels/area/area_auto.h refuses to compile "
+       "against others). */\n"
+       "#define GLINT_AUTO_TABLE_ALPHA_BINS "
+    << GLINT_AUTO_ALPHA_BINS << "\n#define GLINT_AUTO_TABLE_VIEW_BINS " << GLINT_AUTO_VIEW_BINS
+    << "\n#define GLINT_AUTO_TABLE_OMEGA_BINS " << GLINT_AUTO_OMEGA_BINS
+    << "\n#define GLINT_AUTO_TABLE_ELEVATION_BINS " << GLINT_AUTO_ELEVATION_BINS
+    << "\n#define GLINT_AUTO_TABLE_ALIGN_BINS " << GLINT_AUTO_ALIGN_BINS
     << "\n\n/* Program-scope __constant on the device; one private copy per host translation unit. "
        "*/\n"
        "#ifdef __OPENCL_VERSION__\n#define GLINT_AUTO_TABLE __constant\n#else\n"
@@ -143,6 +151,7 @@ int main(int argc, char **argv) {
   }
   o << "};\n\nGLINT_AUTO_TABLE float glint_area_auto_error[2 * GLINT_AUTO_CELLS * "
        "GLINT_AUTO_CELL_FLOATS] = {\n";
+  std::ostringstream fingerprint;  // the first training queries' measurements, per NDF
   for (int ndf = 1; ndf <= 2; ++ndf) {
     const auto t0 = std::chrono::steady_clock::now();
     const std::vector<Config> set = MakeConfigs(kTrainSeed, configs, 8, ndf);
@@ -158,6 +167,13 @@ int main(int argc, char **argv) {
       if (!cache_file.empty()) SaveSamples(cache_file, samples);
     }
     const NdfTable table = Fit(samples);
+    fingerprint << "    /* " << (ndf == 2 ? "Beckmann" : "GGX") << " */\n";
+    for (int q = 0; q < kFingerprintQueries; ++q) {
+      const Sample &s = samples[size_t(q)];
+      fingerprint << "   ";
+      for (int k = 0; k < kCandidates; ++k) fingerprint << ' ' << Num(s.error[k]) << ',';
+      fingerprint << ' ' << Num(s.cv) << ", /* cell " << s.cell << " */\n";
+    }
     std::fprintf(stderr, "%s: %zu queries measured in %.1f s\n", ndf == 2 ? "beckmann" : "ggx",
                  samples.size(),
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
@@ -170,7 +186,20 @@ int main(int argc, char **argv) {
         << table.level[size_t(cell)] << " */\n";
     }
   }
-  o << "};\n\n#endif /* GLINT_AREA_AUTO_TABLE_H */\n";
+  o << "};\n\n"
+       "/* The measurements behind the table of the first "
+    << kFingerprintQueries
+    << " training queries per NDF (GGX, then Beckmann;\n"
+       " * LTC .. REFERENCE 32 errors, then MONTE_CARLO's cv): tests/area/area_auto_test.cpp "
+       "measures them again,\n"
+       " * so a change of a method, of the truth or of the training set since the fit fails "
+       "there. Host only. */\n"
+       "#ifndef __OPENCL_VERSION__\n"
+       "#define GLINT_AUTO_FINGERPRINT_QUERIES "
+    << kFingerprintQueries
+    << "\nstatic const float glint_area_auto_fingerprint[2 * GLINT_AUTO_FINGERPRINT_QUERIES * "
+       "GLINT_AUTO_CELL_FLOATS] = {\n"
+    << fingerprint.str() << "};\n#endif\n\n#endif /* GLINT_AREA_AUTO_TABLE_H */\n";
   if (out_path.empty()) {
     std::cout << o.str();
   } else {

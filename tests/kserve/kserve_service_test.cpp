@@ -421,7 +421,7 @@ TEST_F(KServeService, ModelInferIsAdmittedByCostAsEvaluate) {
 
 // --max-request-cost counts ModelInfer's rows (wo's shape), as Evaluate counts its queries: the
 // paint preset (three lights: 1 + 3 = 4 units per query) at --max-request-cost 1000 admits 250
-// rows and refuses 251, before any tensor is decoded.
+// rows and refuses 251 (1004 units), before any tensor is decoded.
 TEST(KServeAdmission, MaxRequestCostCountsTheRows) {
   test::TempDir dir("kserve_admission");
   const std::string paint =
@@ -444,7 +444,11 @@ TEST(KServeAdmission, MaxRequestCostCountsTheRows) {
       EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
       EXPECT_NE(s.error_message().find("(251 queries x 4 per query"), std::string::npos)
           << s.error_message();
-      EXPECT_NE(s.error_message().find("exceeds --max-request-cost 1e+03"), std::string::npos)
+      // The cost with the digits that tell it from the limit (at 3 digits both read 1e+03).
+      EXPECT_NE(s.error_message().find("request cost: 1004 BRDF evaluations (251 queries"),
+                std::string::npos)
+          << s.error_message();
+      EXPECT_NE(s.error_message().find("exceeds --max-request-cost 1e+03;"), std::string::npos)
           << s.error_message();
     }
   }

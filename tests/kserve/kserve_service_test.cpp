@@ -130,7 +130,7 @@ class KServeService : public ::testing::Test {
   static void SetUpTestSuite() {
     dir_ = new test::TempDir("kserve_service");
     std::string error;
-    server_ = test::Glintd::Start(test::GlintdUnderTest(GLINTD_PATH), *dir_, "glintd",
+    server_ = test::Glintd::Start(GLINTD_PATH, *dir_, "glintd",
                                   {"--model", "paint=" + Paint(), "--model", "probe=" + Probe(),
                                    "--model", "sparkle=" + Sparkle()},
                                   &error)
@@ -428,7 +428,7 @@ TEST(KServeAdmission, MaxRequestCostCountsTheRows) {
       kExamples + "/materials/paint_schlick.json," + kExamples + "/lights/studio.json";
   std::string error;
   auto server =
-      test::Glintd::Start(test::GlintdUnderTest(GLINTD_PATH), dir, "glintd",
+      test::Glintd::Start(GLINTD_PATH, dir, "glintd",
                           {"--model", "paint=" + paint, "--max-request-cost", "1000"}, &error);
   ASSERT_NE(server, nullptr) << error;
   auto kserve = GRPCInferenceService::NewStub(
@@ -466,7 +466,7 @@ TEST(KServeAdmission, AnAbandonedModelInferStopsAtTheNextSlice) {
   const std::string paint =
       kExamples + "/materials/paint_schlick.json," + kExamples + "/lights/studio.json";
   std::string error;
-  auto server = test::Glintd::Start(test::GlintdUnderTest(GLINTD_PATH), dir, "glintd",
+  auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd",
                                     {"--model", "sparkle=" + sparkle, "--model", "paint=" + paint,
                                      "--workers", "1", "--slice-ms", "50"},
                                     &error);
@@ -522,8 +522,7 @@ TEST(KServeStartup, ABadPresetStopsGlintdNamingTheFile) {
   const std::string bad = dir.File("bad.json");
   std::ofstream(bad) << R"({"model": "SMOOTH", "ndf": "GGX", "alpha_x": 0.3, "alpha_y": 0.1})";
   std::string error;
-  auto server = test::Glintd::Start(test::GlintdUnderTest(GLINTD_PATH), dir, "glintd",
-                                    {"--model", "bad=" + bad}, &error);
+  auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd", {"--model", "bad=" + bad}, &error);
   EXPECT_EQ(server, nullptr);
   EXPECT_NE(error.find("model 'bad' (" + bad + ")"), std::string::npos) << error;
 }

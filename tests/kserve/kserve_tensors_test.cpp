@@ -347,5 +347,38 @@ TEST_F(KServePresets, ModelDirTakesEveryJsonFileSortedByName) {
             std::string::npos);
 }
 
+// GLINTD_UNDER_TEST replaces the glintd every Glintd::Start / Launch starts
+// (tests/support/glintd_process.h), not only where a test remembered GlintdUnderTest(): a script
+// standing in for glintd records its arguments and writes the port file as glintd does once
+// SERVING. Started as a path that does not exist, so only the variable can make it start.
+TEST(GlintdUnderTest, ReplacesTheBinaryEveryStartRuns) {
+  test::TempDir dir("glintd_under_test");
+  const std::string script = dir.File("fake_glintd.sh"), args = dir.File("args");
+  {
+    std::ofstream out(script);
+    out << "#!/bin/sh\necho \"$@\" > '" << args << "'\n"
+        << "while [ $# -gt 0 ]; do\n"
+        << "  if [ \"$1\" = --port-file ]; then echo 43210 > \"$2\"; fi\n"
+        << "  shift\n"
+        << "done\n"
+        << "exec sleep 600\n";
+  }
+  std::filesystem::permissions(script, std::filesystem::perms::owner_all);
+  const char *before = std::getenv("GLINTD_UNDER_TEST");
+  const std::string saved = before ? before : "";
+  setenv("GLINTD_UNDER_TEST", script.c_str(), 1);
+  std::string error;
+  auto server = test::Glintd::Start(dir.File("no_such_glintd"), dir, "fake", {"--quiet"}, &error);
+  if (before) {
+    setenv("GLINTD_UNDER_TEST", saved.c_str(), 1);
+  } else {
+    unsetenv("GLINTD_UNDER_TEST");
+  }
+  ASSERT_NE(server, nullptr) << error;
+  EXPECT_EQ(server->address(), "127.0.0.1:43210");
+  EXPECT_NE(test::ReadFile(args).find("--listen 127.0.0.1:0 --port-file"), std::string::npos)
+      << test::ReadFile(args);
+}
+
 }  // namespace
 }  // namespace glint

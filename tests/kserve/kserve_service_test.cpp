@@ -125,6 +125,30 @@ glint::v1::QueryBatch Batch(const Queries &q) {
   return b;
 }
 
+// Four unit quads side by side at height 2: under area_method REFERENCE at 1024 nodes,
+// 4 x 3 fan triangles x 1024^2 nodes = 1.26e7 BRDF evaluations a query.
+void WriteQuads(const std::string &path) {
+  std::ofstream out(path);
+  out << R"({"lights": [)";
+  for (int k = 0; k < 4; ++k)
+    out << (k ? "," : "") << R"({"polygon": {"vertices": [)" << -2 + k << ", -1, 2, " << -1 + k
+        << ", -1, 2, " << -1 + k << ", 1, 2, " << -2 + k << R"(, 1, 2], "radiance": [1, 1, 1]}})";
+  out << "]}";
+}
+
+// ModelInfer's radiance as floats (empty unless it is one raw output).
+std::vector<float> RawRadiance(const ModelInferResponse &r) {
+  if (r.raw_output_contents_size() != 1 || r.raw_output_contents(0).size() % sizeof(float) != 0)
+    return {};
+  std::vector<float> v(r.raw_output_contents(0).size() / sizeof(float));
+  std::memcpy(v.data(), r.raw_output_contents(0).data(), r.raw_output_contents(0).size());
+  return v;
+}
+
+bool SameBits(const std::vector<float> &a, const std::vector<float> &b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
 class KServeService : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -384,39 +408,66 @@ TEST_F(KServeService, HealthMetadataConfigAndStatistics) {
   EXPECT_GT(after.compute_infer().ns(), before.compute_infer().ns());
 }
 
-// ModelInfer is admitted by cost as Evaluate is (server/request_cost.h). The sparkle preset's
-// rect light by REFERENCE with 1024 nodes costs (4 x 256)^2 nodes x 3 fan triangles x the glint
-// factor 8 = 2.5e7 BRDF evaluations per query, over the default --max-query-cost 1e7: Evaluate
-// refuses it, and ModelInfer must refuse it with the same words (before, it ran the query and
-// answered OK, and a large batch of such queries held a worker for hours).
-TEST_F(KServeService, ModelInferIsAdmittedByCostAsEvaluate) {
+// ModelInfer is admitted by the same per-query cost as Evaluate (server/request_cost.h), and
+// refused with RESOURCE_EXHAUSTED and Evaluate's very message (naming --max-query-cost), with no
+// output: under area_method REFERENCE at 1024 nodes the sparkle preset's rect light costs
+// (4 x 256)^2 nodes x 3 fan triangles x the glint factor 8 = 2.5e7 BRDF evaluations a query and
+// the quads preset's four quads 4 x 3 x 1024^2 = 1.26e7, both over the default --max-query-cost
+// 1e7. At 64 nodes (1.6e5 and 4.9e4) both are served, bit-identical to Evaluate. Before,
+// ModelInfer had no cost admission at all: it ran such a request (seconds a query) and a large
+// batch of them held a worker for hours.
+TEST(KServeAdmission, ModelInferIsAdmittedByCostAsEvaluate) {
+  test::TempDir dir("kserve_admission");
+  WriteQuads(dir.File("quads.json"));
+  const std::string flags[2] = {
+      "sparkle=" + kExamples + "/materials/sparkle_binomial.json," + kExamples +
+          "/lights/rect_small.json",
+      "quads=" + kExamples + "/materials/paint_schlick.json," + dir.File("quads.json")};
+  std::string error;
+  auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd",
+                                    {"--model", flags[0], "--model", flags[1]}, &error);
+  ASSERT_NE(server, nullptr) << error;
+  auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
+  auto kserve = GRPCInferenceService::NewStub(channel);
+  auto glint = glint::v1::GlintService::NewStub(channel);
   const Queries q = MakeQueries(4, false, false, 13, kSparkleMirror);
-  glint::v1::EvaluateRequest settings = Settings("sparkle=" + Sparkle());
-  settings.set_area_method(glint::v1::REFERENCE);
-  settings.set_area_samples(1024);
-  *settings.mutable_queries() = Batch(q);
-  glint::v1::EvaluateResponse evaluated;
-  grpc::Status evaluate_status;
-  {
-    grpc::ClientContext ctx;
-    evaluate_status = glint_->Evaluate(&ctx, settings, &evaluated);
+  for (const std::string &flag : flags) {
+    const std::string model = flag.substr(0, flag.find('='));
+    KServeModel preset;
+    ASSERT_TRUE(LoadModelFlag(flag, &preset).ok());
+    for (const uint32_t nodes : {1024u, 64u}) {
+      SCOPED_TRACE(model + ", " + std::to_string(nodes) + " nodes");
+      glint::v1::EvaluateRequest settings = preset.settings;
+      settings.set_area_method(glint::v1::REFERENCE);
+      settings.set_area_samples(nodes);
+      *settings.mutable_queries() = Batch(q);
+      glint::v1::EvaluateResponse evaluated;
+      grpc::ClientContext a;
+      const grpc::Status want = glint->Evaluate(&a, settings, &evaluated);
+
+      ModelInferRequest r = InferRequest(model, q, true);
+      (*r.mutable_parameters())["area_method"].set_string_param("REFERENCE");
+      (*r.mutable_parameters())["area_samples"].set_int64_param(nodes);
+      ModelInferResponse response;
+      grpc::ClientContext b;
+      const grpc::Status got = kserve->ModelInfer(&b, r, &response);
+      if (nodes == 1024) {
+        ASSERT_EQ(want.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << want.error_message();
+        EXPECT_NE(want.error_message().find("--max-query-cost"), std::string::npos)
+            << want.error_message();
+        EXPECT_EQ(got.error_code(), want.error_code()) << got.error_message();
+        EXPECT_EQ(got.error_message(), want.error_message());
+        EXPECT_EQ(response.outputs_size(), 0);
+      } else {
+        ASSERT_TRUE(want.ok()) << want.error_message();
+        ASSERT_TRUE(got.ok()) << got.error_message();
+        ASSERT_EQ(evaluated.radiance_size(), int(q.n) * 3);
+        EXPECT_TRUE(
+            SameBits(RawRadiance(response),
+                     std::vector<float>(evaluated.radiance().begin(), evaluated.radiance().end())));
+      }
+    }
   }
-  ASSERT_EQ(evaluate_status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED)
-      << evaluate_status.error_message();
-
-  ModelInferRequest r = InferRequest("sparkle", q, true);
-  (*r.mutable_parameters())["area_method"].set_string_param("REFERENCE");
-  (*r.mutable_parameters())["area_samples"].set_int64_param(1024);
-  ModelInferResponse response;
-  const grpc::Status s = Infer(r, &response);
-  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
-  EXPECT_EQ(s.error_message(), evaluate_status.error_message());
-  EXPECT_NE(s.error_message().find("--max-query-cost"), std::string::npos) << s.error_message();
-  EXPECT_EQ(response.outputs_size(), 0);
-
-  // Within the limit (REFERENCE 64: 1.6e5 per query) the same queries are answered.
-  (*r.mutable_parameters())["area_samples"].set_int64_param(64);
-  EXPECT_TRUE(Infer(r, &response).ok());
 }
 
 // --max-request-cost counts ModelInfer's rows (wo's shape), as Evaluate counts its queries: the
@@ -525,68 +576,6 @@ TEST(KServeStartup, ABadPresetStopsGlintdNamingTheFile) {
   auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd", {"--model", "bad=" + bad}, &error);
   EXPECT_EQ(server, nullptr);
   EXPECT_NE(error.find("model 'bad' (" + bad + ")"), std::string::npos) << error;
-}
-
-// ModelInfer is admitted by the same per-query cost as Evaluate (server/request_cost.h
-// EstimateQueriesCost): a preset with four quads under area_method REFERENCE at 1024 nodes
-// (4 x 3 fan triangles x 1024^2 nodes = 1.26e7 BRDF evaluations a query, over the default
-// --max-query-cost 1e7) is refused with RESOURCE_EXHAUSTED and Evaluate's very message; at
-// the default 64 nodes it is served, bit-identical to Evaluate. Before, ModelInfer had no cost
-// admission at all and ran such a request (seconds a query).
-TEST(KServeAdmission, RefusedByTheCostLimitsAsEvaluateIs) {
-  test::TempDir dir("kserve_admission");
-  const std::string lights = dir.File("quads.json");
-  {
-    std::ofstream out(lights);
-    out << R"({"lights": [)";
-    for (int k = 0; k < 4; ++k)
-      out << (k ? "," : "") << R"({"polygon": {"vertices": [)" << -2 + k << ", -1, 2, " << -1 + k
-          << ", -1, 2, " << -1 + k << ", 1, 2, " << -2 + k << R"(, 1, 2], "radiance": [1, 1, 1]}})";
-    out << "]}";
-  }
-  const std::string flag = "quads=" + kExamples + "/materials/paint_schlick.json," + lights;
-  std::string error;
-  auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd", {"--model", flag}, &error);
-  ASSERT_NE(server, nullptr) << error;
-  auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
-  auto kserve = GRPCInferenceService::NewStub(channel);
-  auto glint = glint::v1::GlintService::NewStub(channel);
-  const Queries q = MakeQueries(4, false, false, 5);
-  KServeModel preset;
-  ASSERT_TRUE(LoadModelFlag(flag, &preset).ok());
-  for (const uint32_t nodes : {1024u, 64u}) {
-    SCOPED_TRACE(std::to_string(nodes) + " nodes");
-    glint::v1::EvaluateRequest request = preset.settings;
-    request.set_area_method(glint::v1::REFERENCE);
-    request.set_area_samples(nodes);
-    *request.mutable_queries() = Batch(q);
-    glint::v1::EvaluateResponse evaluated;
-    grpc::ClientContext a;
-    const grpc::Status want = glint->Evaluate(&a, request, &evaluated);
-    ModelInferRequest r = InferRequest("quads", q, true);
-    (*r.mutable_parameters())["area_method"].set_string_param("REFERENCE");
-    (*r.mutable_parameters())["area_samples"].set_int64_param(nodes);
-    ModelInferResponse response;
-    grpc::ClientContext b;
-    const grpc::Status got = kserve->ModelInfer(&b, r, &response);
-    if (nodes == 1024) {
-      EXPECT_EQ(want.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << want.error_message();
-      EXPECT_NE(want.error_message().find("--max-query-cost"), std::string::npos)
-          << want.error_message();
-      EXPECT_EQ(got.error_code(), want.error_code()) << got.error_message();
-      EXPECT_EQ(got.error_message(), want.error_message());
-    } else {
-      ASSERT_TRUE(want.ok()) << want.error_message();
-      ASSERT_TRUE(got.ok()) << got.error_message();
-      const std::vector<float> radiance(evaluated.radiance().begin(), evaluated.radiance().end());
-      ASSERT_EQ(response.raw_output_contents_size(), 1);
-      std::vector<float> inferred(radiance.size());
-      ASSERT_EQ(response.raw_output_contents(0).size(), inferred.size() * sizeof(float));
-      std::memcpy(inferred.data(), response.raw_output_contents(0).data(),
-                  inferred.size() * sizeof(float));
-      EXPECT_EQ(std::memcmp(inferred.data(), radiance.data(), radiance.size() * sizeof(float)), 0);
-    }
-  }
 }
 
 }  // namespace

@@ -5,15 +5,21 @@
 // does the same with Triton's own Python client.)
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
+#include <httplib.h>
+#include <signal.h>
+#include <sys/wait.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <memory>
 #include <random>
+#include <regex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "glint/v1/glint.grpc.pb.h"
@@ -136,6 +142,29 @@ void WriteQuads(const std::string &path) {
   out << "]}";
 }
 
+// glint_queue_depth (requests queued or running, what --max-pending bounds) from glintd's
+// /metrics; -1 when unreadable.
+double QueueDepth(httplib::Client &http) {
+  auto res = http.Get("/metrics");
+  if (!res || res->status != 200) return -1;
+  std::smatch m;
+  static const std::regex line(R"((^|\n)glint_queue_depth ([0-9.eE+-]+)\n)");
+  if (!std::regex_search(res->body, m, line)) return -1;
+  return std::stod(m[2]);
+}
+
+// Polls the gauge until it reads `want`, `stop()` holds, or 120 s pass; returns the last value.
+template <class Stop>
+double WaitForDepth(httplib::Client &http, double want, Stop &&stop) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  double depth = QueueDepth(http);
+  while (depth != want && !stop() && std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    depth = QueueDepth(http);
+  }
+  return depth;
+}
+
 // ModelInfer's radiance as floats (empty unless it is one raw output).
 std::vector<float> RawRadiance(const ModelInferResponse &r) {
   if (r.raw_output_contents_size() != 1 || r.raw_output_contents(0).size() % sizeof(float) != 0)
@@ -148,6 +177,41 @@ std::vector<float> RawRadiance(const ModelInferResponse &r) {
 bool SameBits(const std::vector<float> &a, const std::vector<float> &b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
 }
+
+// A ModelInfer that holds glintd's one worker: 2000 sparkle queries by REFERENCE 256, some 1.6e6
+// units each (10-40 s of the worker at any load), run on its own thread until the test cancels
+// it.
+class LongCall {
+ public:
+  explicit LongCall(GRPCInferenceService::Stub *kserve) {
+    ModelInferRequest r =
+        InferRequest("sparkle", MakeQueries(2000, false, false, 17, kSparkleMirror), true);
+    (*r.mutable_parameters())["area_method"].set_string_param("REFERENCE");
+    (*r.mutable_parameters())["area_samples"].set_int64_param(256);
+    ctx_.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(600));
+    thread_ = std::thread([this, kserve, r] {
+      ModelInferResponse response;
+      status_ = kserve->ModelInfer(&ctx_, r, &response);
+      done_ = true;
+    });
+  }
+  ~LongCall() { Cancel(); }
+  bool done() const { return done_; }
+  // Cancels the call (it stops at its next query slice) and waits for its answer.
+  grpc::Status Cancel() {
+    if (thread_.joinable()) {
+      ctx_.TryCancel();
+      thread_.join();
+    }
+    return status_;
+  }
+
+ private:
+  grpc::ClientContext ctx_;
+  grpc::Status status_;
+  std::atomic<bool> done_{false};
+  std::thread thread_;
+};
 
 class KServeService : public ::testing::Test {
  protected:
@@ -576,6 +640,63 @@ TEST(KServeStartup, ABadPresetStopsGlintdNamingTheFile) {
   auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd", {"--model", "bad=" + bad}, &error);
   EXPECT_EQ(server, nullptr);
   EXPECT_NE(error.find("model 'bad' (" + bad + ")"), std::string::npos) << error;
+}
+
+// A wo tensor whose shape does not describe its data is refused up front with INVALID_ARGUMENT
+// naming wo, its shape and what it needs, before admission and the queue. Before, it was
+// admitted as 0 queries and refused only by the decoder on a worker; with the queue full it was
+// answered RESOURCE_EXHAUSTED "server busy ... retry later", a retry that could never succeed.
+// With glintd's one worker held by a long call and --max-pending 1, a well-formed request is
+// busy (the queue is full) while the lying one must be INVALID_ARGUMENT.
+TEST(KServeAdmission, AShapeThatLiesAboutItsDataIsRefusedBeforeTheQueue) {
+  test::TempDir dir("kserve_lying_shape");
+  const int metrics_port = test::FreeLoopbackPort();
+  ASSERT_GT(metrics_port, 0);
+  std::string error;
+  auto server = test::Glintd::Start(
+      GLINTD_PATH, dir, "glintd",
+      {"--model",
+       "sparkle=" + kExamples + "/materials/sparkle_binomial.json," + kExamples +
+           "/lights/rect_small.json",
+       "--model",
+       "paint=" + kExamples + "/materials/paint_schlick.json," + kExamples + "/lights/studio.json",
+       "--workers", "1", "--max-pending", "1", "--slice-ms", "50", "--metrics-listen",
+       "127.0.0.1:" + std::to_string(metrics_port)},
+      &error);
+  ASSERT_NE(server, nullptr) << error;
+  httplib::Client http("127.0.0.1", metrics_port);
+  auto kserve = GRPCInferenceService::NewStub(
+      grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials()));
+  LongCall long_call(kserve.get());
+  ASSERT_EQ(WaitForDepth(http, 1, [&] { return long_call.done(); }), 1);
+
+  const Queries q = MakeQueries(250, false, false, 3);
+  ModelInferResponse response;
+  {
+    grpc::ClientContext ctx;
+    const grpc::Status s = kserve->ModelInfer(&ctx, InferRequest("paint", q, true), &response);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+    EXPECT_NE(s.error_message().find("server busy"), std::string::npos) << s.error_message();
+  }
+  for (bool raw : {true, false}) {
+    SCOPED_TRACE(raw ? "raw" : "typed");
+    ModelInferRequest lying = InferRequest("paint", q, raw);
+    ASSERT_EQ(lying.inputs(0).name(), "wo");
+    lying.mutable_inputs(0)->set_shape(0, 251);  // 251 rows claimed, 250 carried
+    grpc::ClientContext ctx;
+    const grpc::Status s = kserve->ModelInfer(&ctx, lying, &response);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << s.error_message();
+    EXPECT_NE(s.error_message().find(
+                  raw ? "input 'wo': shape [251, 3] needs 3012 bytes, but its raw_input_contents "
+                        "holds 3000 bytes (FP32 [250, 3])"
+                      : "input 'wo': shape [251, 3] needs 753 values, but its "
+                        "contents.fp32_contents holds 750 values (FP32 [250, 3])"),
+              std::string::npos)
+        << s.error_message();
+  }
+  EXPECT_FALSE(long_call.done()) << "the long call ended first, so the queue was not full";
+  EXPECT_EQ(long_call.Cancel().error_code(), grpc::StatusCode::CANCELLED);
+  EXPECT_TRUE(server->Alive());
 }
 
 }  // namespace

@@ -26,6 +26,8 @@
 #include "glintd_process.h"
 #include "inference/grpc_service.grpc.pb.h"
 #include "server/kserve_models.h"
+#include "server/normal_map_decode.h"
+#include "server/status.h"
 
 namespace glint {
 namespace {
@@ -140,6 +142,33 @@ void WriteQuads(const std::string &path) {
     out << (k ? "," : "") << R"({"polygon": {"vertices": [)" << -2 + k << ", -1, 2, " << -1 + k
         << ", -1, 2, " << -1 + k << ", 1, 2, " << -2 + k << R"(, 1, 2], "radiance": [1, 1, 1]}})";
   out << "]}";
+}
+
+// A 64 x 64 bumpy normal map made by `glint normal-map` in `dir`, and a NORMAL_MAP probe preset
+// naming its digest (glintd must hold the map from the start: --normal-map FILE).
+struct NormalMapPreset {
+  std::string map_file, preset_file;
+};
+
+NormalMapPreset MakeNormalMapPreset(const test::TempDir &dir) {
+  NormalMapPreset p;
+  p.map_file = dir.File("bumpy64.exr");
+  p.preset_file = dir.File("nm.json");
+  const pid_t pid = test::Spawn(
+      {GLINT_CLI_PATH, "normal-map", "bumpy", "--size", "64", "--seed", "5", "--out", p.map_file},
+      dir.File("nm_gen.out"), dir.File("nm_gen.err"));
+  int status = 0;
+  waitpid(pid, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
+      << test::ReadFile(dir.File("nm_gen.err"));
+  DecodedNormalMap map;
+  const Status decoded = DecodeNormalMap(p.map_file, test::ReadFile(p.map_file), 1u << 20, &map);
+  EXPECT_TRUE(decoded.ok()) << decoded.message();
+  std::ofstream(p.preset_file)
+      << R"({"model": "NORMAL_MAP", "schlick": {"f0": [0.95, 0.93, 0.88]},)"
+      << R"( "normal_map": {"digest": ")" << NormalMapDigest(map)
+      << R"(", "intrinsic_roughness": 0.05}})";
+  return p;
 }
 
 // glint_queue_depth (requests queued or running, what --max-pending bounds) from glintd's
@@ -640,6 +669,59 @@ TEST(KServeStartup, ABadPresetStopsGlintdNamingTheFile) {
   auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd", {"--model", "bad=" + bad}, &error);
   EXPECT_EQ(server, nullptr);
   EXPECT_NE(error.find("model 'bad' (" + bad + ")"), std::string::npos) << error;
+}
+
+// A NORMAL_MAP preset (Model::query_costs: the work of a query grows with its footprint's
+// cut-off box) is admitted before queueing without a cost (its queries are not decoded yet),
+// then on the worker by Evaluate's per-query cost once they are (server/request_cost.h
+// EstimateQueriesCost). Over a 64 x 64 map at --max-query-cost 1e5, probes with footprints of
+// 0.5 (32 texels: the 5-sigma box covers the map's period copies, 3.3e5 units a query; 0.2
+// costs 8.5e4) are refused with RESOURCE_EXHAUSTED and Evaluate's very message; footprints of
+// 1e-3 (a few texels, ~240 units) are served, bit-identical to Evaluate. Without the worker-side
+// check the big footprints would run. No test reached that check before: no NORMAL_MAP preset could
+// be registered (its map must be held when the preset is validated at startup, and the store starts
+// empty) until glintd --normal-map FILE.
+TEST(KServeAdmission, NormalMapQueriesAreAdmittedByTheirFootprintsOnceDecoded) {
+  test::TempDir dir("kserve_normal_map");
+  const NormalMapPreset nm = MakeNormalMapPreset(dir);
+  std::string error;
+  auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd",
+                                    {"--normal-map", nm.map_file, "--model", "nm=" + nm.preset_file,
+                                     "--max-query-cost", "1e5", "--device", "host"},
+                                    &error);
+  ASSERT_NE(server, nullptr) << error;
+  auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
+  auto kserve = GRPCInferenceService::NewStub(channel);
+  auto glint = glint::v1::GlintService::NewStub(channel);
+  KServeModel preset;
+  ASSERT_TRUE(LoadModelFlag("nm=" + nm.preset_file, &preset).ok());
+  for (const float footprint : {0.5f, 1e-3f}) {
+    SCOPED_TRACE("footprint " + std::to_string(footprint));
+    Queries q = MakeQueries(6, true, false, 21);
+    for (size_t i = 0; i < q.footprint.size(); ++i)
+      q.footprint[i] = i % 4 == 0 || i % 4 == 3 ? footprint : 0.0f;
+    glint::v1::EvaluateRequest request = preset.settings;
+    *request.mutable_queries() = Batch(q);
+    glint::v1::EvaluateResponse evaluated;
+    grpc::ClientContext a;
+    const grpc::Status want = glint->Evaluate(&a, request, &evaluated);
+    ModelInferResponse response;
+    grpc::ClientContext b;
+    const grpc::Status got = kserve->ModelInfer(&b, InferRequest("nm", q, true), &response);
+    if (footprint > 0.1f) {
+      ASSERT_EQ(want.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << want.error_message();
+      EXPECT_NE(want.error_message().find("--max-query-cost 1e+05"), std::string::npos)
+          << want.error_message();
+      EXPECT_EQ(got.error_code(), want.error_code()) << got.error_message();
+      EXPECT_EQ(got.error_message(), want.error_message());
+      EXPECT_EQ(response.outputs_size(), 0);
+    } else {
+      ASSERT_TRUE(want.ok()) << want.error_message();
+      ASSERT_TRUE(got.ok()) << got.error_message();
+      EXPECT_TRUE(SameBits(RawRadiance(response), std::vector<float>(evaluated.radiance().begin(),
+                                                                     evaluated.radiance().end())));
+    }
+  }
 }
 
 // A wo tensor whose shape does not describe its data is refused up front with INVALID_ARGUMENT

@@ -781,5 +781,99 @@ TEST(KServeAdmission, AShapeThatLiesAboutItsDataIsRefusedBeforeTheQueue) {
   EXPECT_TRUE(server->Alive());
 }
 
+// ModelInfers queued behind a long call when SIGTERM arrives still run during --shutdown-grace,
+// as every queued glint.v1 call does: only new calls are refused (UNAVAILABLE, "shutting down").
+// One queued call is of the paint preset, one of a NORMAL_MAP preset (admitted again by cost on
+// the worker once decoded): each fails if the worker checked shutdown admission again (as it
+// did before, through GlintServiceImpl::Admit). Both must answer OK, bit-identical to Evaluate
+// before the signal, and glintd must then exit 0.
+TEST(KServeShutdown, ModelInfersQueuedBeforeSigtermRunInTheGrace) {
+  test::TempDir dir("kserve_shutdown");
+  const NormalMapPreset nm = MakeNormalMapPreset(dir);
+  const int metrics_port = test::FreeLoopbackPort();
+  ASSERT_GT(metrics_port, 0);
+  const std::string sparkle =
+      kExamples + "/materials/sparkle_binomial.json," + kExamples + "/lights/rect_small.json";
+  const std::string paint =
+      kExamples + "/materials/paint_schlick.json," + kExamples + "/lights/studio.json";
+  std::string error;
+  auto server = test::Glintd::Start(
+      GLINTD_PATH, dir, "glintd",
+      {"--model", "sparkle=" + sparkle, "--model", "paint=" + paint, "--normal-map", nm.map_file,
+       "--model", "nm=" + nm.preset_file, "--workers", "1", "--max-pending", "8", "--slice-ms",
+       "50", "--shutdown-grace", "600", "--metrics-listen",
+       "127.0.0.1:" + std::to_string(metrics_port)},
+      &error);
+  ASSERT_NE(server, nullptr) << error;
+  httplib::Client http("127.0.0.1", metrics_port);
+  auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
+  auto kserve = GRPCInferenceService::NewStub(channel);
+  auto glint = glint::v1::GlintService::NewStub(channel);
+
+  struct Queued {
+    std::string model, flag;
+    Queries q;
+    std::vector<float> reference;
+    grpc::Status status;
+    ModelInferResponse response;
+  };
+  Queued calls[2] = {{"paint", "paint=" + paint, MakeQueries(8, false, false, 3), {}, {}, {}},
+                     {"nm", "nm=" + nm.preset_file, MakeQueries(8, true, false, 4), {}, {}, {}}};
+  for (Queued &c : calls) {  // the references (and the kernels) before the long call
+    KServeModel preset;
+    ASSERT_TRUE(LoadModelFlag(c.flag, &preset).ok());
+    glint::v1::EvaluateRequest request = preset.settings;
+    *request.mutable_queries() = Batch(c.q);
+    glint::v1::EvaluateResponse evaluated;
+    grpc::ClientContext ctx;
+    const grpc::Status s = glint->Evaluate(&ctx, request, &evaluated);
+    ASSERT_TRUE(s.ok()) << c.model << ": " << s.error_message();
+    c.reference.assign(evaluated.radiance().begin(), evaluated.radiance().end());
+  }
+
+  LongCall long_call(kserve.get());
+  ASSERT_EQ(WaitForDepth(http, 1, [&] { return long_call.done(); }), 1);
+  std::vector<std::thread> threads;
+  for (Queued &c : calls) {
+    threads.emplace_back([&kserve, &c] {
+      grpc::ClientContext ctx;
+      ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(600));
+      c.status = kserve->ModelInfer(&ctx, InferRequest(c.model, c.q, true), &c.response);
+    });
+    const double want = double(threads.size()) + 1;
+    ASSERT_EQ(WaitForDepth(http, want, [&] { return long_call.done(); }), want);
+  }
+
+  server->Signal(SIGTERM);
+  // Shutdown has begun once a new call is refused as shutting down. The probe is one that is
+  // never queued either way: over --max-query-cost (RESOURCE_EXHAUSTED) until then.
+  ModelInferRequest probe = InferRequest("sparkle", MakeQueries(1, false, false, 9), true);
+  (*probe.mutable_parameters())["area_method"].set_string_param("REFERENCE");
+  (*probe.mutable_parameters())["area_samples"].set_int64_param(1024);
+  grpc::Status refused;
+  for (int i = 0; i < 6000; ++i) {
+    grpc::ClientContext ctx;
+    ModelInferResponse unused;
+    refused = kserve->ModelInfer(&ctx, probe, &unused);
+    if (refused.error_code() != grpc::StatusCode::RESOURCE_EXHAUSTED) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::UNAVAILABLE) << refused.error_message();
+  EXPECT_NE(refused.error_message().find("shutting down"), std::string::npos)
+      << refused.error_message();
+  EXPECT_FALSE(long_call.done()) << "the long call ended before shutdown began";
+  long_call.Cancel();  // frees the worker for the queued calls, within the grace
+
+  for (std::thread &t : threads) t.join();
+  for (Queued &c : calls) {
+    SCOPED_TRACE(c.model);
+    ASSERT_TRUE(c.status.ok()) << c.status.error_message();
+    EXPECT_TRUE(SameBits(RawRadiance(c.response), c.reference));
+  }
+  int status = 0;
+  ASSERT_TRUE(server->WaitExit(std::chrono::seconds(60), &status));
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "wait status " << status;
+}
+
 }  // namespace
 }  // namespace glint

@@ -249,12 +249,16 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
   Status s = ApplyInferParameters(*request, settings.get());
   if (s.ok()) s = ValidateSettings(*settings, glint_->options().limits);
   if (s.ok()) s = CheckRequestedOutputs(*request);
+  // wo's rows, refused here (INVALID_ARGUMENT naming 'wo') when its shape does not describe its
+  // data: admission charges the shape, and a bad request must not be queued or told to retry.
+  uint64_t rows = 0;
+  if (s.ok()) s = InferQueryCount(*request, &rows);
   // Evaluate's admission (GlintServiceImpl::AdmitCount; a NORMAL_MAP preset is admitted once its
   // queries are decoded): UNAVAILABLE while shutting down, then
   // --max-query-cost and --max-request-cost for wo's row count, before the job is queued. (It
   // was missing: a REFERENCE 1024 request over a polygon preset, refused by Evaluate, held a
   // worker for its whole run.)
-  if (s.ok()) s = glint_->AdmitCount(*settings, InferQueryCount(*request));
+  if (s.ok()) s = glint_->AdmitCount(*settings, rows);
   if (!s.ok()) return refuse(s);
 
   // The reply counts in --max-undelivered-mb until it has left; a cancelled call leaves the

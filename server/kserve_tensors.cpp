@@ -161,23 +161,54 @@ Status DecodeInferInputs(const inference::ModelInferRequest &request, bool has_l
   return Status::Ok();
 }
 
-uint64_t InferQueryCount(const inference::ModelInferRequest &request) {
-  for (int i = 0; i < request.inputs_size(); ++i) {
-    const auto &input = request.inputs(i);
-    if (input.name() != "wo") continue;
-    const auto &shape = input.shape();
-    if (shape.size() != 2 || shape[1] != 3 || shape[0] < 1 ||
-        shape[0] > int64_t(std::numeric_limits<uint32_t>::max()))
-      return 0;
-    const uint64_t rows = uint64_t(shape[0]);
-    // Only a shape its data fills: a lying shape is DecodeInferInputs' to refuse, by name.
-    const uint64_t floats =
-        request.raw_input_contents_size() > 0
-            ? (i < request.raw_input_contents_size() ? request.raw_input_contents(i).size() / 4 : 0)
-            : uint64_t(input.contents().fp32_contents_size());
-    return floats == 3 * rows ? rows : 0;
+Status InferQueryCount(const inference::ModelInferRequest &request, uint64_t *rows) {
+  *rows = 0;
+  const bool raw = request.raw_input_contents_size() > 0;
+  if (raw && request.raw_input_contents_size() != request.inputs_size()) {
+    return Status::InvalidArgument(
+        "raw_input_contents: " + std::to_string(request.raw_input_contents_size()) +
+        " entries for " + std::to_string(request.inputs_size()) +
+        " inputs; expected one per input, in the order of inputs");
   }
-  return 0;
+  int wo = -1;
+  for (int i = 0; i < request.inputs_size() && wo < 0; ++i)
+    if (request.inputs(i).name() == "wo") wo = i;
+  if (wo < 0) {
+    return Status::InvalidArgument(
+        "input 'wo': missing; every model requires it (FP32 [N, 3], one row per query)");
+  }
+  const auto &input = request.inputs(wo);
+  if (input.datatype() != "FP32") {
+    return Status::InvalidArgument("input 'wo': datatype '" + input.datatype() +
+                                   "'; expected FP32");
+  }
+  const auto &shape = input.shape();
+  if (shape.size() != 2 || shape[1] != 3 || shape[0] < 1 ||
+      shape[0] > int64_t(std::numeric_limits<uint32_t>::max())) {
+    return Status::InvalidArgument("input 'wo': shape " + ShapeText(shape) +
+                                   "; expected [N, 3] with 1 <= N < 2^32 queries");
+  }
+  const uint64_t n = uint64_t(shape[0]);
+  // The data must fill the shape exactly: the shape is what admission charges.
+  const uint64_t floats = raw ? request.raw_input_contents(wo).size() / sizeof(float)
+                              : uint64_t(input.contents().fp32_contents_size());
+  const bool whole = !raw || request.raw_input_contents(wo).size() % sizeof(float) == 0;
+  if (floats != 3 * n || !whole) {
+    const std::string held =
+        raw ? "raw_input_contents holds " + std::to_string(request.raw_input_contents(wo).size()) +
+                  " bytes"
+            : "contents.fp32_contents holds " + std::to_string(floats) + " values";
+    const std::string as_rows = whole && floats % 3 == 0
+                                    ? " (FP32 [" + std::to_string(floats / 3) + ", 3])"
+                                    : " (not a whole number of FP32 rows of 3)";
+    const std::string needed =
+        raw ? std::to_string(3 * n * sizeof(float)) + " bytes" : std::to_string(3 * n) + " values";
+    return Status::InvalidArgument("input 'wo': shape " + ShapeText(shape) + " needs " + needed +
+                                   ", but its " + held + as_rows +
+                                   "; the shape must describe the data");
+  }
+  *rows = n;
+  return Status::Ok();
 }
 
 Status ApplyInferParameters(const inference::ModelInferRequest &request,

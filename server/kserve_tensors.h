@@ -32,11 +32,13 @@ std::vector<KServeInput> KServeInputs(bool has_lights);
 Status DecodeInferInputs(const inference::ModelInferRequest &request, bool has_lights,
                          glint::v1::QueryBatch *queries);
 
-// The query count of the request: the rows N of its 'wo' input when that is shaped [N, 3] with
-// 1 <= N < 2^32 and its data holds 3 N floats, else 0 (DecodeInferInputs then refuses it, naming
-// the input). Read before the tensors are decoded, for admission by cost; a request that runs
-// has exactly this many queries.
-uint64_t InferQueryCount(const inference::ModelInferRequest &request);
+// The query count of the request, read before the tensors are decoded, for admission by cost:
+// the rows N of its 'wo' input, which must be FP32 shaped [N, 3] with 1 <= N < 2^32 and carry
+// exactly 3 N floats (raw or typed). Otherwise INVALID_ARGUMENT naming 'wo', its shape and what
+// was expected, before admission: such a request used to be admitted as 0 queries and refused
+// only by the decoder on a worker, or answered "server busy, retry" when the queue was full
+// (a retry that could never succeed). A request that runs has exactly *rows queries.
+Status InferQueryCount(const inference::ModelInferRequest &request, uint64_t *rows);
 
 // Applies the request parameters seed, precision, area_method and area_samples to
 // `settings`; ignores the ones Triton's clients set for their own features and refuses others.

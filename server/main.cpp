@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 #include <string>
 #include <thread>
 
@@ -35,9 +36,10 @@ struct Flags {
   int max_message_mb = 64;
   bool quiet = false;
   bool list_devices = false;
-  std::vector<std::string> models;      // --model NAME=MATERIAL.json[,LIGHTS.json]
-  std::vector<std::string> model_dirs;  // --model-dir DIR
-  glint::OpsFlags ops;                  // metrics, TLS, tokens (server/ops.h)
+  std::vector<std::string> models;       // --model NAME=MATERIAL.json[,LIGHTS.json]
+  std::vector<std::string> model_dirs;   // --model-dir DIR
+  glint::OpsFlags ops;                   // metrics, TLS, tokens (server/ops.h)
+  std::vector<std::string> normal_maps;  // --normal-map FILE
   int normal_map_budget_mb = 1024;
   int normal_map_max_upload_mb = 256;
   double max_request_cost = glint::CostLimits().max_request_cost;
@@ -71,6 +73,9 @@ const char kUsage[] =
     "                       serve a material preset as model NAME over the Open Inference\n"
     "                       Protocol (inference.GRPCInferenceService); repeatable\n"
     "  --model-dir DIR      serve every DIR/NAME.json preset (material + optional \"lights\")\n"
+    "  --normal-map FILE    hold the normal map FILE (OpenEXR / PNG) from the start, as if\n"
+    "                       uploaded (prints its digest): a --model preset of the NORMAL_MAP\n"
+    "                       model can name it; repeatable. Evictable as uploaded maps are\n"
     "  --normal-map-budget-mb N    memory for uploaded normal maps; least recently used maps\n"
     "                       are evicted beyond it (default 1024)\n"
     "  --normal-map-max-upload-mb N  largest normal-map file accepted (default 256)\n"
@@ -172,6 +177,8 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->models.push_back(value("--model"));
     else if (a == "--model-dir")
       f->model_dirs.push_back(value("--model-dir"));
+    else if (a == "--normal-map")
+      f->normal_maps.push_back(value("--normal-map"));
     else if (a == "--normal-map-budget-mb")
       f->normal_map_budget_mb = int(number("--normal-map-budget-mb", 1, 1 << 20));
     else if (a == "--normal-map-max-upload-mb")
@@ -259,6 +266,24 @@ int main(int argc, char **argv) {
     nm.budget_bytes = uint64_t(flags.normal_map_budget_mb) << 20;
     nm.max_upload_bytes = uint64_t(flags.normal_map_max_upload_mb) << 20;
     glint::NormalMaps().Configure(nm);
+  }
+  // Maps held from the start: a NORMAL_MAP preset (--model) is validated like a request, which
+  // needs its map held (NOT_FOUND otherwise), and the store starts empty, so without them no
+  // NORMAL_MAP preset could be served.
+  for (const std::string &file : flags.normal_maps) {
+    std::ifstream in(file, std::ios::binary);
+    const bool opened = in.is_open();
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    glint::v1::NormalMapInfo info;
+    const glint::Status s =
+        opened ? glint::NormalMaps().Upload(file.substr(file.find_last_of('/') + 1), bytes, &info)
+               : glint::Status::InvalidArgument("cannot open the file");
+    if (!s.ok()) {
+      std::fprintf(stderr, "glintd: --normal-map %s: %s\n", file.c_str(), s.message().c_str());
+      return 2;
+    }
+    std::fprintf(stderr, "glintd: normal map %s: %s (%ux%u)\n", file.c_str(), info.digest().c_str(),
+                 info.width(), info.height());
   }
   options.cost.max_request_cost = flags.max_request_cost;
   options.cost.max_query_cost = flags.max_query_cost;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 
 #include "server/model_table.h"
 
@@ -27,10 +28,28 @@ constexpr double kPerQuery = 1.0;
 // The most a model's factor multiplies a polygon light by (see EstimateRequestCost).
 constexpr double kPolygonFactor = 8.0;
 
-std::string Format(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", x);
+std::string Format(double x, int digits = 3) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, x);
   return buf;
+}
+
+// A limit as the operator gave it: the fewest significant digits (at least 3) that read back as
+// the limit itself ("1e+03", "2.5e+07", "1234").
+std::string FormatLimit(double limit) {
+  int digits = 3;
+  while (digits < 17 && std::strtod(Format(limit, digits).c_str(), nullptr) != limit) ++digits;
+  return Format(limit, digits);
+}
+
+// A cost over `limit`, with enough significant digits (at least 3) that it reads back as more
+// than the limit: at 3 digits a cost of 1004 against --max-request-cost 1000 printed
+// "request cost: 1e+03 ... exceeds --max-request-cost 1e+03". 17 digits read back as the cost
+// itself, so the loop ends by then.
+std::string FormatOver(double cost, double limit) {
+  int digits = 3;
+  while (digits < 17 && std::strtod(Format(cost, digits).c_str(), nullptr) <= limit) ++digits;
+  return Format(cost, digits);
 }
 
 // REFERENCE: (4 ceil(samples / 4))^2 Gauss-Legendre nodes per fan triangle
@@ -187,13 +206,17 @@ RequestCost EstimateSampleCost(const glint::v1::EvaluateRequest &settings,
 }
 
 Status CheckRequestCost(const RequestCost &cost, uint64_t query_count, const CostLimits &limits) {
+  const bool query_over = cost.per_query > limits.max_query_cost;
+  // The per-query cost reads the same in the headline and in the parts.
+  const std::string per_query =
+      query_over ? FormatOver(cost.per_query, limits.max_query_cost) : Format(cost.per_query);
   std::string what = "(";  // built by appending: GCC 12 warns falsely on "(" + std::string
   what += std::to_string(query_count);
-  what += " queries x " + Format(cost.per_query) + " per query: " + cost.parts + ")";
-  if (cost.per_query > limits.max_query_cost) {
+  what += " queries x " + per_query + " per query: " + cost.parts + ")";
+  if (query_over) {
     return Status::ResourceExhausted(
-        "request cost: " + Format(cost.per_query) + " BRDF evaluations per query " + what +
-        " exceeds --max-query-cost " + Format(limits.max_query_cost) +
+        "request cost: " + per_query + " BRDF evaluations per query " + what +
+        " exceeds --max-query-cost " + FormatLimit(limits.max_query_cost) +
         " (a query is the smallest interruptible piece of work); " +
         (cost.query_remedy.empty() ? "use fewer or simpler polygon lights, fewer area_samples "
                                      "or a cheaper area_method"
@@ -201,8 +224,8 @@ Status CheckRequestCost(const RequestCost &cost, uint64_t query_count, const Cos
   }
   if (cost.total > limits.max_request_cost) {
     return Status::ResourceExhausted(
-        "request cost: " + Format(cost.total) + " BRDF evaluations " + what +
-        " exceeds --max-request-cost " + Format(limits.max_request_cost) + "; " +
+        "request cost: " + FormatOver(cost.total, limits.max_request_cost) + " BRDF evaluations " +
+        what + " exceeds --max-request-cost " + FormatLimit(limits.max_request_cost) + "; " +
         (cost.request_remedy.empty() ? "split the batch into smaller requests or stream chunks, "
                                        "or use a cheaper area_method"
                                      : cost.request_remedy));

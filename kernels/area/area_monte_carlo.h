@@ -92,8 +92,16 @@ GLINT_FN int mc_polygon_setup(const GLINT_PRIVATE real3 *v, int n, GLINT_PRIVATE
   }
   /* A vertex at the shading point (the receiver lies on the light): degenerate. */
   if (!(lmin > GLINT_R(0.0)) || !isfinite(lmax)) return 0;
-  /* Keep the products of three lengths below fp32 overflow / underflow. */
-  if ((lmax > GLINT_R(1e8)) | (lmax < GLINT_R(1e-8))) {
+  /* Keep the products of three lengths below fp32 overflow / underflow.
+   * Only outside what the shared loader passes unscaled (polygon_scale.h:
+   * squared lengths summing to within [2^-60, 2^60], so 2^-33 < lmax <= 2^30
+   * for up to 17 vertices after clipping), where (2^30)^3 and (2^-33)^3 are
+   * still normal fp32: the division by lmax is inexact, and at the former
+   * thresholds (1e8, 1e-8) it made lights between 1e8 and ~5e8 (and between
+   * ~1e-9 and 1e-8) differ in the last bits from the same light at distance
+   * ~1, which every other method matches bit for bit. Now it triggers only
+   * for callers that bypass the loader. */
+  if ((lmax > GLINT_R(1073741824.0)) | (lmax < GLINT_R(1.16415321826934814453125e-10))) {
     for (int i = 0; i < P->n; ++i) P->v[i] = r3_div(P->v[i], lmax);
   }
   real sum = GLINT_R(0.0), signed_sum = GLINT_R(0.0);

@@ -67,7 +67,8 @@ GLINT_FN real polygon_scale_max(const GLINT_PRIVATE real3 *v, int n) {
  * products of three lengths stay far inside fp32's normal range
  * [2^-126, 2^128], and every vertex length is inside [1e-8, 1e8], where
  * MONTE_CARLO's own (inexact) normalisation of long vertices
- * (mc_polygon_setup) does not trigger, so a scaled light is that light at
+ * (mc_polygon_setup) does not trigger (it triggers only outside what this
+ * loader passes unscaled at all), so a scaled light is that light at
  * distance ~1 bit for bit. The vertices come from float records, so in fp64
  * 2^-149 <= m <= 2^130 (with a frame's rotation): five steps of 2^32 each way
  * reach the range (at most four are needed downwards). Lanes with m = 0 (all

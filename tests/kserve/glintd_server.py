@@ -14,6 +14,9 @@ START_TIMEOUT_S = 600  # a cold kernel cache on a loaded 2-core machine takes mi
 
 class Glintd:
     def __init__(self, glintd_path, args):
+        # GLINTD_UNDER_TEST runs the test against another glintd binary (e.g. an older build),
+        # as tests/support/glintd_process.h's Glintd::Launch does for the C++ tests.
+        glintd_path = os.environ.get("GLINTD_UNDER_TEST") or glintd_path
         self._dir = tempfile.TemporaryDirectory(prefix="glint_kserve_")
         self.port_file = os.path.join(self._dir.name, "port")
         self.log_path = os.path.join(self._dir.name, "glintd.log")

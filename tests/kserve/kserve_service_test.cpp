@@ -5,21 +5,29 @@
 // does the same with Triton's own Python client.)
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
+#include <httplib.h>
+#include <signal.h>
+#include <sys/wait.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <memory>
 #include <random>
+#include <regex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "glint/v1/glint.grpc.pb.h"
 #include "glintd_process.h"
 #include "inference/grpc_service.grpc.pb.h"
 #include "server/kserve_models.h"
+#include "server/normal_map_decode.h"
+#include "server/status.h"
 
 namespace glint {
 namespace {
@@ -125,12 +133,121 @@ glint::v1::QueryBatch Batch(const Queries &q) {
   return b;
 }
 
+// Four unit quads side by side at height 2: under area_method REFERENCE at 1024 nodes,
+// 4 x 3 fan triangles x 1024^2 nodes = 1.26e7 BRDF evaluations a query.
+void WriteQuads(const std::string &path) {
+  std::ofstream out(path);
+  out << R"({"lights": [)";
+  for (int k = 0; k < 4; ++k)
+    out << (k ? "," : "") << R"({"polygon": {"vertices": [)" << -2 + k << ", -1, 2, " << -1 + k
+        << ", -1, 2, " << -1 + k << ", 1, 2, " << -2 + k << R"(, 1, 2], "radiance": [1, 1, 1]}})";
+  out << "]}";
+}
+
+// A 64 x 64 bumpy normal map made by `glint normal-map` in `dir`, and a NORMAL_MAP probe preset
+// naming its digest (glintd must hold the map from the start: --normal-map FILE).
+struct NormalMapPreset {
+  std::string map_file, preset_file;
+};
+
+NormalMapPreset MakeNormalMapPreset(const test::TempDir &dir) {
+  NormalMapPreset p;
+  p.map_file = dir.File("bumpy64.exr");
+  p.preset_file = dir.File("nm.json");
+  const pid_t pid = test::Spawn(
+      {GLINT_CLI_PATH, "normal-map", "bumpy", "--size", "64", "--seed", "5", "--out", p.map_file},
+      dir.File("nm_gen.out"), dir.File("nm_gen.err"));
+  int status = 0;
+  waitpid(pid, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
+      << test::ReadFile(dir.File("nm_gen.err"));
+  DecodedNormalMap map;
+  const Status decoded = DecodeNormalMap(p.map_file, test::ReadFile(p.map_file), 1u << 20, &map);
+  EXPECT_TRUE(decoded.ok()) << decoded.message();
+  std::ofstream(p.preset_file)
+      << R"({"model": "NORMAL_MAP", "schlick": {"f0": [0.95, 0.93, 0.88]},)"
+      << R"( "normal_map": {"digest": ")" << NormalMapDigest(map)
+      << R"(", "intrinsic_roughness": 0.05}})";
+  return p;
+}
+
+// glint_queue_depth (requests queued or running, what --max-pending bounds) from glintd's
+// /metrics; -1 when unreadable.
+double QueueDepth(httplib::Client &http) {
+  auto res = http.Get("/metrics");
+  if (!res || res->status != 200) return -1;
+  std::smatch m;
+  static const std::regex line(R"((^|\n)glint_queue_depth ([0-9.eE+-]+)\n)");
+  if (!std::regex_search(res->body, m, line)) return -1;
+  return std::stod(m[2]);
+}
+
+// Polls the gauge until it reads `want`, `stop()` holds, or 120 s pass; returns the last value.
+template <class Stop>
+double WaitForDepth(httplib::Client &http, double want, Stop &&stop) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  double depth = QueueDepth(http);
+  while (depth != want && !stop() && std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    depth = QueueDepth(http);
+  }
+  return depth;
+}
+
+// ModelInfer's radiance as floats (empty unless it is one raw output).
+std::vector<float> RawRadiance(const ModelInferResponse &r) {
+  if (r.raw_output_contents_size() != 1 || r.raw_output_contents(0).size() % sizeof(float) != 0)
+    return {};
+  std::vector<float> v(r.raw_output_contents(0).size() / sizeof(float));
+  std::memcpy(v.data(), r.raw_output_contents(0).data(), r.raw_output_contents(0).size());
+  return v;
+}
+
+bool SameBits(const std::vector<float> &a, const std::vector<float> &b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+// A ModelInfer that holds glintd's one worker: 2000 sparkle queries by REFERENCE 256, some 1.6e6
+// units each (10-40 s of the worker at any load), run on its own thread until the test cancels
+// it.
+class LongCall {
+ public:
+  explicit LongCall(GRPCInferenceService::Stub *kserve) {
+    ModelInferRequest r =
+        InferRequest("sparkle", MakeQueries(2000, false, false, 17, kSparkleMirror), true);
+    (*r.mutable_parameters())["area_method"].set_string_param("REFERENCE");
+    (*r.mutable_parameters())["area_samples"].set_int64_param(256);
+    ctx_.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(600));
+    thread_ = std::thread([this, kserve, r] {
+      ModelInferResponse response;
+      status_ = kserve->ModelInfer(&ctx_, r, &response);
+      done_ = true;
+    });
+  }
+  ~LongCall() { Cancel(); }
+  bool done() const { return done_; }
+  // Cancels the call (it stops at its next query slice) and waits for its answer.
+  grpc::Status Cancel() {
+    if (thread_.joinable()) {
+      ctx_.TryCancel();
+      thread_.join();
+    }
+    return status_;
+  }
+
+ private:
+  grpc::ClientContext ctx_;
+  grpc::Status status_;
+  std::atomic<bool> done_{false};
+  std::thread thread_;
+};
+
 class KServeService : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new test::TempDir("kserve_service");
     std::string error;
-    server_ = test::Glintd::Start(test::GlintdUnderTest(GLINTD_PATH), *dir_, "glintd",
+    server_ = test::Glintd::Start(GLINTD_PATH, *dir_, "glintd",
                                   {"--model", "paint=" + Paint(), "--model", "probe=" + Probe(),
                                    "--model", "sparkle=" + Sparkle()},
                                   &error)
@@ -384,51 +501,78 @@ TEST_F(KServeService, HealthMetadataConfigAndStatistics) {
   EXPECT_GT(after.compute_infer().ns(), before.compute_infer().ns());
 }
 
-// ModelInfer is admitted by cost as Evaluate is (server/request_cost.h). The sparkle preset's
-// rect light by REFERENCE with 1024 nodes costs (4 x 256)^2 nodes x 3 fan triangles x the glint
-// factor 8 = 2.5e7 BRDF evaluations per query, over the default --max-query-cost 1e7: Evaluate
-// refuses it, and ModelInfer must refuse it with the same words (before, it ran the query and
-// answered OK, and a large batch of such queries held a worker for hours).
-TEST_F(KServeService, ModelInferIsAdmittedByCostAsEvaluate) {
+// ModelInfer is admitted by the same per-query cost as Evaluate (server/request_cost.h), and
+// refused with RESOURCE_EXHAUSTED and Evaluate's very message (naming --max-query-cost), with no
+// output: under area_method REFERENCE at 1024 nodes the sparkle preset's rect light costs
+// (4 x 256)^2 nodes x 3 fan triangles x the glint factor 8 = 2.5e7 BRDF evaluations a query and
+// the quads preset's four quads 4 x 3 x 1024^2 = 1.26e7, both over the default --max-query-cost
+// 1e7. At 64 nodes (1.6e5 and 4.9e4) both are served, bit-identical to Evaluate. Before,
+// ModelInfer had no cost admission at all: it ran such a request (seconds a query) and a large
+// batch of them held a worker for hours.
+TEST(KServeAdmission, ModelInferIsAdmittedByCostAsEvaluate) {
+  test::TempDir dir("kserve_admission");
+  WriteQuads(dir.File("quads.json"));
+  const std::string flags[2] = {
+      "sparkle=" + kExamples + "/materials/sparkle_binomial.json," + kExamples +
+          "/lights/rect_small.json",
+      "quads=" + kExamples + "/materials/paint_schlick.json," + dir.File("quads.json")};
+  std::string error;
+  auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd",
+                                    {"--model", flags[0], "--model", flags[1]}, &error);
+  ASSERT_NE(server, nullptr) << error;
+  auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
+  auto kserve = GRPCInferenceService::NewStub(channel);
+  auto glint = glint::v1::GlintService::NewStub(channel);
   const Queries q = MakeQueries(4, false, false, 13, kSparkleMirror);
-  glint::v1::EvaluateRequest settings = Settings("sparkle=" + Sparkle());
-  settings.set_area_method(glint::v1::REFERENCE);
-  settings.set_area_samples(1024);
-  *settings.mutable_queries() = Batch(q);
-  glint::v1::EvaluateResponse evaluated;
-  grpc::Status evaluate_status;
-  {
-    grpc::ClientContext ctx;
-    evaluate_status = glint_->Evaluate(&ctx, settings, &evaluated);
+  for (const std::string &flag : flags) {
+    const std::string model = flag.substr(0, flag.find('='));
+    KServeModel preset;
+    ASSERT_TRUE(LoadModelFlag(flag, &preset).ok());
+    for (const uint32_t nodes : {1024u, 64u}) {
+      SCOPED_TRACE(model + ", " + std::to_string(nodes) + " nodes");
+      glint::v1::EvaluateRequest settings = preset.settings;
+      settings.set_area_method(glint::v1::REFERENCE);
+      settings.set_area_samples(nodes);
+      *settings.mutable_queries() = Batch(q);
+      glint::v1::EvaluateResponse evaluated;
+      grpc::ClientContext a;
+      const grpc::Status want = glint->Evaluate(&a, settings, &evaluated);
+
+      ModelInferRequest r = InferRequest(model, q, true);
+      (*r.mutable_parameters())["area_method"].set_string_param("REFERENCE");
+      (*r.mutable_parameters())["area_samples"].set_int64_param(nodes);
+      ModelInferResponse response;
+      grpc::ClientContext b;
+      const grpc::Status got = kserve->ModelInfer(&b, r, &response);
+      if (nodes == 1024) {
+        ASSERT_EQ(want.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << want.error_message();
+        EXPECT_NE(want.error_message().find("--max-query-cost"), std::string::npos)
+            << want.error_message();
+        EXPECT_EQ(got.error_code(), want.error_code()) << got.error_message();
+        EXPECT_EQ(got.error_message(), want.error_message());
+        EXPECT_EQ(response.outputs_size(), 0);
+      } else {
+        ASSERT_TRUE(want.ok()) << want.error_message();
+        ASSERT_TRUE(got.ok()) << got.error_message();
+        ASSERT_EQ(evaluated.radiance_size(), int(q.n) * 3);
+        EXPECT_TRUE(
+            SameBits(RawRadiance(response),
+                     std::vector<float>(evaluated.radiance().begin(), evaluated.radiance().end())));
+      }
+    }
   }
-  ASSERT_EQ(evaluate_status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED)
-      << evaluate_status.error_message();
-
-  ModelInferRequest r = InferRequest("sparkle", q, true);
-  (*r.mutable_parameters())["area_method"].set_string_param("REFERENCE");
-  (*r.mutable_parameters())["area_samples"].set_int64_param(1024);
-  ModelInferResponse response;
-  const grpc::Status s = Infer(r, &response);
-  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
-  EXPECT_EQ(s.error_message(), evaluate_status.error_message());
-  EXPECT_NE(s.error_message().find("--max-query-cost"), std::string::npos) << s.error_message();
-  EXPECT_EQ(response.outputs_size(), 0);
-
-  // Within the limit (REFERENCE 64: 1.6e5 per query) the same queries are answered.
-  (*r.mutable_parameters())["area_samples"].set_int64_param(64);
-  EXPECT_TRUE(Infer(r, &response).ok());
 }
 
 // --max-request-cost counts ModelInfer's rows (wo's shape), as Evaluate counts its queries: the
 // paint preset (three lights: 1 + 3 = 4 units per query) at --max-request-cost 1000 admits 250
-// rows and refuses 251, before any tensor is decoded.
+// rows and refuses 251 (1004 units), before any tensor is decoded.
 TEST(KServeAdmission, MaxRequestCostCountsTheRows) {
   test::TempDir dir("kserve_admission");
   const std::string paint =
       kExamples + "/materials/paint_schlick.json," + kExamples + "/lights/studio.json";
   std::string error;
   auto server =
-      test::Glintd::Start(test::GlintdUnderTest(GLINTD_PATH), dir, "glintd",
+      test::Glintd::Start(GLINTD_PATH, dir, "glintd",
                           {"--model", "paint=" + paint, "--max-request-cost", "1000"}, &error);
   ASSERT_NE(server, nullptr) << error;
   auto kserve = GRPCInferenceService::NewStub(
@@ -444,7 +588,11 @@ TEST(KServeAdmission, MaxRequestCostCountsTheRows) {
       EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
       EXPECT_NE(s.error_message().find("(251 queries x 4 per query"), std::string::npos)
           << s.error_message();
-      EXPECT_NE(s.error_message().find("exceeds --max-request-cost 1e+03"), std::string::npos)
+      // The cost with the digits that tell it from the limit (at 3 digits both read 1e+03).
+      EXPECT_NE(s.error_message().find("request cost: 1004 BRDF evaluations (251 queries"),
+                std::string::npos)
+          << s.error_message();
+      EXPECT_NE(s.error_message().find("exceeds --max-request-cost 1e+03;"), std::string::npos)
           << s.error_message();
     }
   }
@@ -462,7 +610,7 @@ TEST(KServeAdmission, AnAbandonedModelInferStopsAtTheNextSlice) {
   const std::string paint =
       kExamples + "/materials/paint_schlick.json," + kExamples + "/lights/studio.json";
   std::string error;
-  auto server = test::Glintd::Start(test::GlintdUnderTest(GLINTD_PATH), dir, "glintd",
+  auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd",
                                     {"--model", "sparkle=" + sparkle, "--model", "paint=" + paint,
                                      "--workers", "1", "--slice-ms", "50"},
                                     &error);
@@ -518,72 +666,213 @@ TEST(KServeStartup, ABadPresetStopsGlintdNamingTheFile) {
   const std::string bad = dir.File("bad.json");
   std::ofstream(bad) << R"({"model": "SMOOTH", "ndf": "GGX", "alpha_x": 0.3, "alpha_y": 0.1})";
   std::string error;
-  auto server = test::Glintd::Start(test::GlintdUnderTest(GLINTD_PATH), dir, "glintd",
-                                    {"--model", "bad=" + bad}, &error);
+  auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd", {"--model", "bad=" + bad}, &error);
   EXPECT_EQ(server, nullptr);
   EXPECT_NE(error.find("model 'bad' (" + bad + ")"), std::string::npos) << error;
 }
 
-// ModelInfer is admitted by the same per-query cost as Evaluate (server/request_cost.h
-// EstimateQueriesCost): a preset with four quads under area_method REFERENCE at 1024 nodes
-// (4 x 3 fan triangles x 1024^2 nodes = 1.26e7 BRDF evaluations a query, over the default
-// --max-query-cost 1e7) is refused with RESOURCE_EXHAUSTED and Evaluate's very message; at
-// the default 64 nodes it is served, bit-identical to Evaluate. Before, ModelInfer had no cost
-// admission at all and ran such a request (seconds a query).
-TEST(KServeAdmission, RefusedByTheCostLimitsAsEvaluateIs) {
-  test::TempDir dir("kserve_admission");
-  const std::string lights = dir.File("quads.json");
-  {
-    std::ofstream out(lights);
-    out << R"({"lights": [)";
-    for (int k = 0; k < 4; ++k)
-      out << (k ? "," : "") << R"({"polygon": {"vertices": [)" << -2 + k << ", -1, 2, " << -1 + k
-          << ", -1, 2, " << -1 + k << ", 1, 2, " << -2 + k << R"(, 1, 2], "radiance": [1, 1, 1]}})";
-    out << "]}";
-  }
-  const std::string flag = "quads=" + kExamples + "/materials/paint_schlick.json," + lights;
+// A NORMAL_MAP preset (Model::query_costs: the work of a query grows with its footprint's
+// cut-off box) is admitted before queueing without a cost (its queries are not decoded yet),
+// then on the worker by Evaluate's per-query cost once they are (server/request_cost.h
+// EstimateQueriesCost). Over a 64 x 64 map at --max-query-cost 1e5, probes with footprints of
+// 0.5 (32 texels: the 5-sigma box covers the map's period copies, 3.3e5 units a query; 0.2
+// costs 8.5e4) are refused with RESOURCE_EXHAUSTED and Evaluate's very message; footprints of
+// 1e-3 (a few texels, ~240 units) are served, bit-identical to Evaluate. Without the worker-side
+// check the big footprints would run. No test reached that check before: no NORMAL_MAP preset could
+// be registered (its map must be held when the preset is validated at startup, and the store starts
+// empty) until glintd --normal-map FILE.
+TEST(KServeAdmission, NormalMapQueriesAreAdmittedByTheirFootprintsOnceDecoded) {
+  test::TempDir dir("kserve_normal_map");
+  const NormalMapPreset nm = MakeNormalMapPreset(dir);
   std::string error;
-  auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd", {"--model", flag}, &error);
+  auto server = test::Glintd::Start(GLINTD_PATH, dir, "glintd",
+                                    {"--normal-map", nm.map_file, "--model", "nm=" + nm.preset_file,
+                                     "--max-query-cost", "1e5", "--device", "host"},
+                                    &error);
   ASSERT_NE(server, nullptr) << error;
   auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
   auto kserve = GRPCInferenceService::NewStub(channel);
   auto glint = glint::v1::GlintService::NewStub(channel);
-  const Queries q = MakeQueries(4, false, false, 5);
   KServeModel preset;
-  ASSERT_TRUE(LoadModelFlag(flag, &preset).ok());
-  for (const uint32_t nodes : {1024u, 64u}) {
-    SCOPED_TRACE(std::to_string(nodes) + " nodes");
+  ASSERT_TRUE(LoadModelFlag("nm=" + nm.preset_file, &preset).ok());
+  for (const float footprint : {0.5f, 1e-3f}) {
+    SCOPED_TRACE("footprint " + std::to_string(footprint));
+    Queries q = MakeQueries(6, true, false, 21);
+    for (size_t i = 0; i < q.footprint.size(); ++i)
+      q.footprint[i] = i % 4 == 0 || i % 4 == 3 ? footprint : 0.0f;
     glint::v1::EvaluateRequest request = preset.settings;
-    request.set_area_method(glint::v1::REFERENCE);
-    request.set_area_samples(nodes);
     *request.mutable_queries() = Batch(q);
     glint::v1::EvaluateResponse evaluated;
     grpc::ClientContext a;
     const grpc::Status want = glint->Evaluate(&a, request, &evaluated);
-    ModelInferRequest r = InferRequest("quads", q, true);
-    (*r.mutable_parameters())["area_method"].set_string_param("REFERENCE");
-    (*r.mutable_parameters())["area_samples"].set_int64_param(nodes);
     ModelInferResponse response;
     grpc::ClientContext b;
-    const grpc::Status got = kserve->ModelInfer(&b, r, &response);
-    if (nodes == 1024) {
-      EXPECT_EQ(want.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << want.error_message();
-      EXPECT_NE(want.error_message().find("--max-query-cost"), std::string::npos)
+    const grpc::Status got = kserve->ModelInfer(&b, InferRequest("nm", q, true), &response);
+    if (footprint > 0.1f) {
+      ASSERT_EQ(want.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << want.error_message();
+      EXPECT_NE(want.error_message().find("--max-query-cost 1e+05"), std::string::npos)
           << want.error_message();
       EXPECT_EQ(got.error_code(), want.error_code()) << got.error_message();
       EXPECT_EQ(got.error_message(), want.error_message());
+      EXPECT_EQ(response.outputs_size(), 0);
     } else {
       ASSERT_TRUE(want.ok()) << want.error_message();
       ASSERT_TRUE(got.ok()) << got.error_message();
-      const std::vector<float> radiance(evaluated.radiance().begin(), evaluated.radiance().end());
-      ASSERT_EQ(response.raw_output_contents_size(), 1);
-      std::vector<float> inferred(radiance.size());
-      ASSERT_EQ(response.raw_output_contents(0).size(), inferred.size() * sizeof(float));
-      std::memcpy(inferred.data(), response.raw_output_contents(0).data(),
-                  inferred.size() * sizeof(float));
-      EXPECT_EQ(std::memcmp(inferred.data(), radiance.data(), radiance.size() * sizeof(float)), 0);
+      EXPECT_TRUE(SameBits(RawRadiance(response), std::vector<float>(evaluated.radiance().begin(),
+                                                                     evaluated.radiance().end())));
     }
   }
+}
+
+// A wo tensor whose shape does not describe its data is refused up front with INVALID_ARGUMENT
+// naming wo, its shape and what it needs, before admission and the queue. Before, it was
+// admitted as 0 queries and refused only by the decoder on a worker; with the queue full it was
+// answered RESOURCE_EXHAUSTED "server busy ... retry later", a retry that could never succeed.
+// With glintd's one worker held by a long call and --max-pending 1, a well-formed request is
+// busy (the queue is full) while the lying one must be INVALID_ARGUMENT.
+TEST(KServeAdmission, AShapeThatLiesAboutItsDataIsRefusedBeforeTheQueue) {
+  test::TempDir dir("kserve_lying_shape");
+  const int metrics_port = test::FreeLoopbackPort();
+  ASSERT_GT(metrics_port, 0);
+  std::string error;
+  auto server = test::Glintd::Start(
+      GLINTD_PATH, dir, "glintd",
+      {"--model",
+       "sparkle=" + kExamples + "/materials/sparkle_binomial.json," + kExamples +
+           "/lights/rect_small.json",
+       "--model",
+       "paint=" + kExamples + "/materials/paint_schlick.json," + kExamples + "/lights/studio.json",
+       "--workers", "1", "--max-pending", "1", "--slice-ms", "50", "--metrics-listen",
+       "127.0.0.1:" + std::to_string(metrics_port)},
+      &error);
+  ASSERT_NE(server, nullptr) << error;
+  httplib::Client http("127.0.0.1", metrics_port);
+  auto kserve = GRPCInferenceService::NewStub(
+      grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials()));
+  LongCall long_call(kserve.get());
+  ASSERT_EQ(WaitForDepth(http, 1, [&] { return long_call.done(); }), 1);
+
+  const Queries q = MakeQueries(250, false, false, 3);
+  ModelInferResponse response;
+  {
+    grpc::ClientContext ctx;
+    const grpc::Status s = kserve->ModelInfer(&ctx, InferRequest("paint", q, true), &response);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+    EXPECT_NE(s.error_message().find("server busy"), std::string::npos) << s.error_message();
+  }
+  for (bool raw : {true, false}) {
+    SCOPED_TRACE(raw ? "raw" : "typed");
+    ModelInferRequest lying = InferRequest("paint", q, raw);
+    ASSERT_EQ(lying.inputs(0).name(), "wo");
+    lying.mutable_inputs(0)->set_shape(0, 251);  // 251 rows claimed, 250 carried
+    grpc::ClientContext ctx;
+    const grpc::Status s = kserve->ModelInfer(&ctx, lying, &response);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << s.error_message();
+    EXPECT_NE(s.error_message().find(
+                  raw ? "input 'wo': shape [251, 3] needs 3012 bytes, but its raw_input_contents "
+                        "holds 3000 bytes (FP32 [250, 3])"
+                      : "input 'wo': shape [251, 3] needs 753 values, but its "
+                        "contents.fp32_contents holds 750 values (FP32 [250, 3])"),
+              std::string::npos)
+        << s.error_message();
+  }
+  EXPECT_FALSE(long_call.done()) << "the long call ended first, so the queue was not full";
+  EXPECT_EQ(long_call.Cancel().error_code(), grpc::StatusCode::CANCELLED);
+  EXPECT_TRUE(server->Alive());
+}
+
+// ModelInfers queued behind a long call when SIGTERM arrives still run during --shutdown-grace,
+// as every queued glint.v1 call does: only new calls are refused (UNAVAILABLE, "shutting down").
+// One queued call is of the paint preset, one of a NORMAL_MAP preset (admitted again by cost on
+// the worker once decoded): each fails if the worker checked shutdown admission again (as it
+// did before, through GlintServiceImpl::Admit). Both must answer OK, bit-identical to Evaluate
+// before the signal, and glintd must then exit 0.
+TEST(KServeShutdown, ModelInfersQueuedBeforeSigtermRunInTheGrace) {
+  test::TempDir dir("kserve_shutdown");
+  const NormalMapPreset nm = MakeNormalMapPreset(dir);
+  const int metrics_port = test::FreeLoopbackPort();
+  ASSERT_GT(metrics_port, 0);
+  const std::string sparkle =
+      kExamples + "/materials/sparkle_binomial.json," + kExamples + "/lights/rect_small.json";
+  const std::string paint =
+      kExamples + "/materials/paint_schlick.json," + kExamples + "/lights/studio.json";
+  std::string error;
+  auto server = test::Glintd::Start(
+      GLINTD_PATH, dir, "glintd",
+      {"--model", "sparkle=" + sparkle, "--model", "paint=" + paint, "--normal-map", nm.map_file,
+       "--model", "nm=" + nm.preset_file, "--workers", "1", "--max-pending", "8", "--slice-ms",
+       "50", "--shutdown-grace", "600", "--metrics-listen",
+       "127.0.0.1:" + std::to_string(metrics_port)},
+      &error);
+  ASSERT_NE(server, nullptr) << error;
+  httplib::Client http("127.0.0.1", metrics_port);
+  auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
+  auto kserve = GRPCInferenceService::NewStub(channel);
+  auto glint = glint::v1::GlintService::NewStub(channel);
+
+  struct Queued {
+    std::string model, flag;
+    Queries q;
+    std::vector<float> reference;
+    grpc::Status status;
+    ModelInferResponse response;
+  };
+  Queued calls[2] = {{"paint", "paint=" + paint, MakeQueries(8, false, false, 3), {}, {}, {}},
+                     {"nm", "nm=" + nm.preset_file, MakeQueries(8, true, false, 4), {}, {}, {}}};
+  for (Queued &c : calls) {  // the references (and the kernels) before the long call
+    KServeModel preset;
+    ASSERT_TRUE(LoadModelFlag(c.flag, &preset).ok());
+    glint::v1::EvaluateRequest request = preset.settings;
+    *request.mutable_queries() = Batch(c.q);
+    glint::v1::EvaluateResponse evaluated;
+    grpc::ClientContext ctx;
+    const grpc::Status s = glint->Evaluate(&ctx, request, &evaluated);
+    ASSERT_TRUE(s.ok()) << c.model << ": " << s.error_message();
+    c.reference.assign(evaluated.radiance().begin(), evaluated.radiance().end());
+  }
+
+  LongCall long_call(kserve.get());
+  ASSERT_EQ(WaitForDepth(http, 1, [&] { return long_call.done(); }), 1);
+  std::vector<std::thread> threads;
+  for (Queued &c : calls) {
+    threads.emplace_back([&kserve, &c] {
+      grpc::ClientContext ctx;
+      ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(600));
+      c.status = kserve->ModelInfer(&ctx, InferRequest(c.model, c.q, true), &c.response);
+    });
+    const double want = double(threads.size()) + 1;
+    ASSERT_EQ(WaitForDepth(http, want, [&] { return long_call.done(); }), want);
+  }
+
+  server->Signal(SIGTERM);
+  // Shutdown has begun once a new call is refused as shutting down. The probe is one that is
+  // never queued either way: over --max-query-cost (RESOURCE_EXHAUSTED) until then.
+  ModelInferRequest probe = InferRequest("sparkle", MakeQueries(1, false, false, 9), true);
+  (*probe.mutable_parameters())["area_method"].set_string_param("REFERENCE");
+  (*probe.mutable_parameters())["area_samples"].set_int64_param(1024);
+  grpc::Status refused;
+  for (int i = 0; i < 6000; ++i) {
+    grpc::ClientContext ctx;
+    ModelInferResponse unused;
+    refused = kserve->ModelInfer(&ctx, probe, &unused);
+    if (refused.error_code() != grpc::StatusCode::RESOURCE_EXHAUSTED) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::UNAVAILABLE) << refused.error_message();
+  EXPECT_NE(refused.error_message().find("shutting down"), std::string::npos)
+      << refused.error_message();
+  EXPECT_FALSE(long_call.done()) << "the long call ended before shutdown began";
+  long_call.Cancel();  // frees the worker for the queued calls, within the grace
+
+  for (std::thread &t : threads) t.join();
+  for (Queued &c : calls) {
+    SCOPED_TRACE(c.model);
+    ASSERT_TRUE(c.status.ok()) << c.status.error_message();
+    EXPECT_TRUE(SameBits(RawRadiance(c.response), c.reference));
+  }
+  int status = 0;
+  ASSERT_TRUE(server->WaitExit(std::chrono::seconds(60), &status));
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "wait status " << status;
 }
 
 }  // namespace

@@ -181,21 +181,54 @@ TEST(KServeTensors, MalformedTensorsAreRefusedNamingTheInput) {
   }
 }
 
-// The query count admission charges before decoding: wo's rows, only when its data fills them.
+// The query count admission charges before decoding: wo's rows, only when its data fills them;
+// otherwise INVALID_ARGUMENT naming wo, its shape and what it needs (before: 0 queries, admitted,
+// and refused by the decoder on a worker, or answered "busy, retry" when the queue was full).
 TEST(KServeTensors, QueryCountForAdmissionIsWoRowsItsDataFills) {
+  auto refused = [](const ModelInferRequest &r, const std::string &needle) {
+    uint64_t rows = 7;
+    const Status s = InferQueryCount(r, &rows);
+    EXPECT_EQ(s.code(), Status::Code::kInvalidArgument) << "accepted; expected: " << needle;
+    EXPECT_NE(s.message().find(needle), std::string::npos) << s.message();
+    EXPECT_EQ(rows, 0u);
+  };
   for (bool raw : {false, true}) {
+    SCOPED_TRACE(raw ? "raw" : "typed");
     ModelInferRequest r;
     AddInput(&r, "uv", 5, 2, std::vector<float>(10, 0.5f), raw);
     AddInput(&r, "wo", 5, 3, std::vector<float>(15, 0.0f), raw);
-    EXPECT_EQ(InferQueryCount(r), 5u);
+    uint64_t rows = 0;
+    EXPECT_TRUE(InferQueryCount(r, &rows).ok());
+    EXPECT_EQ(rows, 5u);
     ModelInferRequest lying;  // claims 1e9 rows, carries one
     AddInput(&lying, "wo", 1000000000, 3, std::vector<float>(3, 0.0f), raw);
-    EXPECT_EQ(InferQueryCount(lying), 0u);
+    refused(lying, raw ? "input 'wo': shape [1000000000, 3] needs 12000000000 bytes, but its "
+                         "raw_input_contents holds 12 bytes (FP32 [1, 3])"
+                       : "input 'wo': shape [1000000000, 3] needs 3000000000 values, but its "
+                         "contents.fp32_contents holds 3 values (FP32 [1, 3])");
+    ModelInferRequest short_rows;  // claims 4 rows, carries 3 and a bit
+    AddInput(&short_rows, "wo", 4, 3, std::vector<float>(10, 0.0f), raw);
+    refused(short_rows, "not a whole number of FP32 rows of 3");
     ModelInferRequest narrow;
     AddInput(&narrow, "wo", 5, 2, std::vector<float>(10, 0.0f), raw);
-    EXPECT_EQ(InferQueryCount(narrow), 0u);
+    refused(narrow, "input 'wo': shape [5, 2]; expected [N, 3] with 1 <= N < 2^32 queries");
+    ModelInferRequest empty;
+    AddInput(&empty, "wo", 0, 3, {}, raw);
+    refused(empty, "input 'wo': shape [0, 3]; expected [N, 3]");
   }
-  EXPECT_EQ(InferQueryCount(ModelInferRequest()), 0u);
+  refused(ModelInferRequest(), "input 'wo': missing");
+  {
+    ModelInferRequest r;
+    AddInput(&r, "wo", 1, 3, {0, 0, 1}, true);
+    r.mutable_inputs(0)->set_datatype("FP64");
+    refused(r, "input 'wo': datatype 'FP64'; expected FP32");
+  }
+  {
+    ModelInferRequest r;  // raw for one input, typed for another
+    AddInput(&r, "wo", 1, 3, {0, 0, 1}, true);
+    AddInput(&r, "uv", 1, 2, {0, 0}, false);
+    refused(r, "raw_input_contents: 1 entries for 2 inputs");
+  }
 }
 
 TEST(KServeTensors, ParametersOverrideSeedPrecisionAndAreaMethod) {
@@ -345,6 +378,39 @@ TEST_F(KServePresets, ModelDirTakesEveryJsonFileSortedByName) {
   models.clear();
   EXPECT_NE(LoadKServeModels({}, {dir_.File("missing")}, {}, &models).message().find("missing"),
             std::string::npos);
+}
+
+// GLINTD_UNDER_TEST replaces the glintd every Glintd::Start / Launch starts
+// (tests/support/glintd_process.h), not only where a test remembered GlintdUnderTest(): a script
+// standing in for glintd records its arguments and writes the port file as glintd does once
+// SERVING. Started as a path that does not exist, so only the variable can make it start.
+TEST(GlintdUnderTest, ReplacesTheBinaryEveryStartRuns) {
+  test::TempDir dir("glintd_under_test");
+  const std::string script = dir.File("fake_glintd.sh"), args = dir.File("args");
+  {
+    std::ofstream out(script);
+    out << "#!/bin/sh\necho \"$@\" > '" << args << "'\n"
+        << "while [ $# -gt 0 ]; do\n"
+        << "  if [ \"$1\" = --port-file ]; then echo 43210 > \"$2\"; fi\n"
+        << "  shift\n"
+        << "done\n"
+        << "exec sleep 600\n";
+  }
+  std::filesystem::permissions(script, std::filesystem::perms::owner_all);
+  const char *before = std::getenv("GLINTD_UNDER_TEST");
+  const std::string saved = before ? before : "";
+  setenv("GLINTD_UNDER_TEST", script.c_str(), 1);
+  std::string error;
+  auto server = test::Glintd::Start(dir.File("no_such_glintd"), dir, "fake", {"--quiet"}, &error);
+  if (before) {
+    setenv("GLINTD_UNDER_TEST", saved.c_str(), 1);
+  } else {
+    unsetenv("GLINTD_UNDER_TEST");
+  }
+  ASSERT_NE(server, nullptr) << error;
+  EXPECT_EQ(server->address(), "127.0.0.1:43210");
+  EXPECT_NE(test::ReadFile(args).find("--listen 127.0.0.1:0 --port-file"), std::string::npos)
+      << test::ReadFile(args);
 }
 
 }  // namespace

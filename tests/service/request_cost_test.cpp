@@ -101,6 +101,46 @@ TEST(RequestCost, DefaultsRefuseTheIssueRequestNamingCostAndLimit) {
   EXPECT_TRUE(glint::CheckRequestCost(glint::EstimateRequestCost(probe, 499), 499, tight).ok());
 }
 
+// A refused cost is printed with the digits that tell it from the limit: 502 probes of 2 units
+// (1004) over --max-request-cost 1000 read "request cost: 1e+03 ... exceeds --max-request-cost
+// 1e+03" at the 3 digits used before. The limit keeps the fewest digits that read back as itself.
+TEST(RequestCost, RefusalPrintsTheCostWithDigitsThatTellItFromTheLimit) {
+  glint::CostLimits tight;
+  tight.max_request_cost = 1000;
+  const v1::EvaluateRequest probe = Smooth();
+  const glint::RequestCost c = glint::EstimateRequestCost(probe, 502);
+  ASSERT_EQ(c.total, 1004.0);  // 502 x (1 per query + 1 probe evaluation)
+  glint::Status s = glint::CheckRequestCost(c, 502, tight);
+  EXPECT_EQ(s.code(), glint::Status::Code::kResourceExhausted);
+  EXPECT_NE(s.message().find("request cost: 1004 BRDF evaluations ("), std::string::npos)
+      << s.message();
+  EXPECT_NE(s.message().find("exceeds --max-request-cost 1e+03;"), std::string::npos)
+      << s.message();
+  // Per query, in the headline and the parts alike: 10000001 over 1e7; 1000.6 over 1000.5 (a
+  // limit that needs 5 digits) reads 1001, the fewest digits that read back as more than it.
+  struct Case {
+    double cost, limit;
+    const char *cost_text, *limit_text;
+  };
+  for (const Case &k :
+       {Case{10000001.0, 1e7,
+             "request cost: 10000001 BRDF evaluations per query (1 queries x "
+             "10000001 per query",
+             "exceeds --max-query-cost 1e+07 "},
+        Case{1000.6, 1000.5, "request cost: 1001 BRDF evaluations per query (1 queries x 1001 per",
+             "exceeds --max-query-cost 1000.5 "}}) {
+    glint::RequestCost one;
+    one.per_query = one.total = k.cost;
+    one.parts = "probe";
+    glint::CostLimits limits;
+    limits.max_query_cost = k.limit;
+    s = glint::CheckRequestCost(one, 1, limits);
+    EXPECT_EQ(s.code(), glint::Status::Code::kResourceExhausted);
+    EXPECT_NE(s.message().find(k.cost_text), std::string::npos) << s.message();
+    EXPECT_NE(s.message().find(k.limit_text), std::string::npos) << s.message();
+  }
+}
+
 // Every example material under every example light list as a 512x512 preview by LTC, LECOCQ
 // and REFERENCE at the default 64 nodes, and as 1M queries by LTC: admitted by the default
 // limits (the previews and demos).

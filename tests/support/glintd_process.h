@@ -27,15 +27,18 @@ namespace glint::test {
 
 namespace fs = std::filesystem;
 
-// How long glintd may take to compile and warm its kernels before it reports SERVING (PoCL
-// compiles on first use when the kernel cache is cold).
 // GLINTD_UNDER_TEST runs a test against another glintd binary (e.g. an older build, to see it
-// fail there); otherwise against `built`, the one built with the test.
-inline std::string GlintdUnderTest(const char *built) {
+// fail there); otherwise against `built`, the one built with the test. Glintd::Launch (and so
+// Glintd::Start) applies it to every glintd it starts, so a test need not call this itself
+// (calling it too is harmless: the result does not depend on its argument once the variable is
+// set). Before, only the tests that remembered to call it honoured the variable.
+inline std::string GlintdUnderTest(const std::string &built) {
   const char *path = std::getenv("GLINTD_UNDER_TEST");
-  return path ? path : built;
+  return path && *path ? path : built;
 }
 
+// How long glintd may take to compile and warm its kernels before it reports SERVING (PoCL
+// compiles on first use when the kernel cache is cold).
 inline constexpr auto kServerStartTimeout = std::chrono::seconds(240);
 
 inline std::string ReadFile(const std::string &path) {
@@ -119,6 +122,8 @@ class Glintd {
   }
 
   // Starts glintd on `port` (0: a free one, known only once SERVING) and returns at once.
+  // `glintd_path` is the glintd built with the test; GLINTD_UNDER_TEST, when set, replaces it
+  // (GlintdUnderTest).
   static std::unique_ptr<Glintd> Launch(const std::string &glintd_path, const TempDir &dir,
                                         const std::string &name, int port,
                                         const std::vector<std::string> &extra) {
@@ -127,8 +132,9 @@ class Glintd {
     server->log_ = dir.File(name + ".log");
     const std::string listen = "127.0.0.1:" + std::to_string(port);
     if (port > 0) server->address_ = listen;
-    std::vector<std::string> args = {glintd_path,   "--listen",         listen,
-                                     "--port-file", server->port_file_, "--quiet"};
+    std::vector<std::string> args = {
+        GlintdUnderTest(glintd_path), "--listen", listen, "--port-file",
+        server->port_file_,           "--quiet"};
     args.insert(args.end(), extra.begin(), extra.end());
     server->pid_ = Spawn(args, server->log_, server->log_ + ".err");
     return server;

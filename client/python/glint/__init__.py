@@ -11,12 +11,13 @@ The wire messages are in ``glint.v1.glint_pb2`` (generated from proto/glint/v1/g
 
 from glint._client import Client, EvaluateInfo, SampleResult
 from glint._errors import Error
+from glint._retry import RetryPolicy
 from glint.v1 import glint_pb2 as pb
 
 # Tracebacks and reprs name the public path (glint.Error), not the private module.
-for _public in (Client, EvaluateInfo, Error, SampleResult):
+for _public in (Client, EvaluateInfo, Error, RetryPolicy, SampleResult):
     _public.__module__ = "glint"
 del _public
 
 __version__ = "0.1.0"
-__all__ = ["Client", "Error", "EvaluateInfo", "SampleResult", "pb", "__version__"]
+__all__ = ["Client", "Error", "EvaluateInfo", "RetryPolicy", "SampleResult", "pb", "__version__"]

@@ -21,6 +21,7 @@ import numpy as np
 
 from glint._errors import Error
 from glint._queries import Queries
+from glint._retry import RetryPolicy, call_with_retries
 from glint._settings import LightsLike, MaterialLike, to_area_method, to_lights, to_material, to_precision
 from glint.v1 import glint_pb2 as pb
 from glint.v1 import glint_pb2_grpc as pb_grpc
@@ -96,7 +97,8 @@ class Client:
     the client is never the side that refuses); ``max_chunk_bytes`` bounds one message (a few MiB
     keeps latency and memory small); ``max_chunk_queries`` caps queries per message (0: only the
     server's ``max_batch``); ``timeout`` (seconds) applies to ``capabilities()`` only, since a
-    large batch may legitimately take minutes.
+    large batch may legitimately take minutes. ``retry`` is how :meth:`upload_normal_map` retries
+    the server's pushback (glint.RetryPolicy; ``RetryPolicy(max_attempts=1)`` never retries).
     """
 
     def __init__(
@@ -107,12 +109,14 @@ class Client:
         max_chunk_bytes: int = 8 << 20,
         max_chunk_queries: int = 0,
         timeout: float = 10.0,
+        retry: Optional[RetryPolicy] = None,
     ):
         self.address = address
         self.max_message_bytes = int(max_message_bytes)
         self.max_chunk_bytes = int(max_chunk_bytes)
         self.max_chunk_queries = int(max_chunk_queries)
         self.timeout = timeout
+        self.retry = retry if retry is not None else RetryPolicy()
         self.last_info = EvaluateInfo()
         self._caps: Optional[pb.Capabilities] = None
         self._lock = threading.Lock()
@@ -436,7 +440,12 @@ class Client:
         """Uploads a normal map file (OpenEXR float RGB or 8/16-bit RGB PNG tangent-space
         normals) in 1 MiB chunks and returns its digest, ``sha256:<hex>``, for a NORMAL_MAP
         material's ``normal_map.digest``. The server stores a map once however often it is
-        uploaded; a bad file is refused with ``INVALID_ARGUMENT`` naming it."""
+        uploaded; a bad file is refused with ``INVALID_ARGUMENT`` naming it.
+
+        Retried as the C++ client retries it (glint._retry, the client's ``retry`` policy): the
+        server refuses an upload with ``RESOURCE_EXHAUSTED`` and its retry pushback while other
+        uploads fill its upload gate, and an upload is idempotent (a map is stored once by its
+        digest); ``UNAVAILABLE`` is retried too. Other errors are raised at once."""
         data = pathlib.Path(path).read_bytes()
         name = pathlib.Path(path).name
 
@@ -446,7 +455,7 @@ class Client:
                 yield pb.NormalMapChunk(filename=name if offset == 0 else "", data=data[offset : offset + step])
 
         try:
-            info = self._stub.UploadNormalMap(chunks())
+            info = call_with_retries(self.retry, lambda: self._stub.UploadNormalMap(chunks()))
         except grpc.RpcError as e:
             raise Error.from_rpc_error(e) from None
         return info.digest

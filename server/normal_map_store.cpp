@@ -239,6 +239,15 @@ void NormalMapStore::List(glint::v1::ListNormalMapsResponse *out) const {
 }
 
 Status NormalMapStore::Delete(const std::string &digest) {
+  // A malformed digest is the client's mistake, not a map this server lacks: say what a digest
+  // looks like (as material.normal_map.digest's refusal does) instead of NOT_FOUND, which tells
+  // the client to upload again (outside-client probe, session 11).
+  if (!IsNormalMapDigest(digest)) {
+    const std::string shown = digest.size() <= 80 ? digest : digest.substr(0, 80) + "...";
+    return Status::InvalidArgument(
+        "digest: \"" + shown +
+        "\"; expected \"sha256:\" and 64 lowercase hex digits, as UploadNormalMap returns");
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = maps_.find(digest);
   if (it == maps_.end())

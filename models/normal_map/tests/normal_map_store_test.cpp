@@ -121,6 +121,25 @@ TEST(NormalMapStore, NotFoundNamesTheDigestUntilUploadedAgain) {
   EXPECT_TRUE(store.Table(info.digest(), 1, &table).ok());
 }
 
+// DeleteNormalMap with something that is not a digest is refused INVALID_ARGUMENT saying what a
+// digest is; NOT_FOUND (upload again) is for well-formed digests the server does not hold. Before,
+// "", "sha256:" and an upper-case digest all answered NOT_FOUND "is not held by this server".
+TEST(NormalMapStore, DeleteRefusesAMalformedDigestAsInvalid) {
+  NormalMapStore store;
+  const std::string hex64(64, 'a');
+  for (const std::string &bad :
+       {std::string(), std::string("sha256:"), "SHA256:" + hex64, "sha256:" + std::string(63, 'a'),
+        "sha256:" + std::string(64, 'A'), "sha256:" + hex64 + "0", std::string("bumpy.exr")}) {
+    Status s = store.Delete(bad);
+    EXPECT_EQ(s.code(), Status::Code::kInvalidArgument) << '"' << bad << "\": " << s.message();
+    EXPECT_NE(s.message().find("digest: \"" + bad + "\""), std::string::npos) << s.message();
+    EXPECT_NE(s.message().find("\"sha256:\" and 64 lowercase hex digits"), std::string::npos)
+        << s.message();
+  }
+  Status s = store.Delete("sha256:" + hex64);  // well formed, not held
+  EXPECT_EQ(s.code(), Status::Code::kNotFound) << s.message();
+}
+
 TEST(NormalMapStore, EvictsLeastRecentlyUsedUnderTheBudget) {
   // Each 16 x 16 map's table: header + 2 floats per vertex + the quadtree levels 1..4.
   const uint64_t one = BuildNormalMapTable(16, 16, std::vector<float>(512), 1).size() * 4;

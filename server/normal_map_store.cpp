@@ -44,6 +44,14 @@ bool IsNormalMapDigest(const std::string &d) {
   return true;
 }
 
+Status CheckNormalMapFilename(const std::string &filename) {
+  if (filename.size() <= kMaxNormalMapFilenameBytes) return Status::Ok();
+  return Status::InvalidArgument(
+      "filename: \"" + filename.substr(0, 32) + "...\" has " + std::to_string(filename.size()) +
+      " bytes; expected a file name of at most " + std::to_string(kMaxNormalMapFilenameBytes) +
+      " bytes ending in .exr or .png (it picks the decoder and is listed with the map)");
+}
+
 NormalMapStore &NormalMaps() {
   static NormalMapStore store;
   return store;
@@ -83,6 +91,7 @@ void NormalMapStore::EvictLocked(const std::string &keep) {
 
 Status NormalMapStore::Upload(const std::string &filename, const std::string &bytes,
                               glint::v1::NormalMapInfo *info) {
+  if (Status named = CheckNormalMapFilename(filename); !named.ok()) return named;
   const NormalMapLimits limits = this->limits();
   if (bytes.size() > limits.max_upload_bytes)
     return Status::InvalidArgument("normal map " + filename + ": " + std::to_string(bytes.size()) +

@@ -67,7 +67,8 @@ const char kUsage[] =
     "  --max-undelivered-mb U  answered unary replies not yet read by their clients before\n"
     "                       new Evaluate calls get RESOURCE_EXHAUSTED (default max-pending x\n"
     "                       max-message-mb)\n"
-    "  --max-message-mb N   gRPC message size limit, both directions (default 64)\n"
+    "  --max-message-mb N   gRPC message size limit, both directions (default 64); a reply\n"
+    "                       may exceed it by its fixed fields (stats, chunk index; < 4 KiB)\n"
     "  --port-file PATH     write the bound port here once SERVING\n"
     "  --model NAME=MATERIAL.json[,LIGHTS.json]\n"
     "                       serve a material preset as model NAME over the Open Inference\n"
@@ -260,6 +261,7 @@ int main(int argc, char **argv) {
   glint::ServiceOptions options;
   options.limits.max_batch = flags.max_batch;
   options.max_message_bytes = uint64_t(flags.max_message_mb) << 20;
+  options.limits.max_message_bytes = options.max_message_bytes;
   options.log_requests = !flags.quiet;
   {
     glint::NormalMapLimits nm = glint::NormalMaps().limits();
@@ -341,7 +343,13 @@ int main(int argc, char **argv) {
   builder.AddListeningPort(flags.listen, ops.ServerCredentials(), &port);
   ops.WarnIfExposed(flags.listen);
   builder.SetMaxReceiveMessageSize(flags.max_message_mb << 20);
-  builder.SetMaxSendMessageSize(flags.max_message_mb << 20);
+  // Replies may carry a little more than their requests: the stats (two doubles and the device
+  // name), a stream result's chunk_index and first_query. A request or stream chunk just within
+  // the limit got RESOURCE_EXHAUSTED "Sent message larger than max (1048594 vs. 1048576)" after
+  // its work was done (outside-client probe, session 11). The send limit allows that overhead;
+  // replies that grow with something else are refused before the work (Sample: server/sample.h).
+  constexpr int kReplyOverheadBytes = 4096;
+  builder.SetMaxSendMessageSize((flags.max_message_mb << 20) + kReplyOverheadBytes);
   builder.RegisterService(&service);
   builder.RegisterService(&kserve);
   builder.RegisterService(&health);

@@ -48,7 +48,12 @@ class UploadReactor : public grpc::ServerReadReactor<grpc::ByteBuffer> {
           !parsed.ok())
         return Done(parsed);
       ++chunks_read_;
-      if (filename_.empty()) filename_ = chunk_.filename();
+      if (filename_.empty()) {
+        // Refused before the file's bytes are collected (NormalMapStore::Upload checks it too).
+        if (Status named = CheckNormalMapFilename(chunk_.filename()); !named.ok())
+          return Done(named);
+        filename_ = chunk_.filename();
+      }
       if (bytes_.size() + chunk_.data().size() > max_bytes_) {
         return Done(Status::InvalidArgument(
             "normal map " + Name() + ": over " + std::to_string(max_bytes_) +

@@ -44,6 +44,14 @@ bool IsNormalMapDigest(const std::string &d) {
   return true;
 }
 
+Status CheckNormalMapFilename(const std::string &filename) {
+  if (filename.size() <= kMaxNormalMapFilenameBytes) return Status::Ok();
+  return Status::InvalidArgument(
+      "filename: \"" + filename.substr(0, 32) + "...\" has " + std::to_string(filename.size()) +
+      " bytes; expected a file name of at most " + std::to_string(kMaxNormalMapFilenameBytes) +
+      " bytes ending in .exr or .png (it picks the decoder and is listed with the map)");
+}
+
 NormalMapStore &NormalMaps() {
   static NormalMapStore store;
   return store;
@@ -83,6 +91,7 @@ void NormalMapStore::EvictLocked(const std::string &keep) {
 
 Status NormalMapStore::Upload(const std::string &filename, const std::string &bytes,
                               glint::v1::NormalMapInfo *info) {
+  if (Status named = CheckNormalMapFilename(filename); !named.ok()) return named;
   const NormalMapLimits limits = this->limits();
   if (bytes.size() > limits.max_upload_bytes)
     return Status::InvalidArgument("normal map " + filename + ": " + std::to_string(bytes.size()) +
@@ -239,6 +248,15 @@ void NormalMapStore::List(glint::v1::ListNormalMapsResponse *out) const {
 }
 
 Status NormalMapStore::Delete(const std::string &digest) {
+  // A malformed digest is the client's mistake, not a map this server lacks: say what a digest
+  // looks like (as material.normal_map.digest's refusal does) instead of NOT_FOUND, which tells
+  // the client to upload again (outside-client probe, session 11).
+  if (!IsNormalMapDigest(digest)) {
+    const std::string shown = digest.size() <= 80 ? digest : digest.substr(0, 80) + "...";
+    return Status::InvalidArgument(
+        "digest: \"" + shown +
+        "\"; expected \"sha256:\" and 64 lowercase hex digits, as UploadNormalMap returns");
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = maps_.find(digest);
   if (it == maps_.end())

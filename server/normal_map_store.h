@@ -95,4 +95,13 @@ NormalMapStore &NormalMaps();
 // "sha256:" followed by 64 lowercase hex digits.
 bool IsNormalMapDigest(const std::string &digest);
 
+// The longest NormalMapChunk.filename accepted (NAME_MAX). The name is stored with the map and
+// returned by every UploadNormalMap and ListNormalMaps reply, so an unbounded one (a chunk may
+// carry ~max-message-mb of it) made those replies exceed the message limit: two 0.9 MB names
+// at --max-message-mb 1 broke ListNormalMaps for every client until the maps were deleted.
+constexpr size_t kMaxNormalMapFilenameBytes = 255;
+
+// Ok, or INVALID_ARGUMENT naming the filename's length and the limit (not echoing all of it).
+Status CheckNormalMapFilename(const std::string &filename);
+
 }  // namespace glint

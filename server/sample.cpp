@@ -40,6 +40,25 @@ Status ValidateSampleSettings(const glint::v1::SampleRequest &r, const Validatio
         " samples = " + std::to_string(total) + " samples; expected at most " +
         std::to_string(limits.max_batch) + " per call (send fewer queries per call)");
   }
+  // The reply is ~28 bytes per sample whatever the request's size: one over the message limit
+  // was computed in full and then failed in gRPC's send as RESOURCE_EXHAUSTED "Sent message
+  // larger than max (18350140 vs. 1048576)" (10 queries x 65536 samples at --max-message-mb 1;
+  // outside-client probe, session 11). Refused before any work, saying how many samples fit.
+  const uint64_t reply = total * kSampleReplyBytesPerSample + kSampleReplyOverheadBytes;
+  if (limits.max_message_bytes > 0 && reply > limits.max_message_bytes) {
+    const uint64_t fit =
+        limits.max_message_bytes > kSampleReplyOverheadBytes
+            ? (limits.max_message_bytes - kSampleReplyOverheadBytes) / kSampleReplyBytesPerSample
+            : 0;
+    return Status::InvalidArgument(
+        "samples_per_query: " + std::to_string(q.count()) + " queries x " + std::to_string(k) +
+        " samples = " + std::to_string(total) + " samples, whose reply (" +
+        std::to_string(kSampleReplyBytesPerSample) +
+        " bytes per sample: wi, pdf, weight) of up to " + std::to_string(reply) +
+        " bytes exceeds the server's message limit of " + std::to_string(limits.max_message_bytes) +
+        " bytes (glintd --max-message-mb, Capabilities.max_message_bytes); expected at most " +
+        std::to_string(fit) + " samples per call (send fewer queries per call or fewer samples)");
+  }
   return Status::Ok();
 }
 

@@ -16,10 +16,18 @@ namespace glint {
 // At most this many samples per query (SampleRequest.samples_per_query).
 constexpr uint32_t kMaxSamplesPerQuery = 65536;
 
+// Bytes of a SampleResponse per sample: wi (3 floats), pdf (1), weight (3), packed.
+constexpr uint64_t kSampleReplyBytesPerSample = 28;
+// A bound on everything else in a SampleResponse: count, samples_per_query, the three packed
+// fields' tags and lengths, and stats (two doubles, batch_requests and the device name: tens of
+// bytes for PoCL's; sample_test checks a 512-byte one).
+constexpr uint64_t kSampleReplyOverheadBytes = 1024;
+
 // Checks everything a sample request carries: the material (as Evaluate does, plus: the model
 // has a sampler), samples_per_query in [1, kMaxSamplesPerQuery], count * K <= max_batch, the
-// queries (as Evaluate's, no `wi`, the model's own needs). On success `settings` holds the
-// request as an EvaluateRequest without queries (for MakeEvalPlan).
+// reply within limits.max_message_bytes (count * K * kSampleReplyBytesPerSample +
+// kSampleReplyOverheadBytes), the queries (as Evaluate's, no `wi`, the model's own needs). On
+// success `settings` holds the request as an EvaluateRequest without queries (for MakeEvalPlan).
 // The part of ValidateSampleRequest that needs no query data (material, sampler,
 // samples_per_query, count * K): what the handler checks on gRPC's thread before admission.
 Status ValidateSampleSettings(const glint::v1::SampleRequest &request,

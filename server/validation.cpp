@@ -70,6 +70,13 @@ Status CheckUnit(const float *v, const std::string &field, double tol) {
   return Status::Ok();
 }
 
+// Light magnitudes (irradiance, intensity, radiance) are accepted up to 3e38, a little below
+// FLT_MAX (3.4028e38): the range the stability sweep covers (README "Stability at the
+// extremes"). The refusal states both ends: a value between 3e38 and FLT_MAX is >= 0, so
+// "expected >= 0" alone contradicted the value it refused (outside-client probe, session 11).
+constexpr float kMaxLightMagnitude = 3e38f;
+constexpr const char *kLightMagnitudeRange = "3 values in [0, 3e38]";
+
 Status CheckNdfAndRoughness(const glint::v1::Material &m) {
   if (m.ndf() != glint::v1::GGX && m.ndf() != glint::v1::BECKMANN) {
     return Status::InvalidArgument(
@@ -161,9 +168,9 @@ Status CheckMaterial(const glint::v1::Material &m) {
 }
 
 // A polygon light: 3..16 finite vertices, planar, convex, not degenerate; radiance 3 finite
-// values >= 0. Tolerances are relative to the polygon's size (its largest vertex distance from
-// the centroid, `size`): planar when every vertex is within 1e-3 * size of the plane through the
-// centroid with Newell's normal; degenerate (collinear or zero area) when the area is below
+// values in [0, 3e38]. Tolerances are relative to the polygon's size (its largest vertex distance
+// from the centroid, `size`): planar when every vertex is within 1e-3 * size of the plane through
+// the centroid with Newell's normal; degenerate (collinear or zero area) when the area is below
 // 1e-9 * size^2. Convex: every corner turns the same way about the normal (collinear corners,
 // within 1e-6 relative, are allowed) and the corners turn once in total, which also refuses
 // self-intersecting (star) outlines. Concave polygons are refused, not split.
@@ -177,7 +184,8 @@ Status CheckPolygon(const glint::v1::PolygonLight &p, const std::string &f) {
   const int n = nf / 3;
   if (!AllFinite(p.vertices().data(), nf))
     return Status::InvalidArgument(fv + ": a vertex is not finite");
-  Status s = CheckRange(p.radiance(), 3, f + ".radiance", 0.0f, 3e38f, "3 values >= 0");
+  Status s =
+      CheckRange(p.radiance(), 3, f + ".radiance", 0.0f, kMaxLightMagnitude, kLightMagnitudeRange);
   if (!s.ok()) return s;
   auto vert = [&](int i, int c) { return double(p.vertices((i % n) * 3 + c)); };
   double centroid[3] = {0, 0, 0};
@@ -244,7 +252,9 @@ Status CheckLight(const glint::v1::Light &light, const std::string &field, doubl
     const std::string f = field + ".directional";
     Status s = CheckFixed(d.direction(), 3, f + ".direction");
     if (s.ok()) s = CheckUnit(d.direction().data(), f + ".direction", tol);
-    if (s.ok()) s = CheckRange(d.irradiance(), 3, f + ".irradiance", 0.0f, 3e38f, "3 values >= 0");
+    if (s.ok())
+      s = CheckRange(d.irradiance(), 3, f + ".irradiance", 0.0f, kMaxLightMagnitude,
+                     kLightMagnitudeRange);
     if (s.ok() && !(d.cone_half_angle_deg() >= 0.0f && d.cone_half_angle_deg() <= 90.0f)) {
       std::ostringstream o;
       o << f << ".cone_half_angle_deg: " << d.cone_half_angle_deg() << "; expected [0, 90]";
@@ -256,7 +266,9 @@ Status CheckLight(const glint::v1::Light &light, const std::string &field, doubl
     const auto &p = light.point();
     const std::string f = field + ".point";
     Status s = CheckFixed(p.position(), 3, f + ".position");
-    if (s.ok()) s = CheckRange(p.intensity(), 3, f + ".intensity", 0.0f, 3e38f, "3 values >= 0");
+    if (s.ok())
+      s = CheckRange(p.intensity(), 3, f + ".intensity", 0.0f, kMaxLightMagnitude,
+                     kLightMagnitudeRange);
     if (s.ok() && !(p.radius() >= 0.0f && std::isfinite(p.radius()))) {
       std::ostringstream o;
       o << f << ".radius: " << p.radius() << "; expected a finite value >= 0";

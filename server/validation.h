@@ -20,6 +20,9 @@ struct ValidationLimits {
   double unit_tolerance = 1e-3;
   // Tangent and normal count as parallel when |t . n| exceeds this.
   double max_tangent_normal_cos = 0.999;
+  // The gRPC message limit of replies (glintd --max-message-mb; 0 = none): a Sample reply grows
+  // with count x samples_per_query, not with its request, so it is checked before the work.
+  uint64_t max_message_bytes = 0;
 };
 
 // Checks material, lights and precision (the settings of a request or of a

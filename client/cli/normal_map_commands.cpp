@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -51,7 +52,10 @@ std::string EnsureUploaded(client::GlintClient &client, const std::string &path,
   for (const auto &m : list.maps())
     if (m.digest() == digest) return digest;
   glint::v1::NormalMapInfo info;
-  if (grpc::Status st = client.UploadNormalMap(path, bytes, &info); !st.ok())
+  // The file's name, not its path, as the Python client sends: the server keeps and lists it,
+  // and refuses names over 255 bytes (NAME_MAX), which a path may exceed.
+  const std::string name = std::filesystem::path(path).filename().string();
+  if (grpc::Status st = client.UploadNormalMap(name, bytes, &info); !st.ok())
     throw std::runtime_error("UploadNormalMap " + path + ": " + client::FormatStatus(st));
   if (info.digest() != digest)
     throw std::runtime_error("UploadNormalMap " + path + ": the server computed " + info.digest() +

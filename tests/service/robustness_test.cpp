@@ -475,6 +475,83 @@ long ProcStatusKb(pid_t pid, const char *field) {
   return -1;
 }
 
+// Replies at --max-message-mb 1 (outside-client probe, session 11). A stream chunk within the
+// limit gets its result although the result carries more fixed fields (chunk_index, first_query,
+// stats) than the chunk: it was refused RESOURCE_EXHAUSTED "Sent message larger than max (1048594
+// vs. 1048576)" after the work. A Sample call whose reply (28 bytes per sample) would exceed the
+// limit is refused INVALID_ARGUMENT before the work, saying how many samples fit: it was computed
+// and then refused the same way. The client's limits are far above the server's, so only the
+// server's can refuse.
+TEST(MessageLimit, RepliesOfRequestsWithinTheLimitAreSentOthersRefusedFirst) {
+  glint::test::TempDir dir("glint_message_limit_test");
+  std::string error;
+  auto server = glint::test::Glintd::Start(
+      GlintdPath(), dir, "limit", {"--device", "host", "--warm", "none", "--max-message-mb", "1"},
+      &error);
+  ASSERT_NE(server, nullptr) << error;
+  grpc::ChannelArguments args;
+  args.SetMaxSendMessageSize(64 << 20);
+  args.SetMaxReceiveMessageSize(64 << 20);
+  auto stub = v1::GlintService::NewStub(
+      grpc::CreateCustomChannel(server->address(), grpc::InsecureChannelCredentials(), args));
+  constexpr size_t kLimit = 1u << 20;
+  // A later chunk carries only wo: the most queries whose chunk fits the limit.
+  auto chunk = [](uint64_t index, uint32_t n) {
+    v1::EvaluateChunk c;
+    c.set_chunk_index(index);
+    if (index == 0) {
+      *c.mutable_request() = SmoothRequest();
+      AddPointLight(c.mutable_request());
+    }
+    auto *q = c.mutable_request()->mutable_queries();
+    q->set_count(n);
+    for (uint32_t i = 0; i < n; ++i)
+      for (float v : {0.0f, 0.6f, 0.8f}) q->add_wo(v);
+    return c;
+  };
+  uint32_t n = kLimit / 12;
+  while (chunk(1, n).ByteSizeLong() > kLimit) --n;
+  ASSERT_GT(n, 80000u);
+  {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
+    auto stream = stub->EvaluateStream(&ctx);
+    ASSERT_TRUE(stream->Write(chunk(0, 10)));
+    ASSERT_TRUE(stream->Write(chunk(1, n)));
+    stream->WritesDone();
+    v1::EvaluateChunkResult result;
+    std::vector<size_t> sizes;
+    while (stream->Read(&result)) {
+      EXPECT_EQ(result.result().radiance_size(), int(3 * result.result().count()));
+      sizes.push_back(result.ByteSizeLong());
+    }
+    grpc::Status s = stream->Finish();
+    EXPECT_TRUE(s.ok()) << s.error_message();
+    EXPECT_EQ(sizes.size(), 2u);
+    // The case at hand: a result larger than the limit its chunk kept to.
+    if (sizes.size() == 2) {
+      EXPECT_GT(sizes[1], kLimit);
+    }
+  }
+  {
+    v1::SampleRequest r;
+    *r.mutable_material() = SmoothRequest().material();
+    r.set_samples_per_query(65536);
+    auto *q = r.mutable_queries();
+    q->set_count(10);
+    for (int i = 0; i < 10; ++i)
+      for (float v : {0.0f, 0.6f, 0.8f}) q->add_wo(v);
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
+    v1::SampleResponse out;
+    grpc::Status s = stub->Sample(&ctx, r, &out);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << s.error_message();
+    EXPECT_NE(s.error_message().find("exceeds the server's message limit of 1048576 bytes"),
+              std::string::npos)
+        << s.error_message();
+  }
+}
+
 // Item 8. Memory is bounded by the configuration: six clients keep sending 12.6 MB requests
 // (1M queries, wo only, one point light) for 3 s at a glintd that holds 2 (--max-pending 2,
 // --max-message-mb 16). Every call ends with a result or RESOURCE_EXHAUSTED, and the peak RSS

@@ -545,6 +545,52 @@ TEST(SampleRefusals, BadRequests) {
   ExpectRefused(no_uv, "queries.uv");
 }
 
+// A reply is kSampleReplyBytesPerSample per sample whatever the request's size, so a Sample call
+// whose reply would exceed the server's message limit is refused before any work, saying how
+// many samples fit. Before, 10 queries x 65536 samples at --max-message-mb 1 were computed and
+// then failed in gRPC's send ("Sent message larger than max (18350140 vs. 1048576)"). The bound
+// is checked against protobuf's own serialisation of the largest reply it accepts.
+TEST(SampleRefusals, ReplyOverTheMessageLimitIsRefusedBeforeTheWork) {
+  const Case smooth{"smooth", Smooth(v1::GGX, 0.3f, 0.3f), WoAt(30, 0)};
+  ValidationLimits limits;
+  limits.max_message_bytes = 1u << 20;
+  v1::EvaluateRequest settings;
+  SampleRequest big = MakeRequest(smooth, 65536);
+  for (int i = 0; i < 9; ++i) AddQuery(smooth, big.mutable_queries());
+  Status s = ValidateSampleRequest(big, limits, &settings);
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.code(), Status::Code::kInvalidArgument);
+  for (const char *part : {"samples_per_query: 10 queries x 65536 samples = 655360 samples",
+                           "exceeds the server's message limit of 1048576 bytes"})
+    EXPECT_NE(s.message().find(part), std::string::npos) << s.message();
+  // The most samples a 1 MiB reply holds by the stated bound, as the refusal says.
+  const uint64_t fit = ((1u << 20) - kSampleReplyOverheadBytes) / kSampleReplyBytesPerSample;
+  EXPECT_NE(s.message().find("expected at most " + std::to_string(fit) + " samples per call"),
+            std::string::npos)
+      << s.message();
+  // fit samples in one call are accepted, one more is refused.
+  SampleRequest edge = MakeRequest(smooth, uint32_t(fit), v1::FP32);
+  ASSERT_TRUE(ValidateSampleRequest(edge, limits, &settings).ok());
+  edge.set_samples_per_query(uint32_t(fit + 1));
+  EXPECT_EQ(ValidateSampleRequest(edge, limits, &settings).code(), Status::Code::kInvalidArgument);
+  // Without a limit (0), only max_batch bounds the call.
+  EXPECT_TRUE(ValidateSampleRequest(big, ValidationLimits{}, &settings).ok());
+  // The accepted reply, sampled on the host path, with the largest stats a server adds (both
+  // times, the largest batch count, a device name longer than OpenCL implementations report),
+  // serialises within the limit.
+  edge.set_samples_per_query(uint32_t(fit));
+  SampleResponse out;
+  ASSERT_TRUE(RunSample(nullptr, 0, edge, limits, &out).ok());
+  ASSERT_EQ(out.pdf_size(), int(fit));
+  out.set_count(0xffffffffu);
+  out.set_samples_per_query(0xffffffffu);
+  out.mutable_stats()->set_queue_ms(1e300);
+  out.mutable_stats()->set_compute_ms(1e300);
+  out.mutable_stats()->set_batch_requests(0xffffffffu);
+  out.mutable_stats()->set_device(std::string(512, 'd'));
+  EXPECT_LE(out.ByteSizeLong(), uint64_t(1u << 20));
+}
+
 // ------------------------------------------------------------ the device
 
 class SampleDeviceTest : public test::DeviceEngineTest {

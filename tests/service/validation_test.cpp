@@ -193,7 +193,33 @@ TEST(Validation, RefusalsNameFieldIndexAndExpectation) {
          for (float v : {0.0f, 0.0f, 2.0f}) p->add_position(v);
          for (float v : {1.0f, -1.0f, 1.0f}) p->add_intensity(v);
        },
-       {"lights[0].point.intensity", ">= 0"}},
+       {"lights[0].point.intensity", "[0, 3e38]"}},
+      // Above the accepted 3e38 but still a float >= 0: the refusal states the upper end
+      // (it said "expected 3 values >= 0" of FLT_MAX, contradicting the value).
+      {"directional irradiance FLT_MAX",
+       [](auto &r) {
+         r.mutable_queries()->clear_wi();
+         auto *d = r.add_lights()->mutable_directional();
+         for (float v : {0.0f, 0.0f, 1.0f}) d->add_direction(v);
+         for (float v : {1.0f, std::numeric_limits<float>::max(), 1.0f}) d->add_irradiance(v);
+       },
+       {"lights[0].directional.irradiance", "expected 3 values in [0, 3e38]"}},
+      {"point intensity 3.1e38",
+       [](auto &r) {
+         r.mutable_queries()->clear_wi();
+         auto *p = r.add_lights()->mutable_point();
+         for (float v : {0.0f, 0.0f, 2.0f}) p->add_position(v);
+         for (float v : {3.1e38f, 1.0f, 1.0f}) p->add_intensity(v);
+       },
+       {"lights[0].point.intensity", "expected 3 values in [0, 3e38]"}},
+      {"polygon radiance FLT_MAX",
+       [](auto &r) {
+         r.mutable_queries()->clear_wi();
+         auto *p = r.add_lights()->mutable_polygon();
+         for (float v : {-1, -1, 2, -1, 1, 2, 1, 1, 2}) p->add_vertices(v);
+         for (float v : {1.0f, 1.0f, std::numeric_limits<float>::max()}) p->add_radiance(v);
+       },
+       {"lights[0].polygon.radiance", "expected 3 values in [0, 3e38]"}},
       {"cone angle > 90",
        [](auto &r) {
          r.mutable_queries()->clear_wi();

@@ -121,6 +121,51 @@ TEST(NormalMapStore, NotFoundNamesTheDigestUntilUploadedAgain) {
   EXPECT_TRUE(store.Table(info.digest(), 1, &table).ok());
 }
 
+// DeleteNormalMap with something that is not a digest is refused INVALID_ARGUMENT saying what a
+// digest is; NOT_FOUND (upload again) is for well-formed digests the server does not hold. Before,
+// "", "sha256:" and an upper-case digest all answered NOT_FOUND "is not held by this server".
+TEST(NormalMapStore, DeleteRefusesAMalformedDigestAsInvalid) {
+  NormalMapStore store;
+  const std::string hex64(64, 'a');
+  for (const std::string &bad :
+       {std::string(), std::string("sha256:"), "SHA256:" + hex64, "sha256:" + std::string(63, 'a'),
+        "sha256:" + std::string(64, 'A'), "sha256:" + hex64 + "0", std::string("bumpy.exr")}) {
+    Status s = store.Delete(bad);
+    EXPECT_EQ(s.code(), Status::Code::kInvalidArgument) << '"' << bad << "\": " << s.message();
+    EXPECT_NE(s.message().find("digest: \"" + bad + "\""), std::string::npos) << s.message();
+    EXPECT_NE(s.message().find("\"sha256:\" and 64 lowercase hex digits"), std::string::npos)
+        << s.message();
+  }
+  Status s = store.Delete("sha256:" + hex64);  // well formed, not held
+  EXPECT_EQ(s.code(), Status::Code::kNotFound) << s.message();
+}
+
+// A filename is at most kMaxNormalMapFilenameBytes (255): the store keeps it and every upload
+// and ListNormalMaps reply carries it, so longer ones made those replies outgrow the message limit
+// (two 0.9 MB names broke ListNormalMaps at --max-message-mb 1). The refusal names the length and
+// the limit without echoing the whole name; 255 bytes are accepted and listed as given.
+TEST(NormalMapStore, FilenamesLongerThanNameMaxAreRefused) {
+  NormalMapStore store;
+  const auto xyz = RippleNormals(4, 4, 0.1, 0.0, 0.1);
+  glint::v1::NormalMapInfo info;
+  const std::string longest = std::string(251, 'n') + ".exr";
+  ASSERT_EQ(longest.size(), 255u);
+  Status s = store.Upload(std::string(100000, 'n') + ".exr", ExrBytes(4, 4, xyz), &info);
+  EXPECT_EQ(s.code(), Status::Code::kInvalidArgument);
+  EXPECT_NE(s.message().find("has 100004 bytes; expected a file name of at most 255 bytes"),
+            std::string::npos)
+      << s.message();
+  EXPECT_LT(s.message().size(), 300u);
+  EXPECT_EQ(store.Upload("n" + longest, ExrBytes(4, 4, xyz), &info).code(),
+            Status::Code::kInvalidArgument);
+  EXPECT_EQ(store.bytes(), 0u);
+  ASSERT_TRUE(store.Upload(longest, ExrBytes(4, 4, xyz), &info).ok());
+  glint::v1::ListNormalMapsResponse list;
+  store.List(&list);
+  ASSERT_EQ(list.maps_size(), 1);
+  EXPECT_EQ(list.maps(0).filename(), longest);
+}
+
 TEST(NormalMapStore, EvictsLeastRecentlyUsedUnderTheBudget) {
   // Each 16 x 16 map's table: header + 2 floats per vertex + the quadtree levels 1..4.
   const uint64_t one = BuildNormalMapTable(16, 16, std::vector<float>(512), 1).size() * 4;

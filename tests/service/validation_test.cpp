@@ -216,7 +216,7 @@ TEST(Validation, RefusalsNameFieldIndexAndExpectation) {
        [](auto &r) {
          r.mutable_queries()->clear_wi();
          auto *p = r.add_lights()->mutable_polygon();
-         for (float v : {-1, -1, 2, -1, 1, 2, 1, 1, 2}) p->add_vertices(v);
+         for (float v : {-1.0f, -1.0f, 2.0f, -1.0f, 1.0f, 2.0f, 1.0f, 1.0f, 2.0f}) p->add_vertices(v);
          for (float v : {1.0f, 1.0f, std::numeric_limits<float>::max()}) p->add_radiance(v);
        },
        {"lights[0].polygon.radiance", "expected 3 values in [0, 3e38]"}},

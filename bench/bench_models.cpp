@@ -818,7 +818,9 @@ void Driver::WarmUp() {
     std::filesystem::remove_all(claim_dir, ec);
   }
   // Every variant on this engine: built here already, loaded from the disk cache (a child's),
-  // or compiled now (no children, or a child failed: then with its large-grid compile too).
+  // or compiled now (no children, or a child failed: then with its large-grid compile too, unless
+  // the child died after its build was stamped and before its large-grid run: then the first row
+  // pays that compile).
   int fallback = 0;
   for (const WarmItem &item : items) {
     if (built_here.count(item.key)) continue;

@@ -102,10 +102,12 @@ bool IsPocl(const DeviceInfo &info) {
 
 // PoCL's kernel cache directory in this process (pocl_cache.c, pocl_cache_init_topdir):
 // POCL_CACHE_DIR, else $XDG_CACHE_HOME/pocl/kcache, else $HOME/.cache/pocl/kcache; "" when its
-// cache is off (POCL_KERNEL_CACHE=0) or there is no such place.
+// cache is off or there is no such place. PoCL 3.1 keeps its cache on only when
+// POCL_KERNEL_CACHE is unset or starts with '1' (pocl_get_bool_option): "off", "no", "" or
+// "true" turn it off too, and then glint must store binaries itself.
 std::string PoclCacheDir() {
   const char *use = std::getenv("POCL_KERNEL_CACHE");
-  if (use && (std::string(use) == "0" || std::string(use) == "false")) return "";
+  if (use && use[0] != '1') return "";
   if (!PoclCacheDirAtInit().empty()) return PoclCacheDirAtInit();
   const char *xdg = std::getenv("XDG_CACHE_HOME");
   if (xdg && *xdg) return std::string(xdg) + "/pocl/kcache";
@@ -212,6 +214,12 @@ Status ClRuntime::Create(const std::string &selector, const std::string &cache_d
     rt->platform_cache_dir_ = PoclCacheDir();
     if (!rt->platform_cache_dir_.empty()) rt->store_ = ProgramStore::kPlatformCache;
   }
+  // What else decides the compiled code (and keys PoCL's own cache): the platform version (PoCL
+  // names its LLVM there), the device version, and PoCL's work-group method. Without them a
+  // stamp would claim "loaded" after a PoCL or LLVM upgrade while PoCL compiles again.
+  const char *wg = std::getenv("POCL_WORK_GROUP_METHOD");
+  rt->build_environment_ = PlatformString(rt->platform_, CL_PLATFORM_VERSION) + '\n' +
+                           rt->info_.opencl_version + '\n' + (wg ? wg : "");
   *out = std::move(rt);
   return Status::Ok();
 }
@@ -261,7 +269,7 @@ Status ClRuntime::GetProgram(const std::string &source, const std::string &optio
     std::ostringstream hash;
     hash << std::hex
          << Fnv1a(key + '\n' + info_.platform_name + '\n' + info_.name + '\n' +
-                  info_.driver_version);
+                  info_.driver_version + '\n' + build_environment_);
     name = hash.str();
   }
   ClProgram program;

@@ -92,6 +92,7 @@ class ClRuntime {
   std::string cache_dir_;
   ProgramStore store_ = ProgramStore::kBinaries;
   std::string platform_cache_dir_;
+  std::string build_environment_;  // platform/device versions, PoCL settings: part of every key
 
   // One slot per program, its own lock held while it is built, so that only
   // callers of the same program wait for a build.

@@ -72,16 +72,27 @@ std::vector<KServeInput> KServeInputs(bool has_lights) {
   return inputs;
 }
 
-Status DecodeInferInputs(const inference::ModelInferRequest &request, bool has_lights,
-                         glint::v1::QueryBatch *queries) {
-  const std::vector<KServeInput> accepted = KServeInputs(has_lights);
-  const bool raw = request.raw_input_contents_size() > 0;
-  if (raw && request.raw_input_contents_size() != request.inputs_size()) {
+namespace {
+
+// Raw contents come one per input, in the order of inputs, or not at all (KServe v2).
+Status CheckRawContentsCount(const inference::ModelInferRequest &request) {
+  if (request.raw_input_contents_size() > 0 &&
+      request.raw_input_contents_size() != request.inputs_size()) {
     return Status::InvalidArgument(
         "raw_input_contents: " + std::to_string(request.raw_input_contents_size()) +
         " entries for " + std::to_string(request.inputs_size()) +
         " inputs; expected one per input, in the order of inputs");
   }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status DecodeInferInputs(const inference::ModelInferRequest &request, bool has_lights,
+                         glint::v1::QueryBatch *queries) {
+  const std::vector<KServeInput> accepted = KServeInputs(has_lights);
+  const bool raw = request.raw_input_contents_size() > 0;
+  if (Status s = CheckRawContentsCount(request); !s.ok()) return s;
   // Check names and find the row count (wo's) before reading any data.
   std::map<std::string, int> index;  // input name -> position in request.inputs
   for (int i = 0; i < request.inputs_size(); ++i) {
@@ -164,12 +175,7 @@ Status DecodeInferInputs(const inference::ModelInferRequest &request, bool has_l
 Status InferQueryCount(const inference::ModelInferRequest &request, uint64_t *rows) {
   *rows = 0;
   const bool raw = request.raw_input_contents_size() > 0;
-  if (raw && request.raw_input_contents_size() != request.inputs_size()) {
-    return Status::InvalidArgument(
-        "raw_input_contents: " + std::to_string(request.raw_input_contents_size()) +
-        " entries for " + std::to_string(request.inputs_size()) +
-        " inputs; expected one per input, in the order of inputs");
-  }
+  if (Status s = CheckRawContentsCount(request); !s.ok()) return s;
   int wo = -1;
   for (int i = 0; i < request.inputs_size() && wo < 0; ++i)
     if (request.inputs(i).name() == "wo") wo = i;

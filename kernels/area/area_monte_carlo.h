@@ -100,7 +100,9 @@ GLINT_FN int mc_polygon_setup(const GLINT_PRIVATE real3 *v, int n, GLINT_PRIVATE
    * thresholds (1e8, 1e-8) it made lights between 1e8 and ~5e8 (and between
    * ~1e-9 and 1e-8) differ in the last bits from the same light at distance
    * ~1, which every other method matches bit for bit. Now it triggers only
-   * for callers that bypass the loader. */
+   * for callers that bypass the loader, or when clipping to the horizon
+   * leaves only vertices within 2^-33 of the shading point (then a copy of
+   * the light scaled across that threshold may differ in the last bits). */
   if ((lmax > GLINT_R(1073741824.0)) | (lmax < GLINT_R(1.16415321826934814453125e-10))) {
     for (int i = 0; i < P->n; ++i) P->v[i] = r3_div(P->v[i], lmax);
   }

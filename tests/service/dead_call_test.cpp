@@ -20,6 +20,7 @@
 #include "glintd_process.h"
 #include "inference/grpc_service.grpc.pb.h"
 #include "kserve_queries.h"
+#include "queue_depth_gauge.h"
 #include "test_queries.h"
 
 namespace {
@@ -39,26 +40,12 @@ v1::EvaluateRequest LongRequest(uint32_t n) {
   return glint::test::FourQuadReferenceRequest(Smooth(), n);
 }
 
-// glint_queue_depth (queued + running requests) from /metrics; -1 when unreadable.
-double QueueDepth(httplib::Client &http) {
-  auto res = http.Get("/metrics");
-  if (!res || res->status != 200) return -1;
-  std::smatch m;
-  static const std::regex line(R"((^|\n)glint_queue_depth ([0-9.eE+-]+)\n)");
-  if (!std::regex_search(res->body, m, line)) return -1;
-  return std::stod(m[2]);
-}
+using glint::test::QueueDepth;
 
 // Polls the gauge until it equals `want` or `stop()` or 10 s; returns the last value read.
 template <class Stop>
 double WaitForDepth(httplib::Client &http, double want, Stop &&stop) {
-  const auto until = Clock::now() + std::chrono::seconds(10);
-  double depth = QueueDepth(http);
-  while (depth != want && !stop() && Clock::now() < until) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    depth = QueueDepth(http);
-  }
-  return depth;
+  return glint::test::WaitForQueueDepth(http, want, stop, std::chrono::seconds(10));
 }
 
 TEST(DeadCall, CancelledQueuedCallLeavesTheQueueAtOnce) {

@@ -22,6 +22,7 @@ from typing import Callable, Optional, TypeVar
 import grpc
 
 PUSHBACK_METADATA = "glint-retry-pushback-ms"
+MAX_PUSHBACK_SECONDS = 30.0  # the longest wait one pushback can impose
 
 T = TypeVar("T")
 
@@ -80,4 +81,6 @@ def call_with_retries(policy: RetryPolicy, attempt: Callable[[], T]) -> T:
             if not is_retryable(code, pushback) or made >= policy.max_attempts:
                 raise
             wait = _rng.uniform(0.0, backoff_ceiling(policy, made))
-            _sleep(max(wait, pushback or 0.0))
+            # A pushback is the server's estimate; one rewritten or corrupted on the way (e.g.
+            # 99999999 ms) must not stall the client for days: at most MAX_PUSHBACK_SECONDS.
+            _sleep(max(wait, min(pushback or 0.0, MAX_PUSHBACK_SECONDS)))

@@ -32,6 +32,7 @@
 #include "kernels/layout.h"
 #include "server/cl_runtime.h"
 #include "server/kernel_source.h"
+#include "server/launch_grid.h"
 
 namespace {
 
@@ -219,14 +220,15 @@ int main(int argc, char **argv) {
     for (int local : locals) {
       const size_t q_per = size_t(per_item > 0 ? per_item : lanes);
       const size_t wis = (n + q_per - 1) / q_per;
-      const size_t lsz = size_t(local), gsz = (wis + lsz - 1) / lsz * lsz;
+      // The device engine's 2D grid (server/launch_grid.h): no large-grid recompile in a round.
+      const glint::LaunchGrid grid = glint::GridFor(wis, size_t(local));
       char tag_text[64];
       std::snprintf(tag_text, sizeof tag_text, "L%d local %d", lanes, local);
       const std::string tag = tag_text;
       add("kernel " + tag, [=, &queue] {
         if (bind(k, n, b_wo, b_wi, b_out) != CL_SUCCESS) return false;
-        if (clEnqueueNDRangeKernel(queue, k, 1, nullptr, &gsz, &lsz, 0, nullptr, nullptr) !=
-            CL_SUCCESS)
+        if (clEnqueueNDRangeKernel(queue, k, 2, nullptr, grid.global, grid.local, 0, nullptr,
+                                   nullptr) != CL_SUCCESS)
           return false;
         return clFinish(queue) == CL_SUCCESS;
       });
@@ -234,7 +236,7 @@ int main(int argc, char **argv) {
         clEnqueueWriteBuffer(queue, a_wo, CL_FALSE, 0, bytes, wo.data(), 0, nullptr, nullptr);
         clEnqueueWriteBuffer(queue, a_wi, CL_FALSE, 0, bytes, wi.data(), 0, nullptr, nullptr);
         if (bind(k, n, a_wo, a_wi, a_out) != CL_SUCCESS) return false;
-        clEnqueueNDRangeKernel(queue, k, 1, nullptr, &gsz, &lsz, 0, nullptr, nullptr);
+        clEnqueueNDRangeKernel(queue, k, 2, nullptr, grid.global, grid.local, 0, nullptr, nullptr);
         return clEnqueueReadBuffer(queue, a_out, CL_TRUE, 0, bytes, out.data(), 0, nullptr,
                                    nullptr) == CL_SUCCESS;
       });

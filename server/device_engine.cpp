@@ -5,6 +5,7 @@
 #include <tuple>
 
 #include "server/kernel_source.h"
+#include "server/launch_grid.h"
 #include "server/model_table.h"
 
 namespace glint {
@@ -152,6 +153,10 @@ Status Fp64Unavailable(const DeviceInfo &info) {
 
 Status DeviceEngine::Create(const DeviceEngineOptions &options,
                             std::unique_ptr<DeviceEngine> *out) {
+  if (options.local_size < 1 || options.local_size >= kPoclSmallGridLimit)
+    return Status::InvalidArgument("DeviceEngineOptions.local_size " +
+                                   std::to_string(options.local_size) + ": expected 1.." +
+                                   std::to_string(kPoclSmallGridLimit - 1));
   std::unique_ptr<DeviceEngine> engine(new DeviceEngine());
   engine->options_ = options;
   Status s = ClRuntime::Create(options.device, options.cache_dir, &engine->runtime_);
@@ -279,12 +284,12 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const QueryView 
     // In-order queue: each later pass runs after the earlier ones and adds to their output.
     s = BindKernelArguments(kernel, args, queue.dummy.get(), k > 0);
     if (!s.ok()) return s;
-    const size_t local = options_.local_size;
+    // A 2D grid below PoCL's small-grid limit: the work-group function the one-query warm-up
+    // compiled runs every batch (server/launch_grid.h).
     const size_t width = size_t(passes[k]->simd_width);
-    const size_t work_items = (size_t(n) + width - 1) / width;
-    const size_t global = (work_items + local - 1) / local * local;
-    GLINT_CL_CHECK(clEnqueueNDRangeKernel(queue.queue.get(), kernel, 1, nullptr, &global, &local, 0,
-                                          nullptr, nullptr));
+    const LaunchGrid grid = GridFor((size_t(n) + width - 1) / width, options_.local_size);
+    GLINT_CL_CHECK(clEnqueueNDRangeKernel(queue.queue.get(), kernel, 2, nullptr, grid.global,
+                                          grid.local, 0, nullptr, nullptr));
   }
   s = ReadBackAndFinish(queue.queue.get(), args.out.get(), size_t(n) * 3 * sizeof(float));
   return s;
@@ -332,10 +337,9 @@ Status DeviceEngine::Sample(int worker, const EvalPlan &plan, const glint::v1::Q
   if (!s.ok()) return s;
   const cl_uint k = samples_per_query;
   GLINT_CL_CHECK(clSetKernelArg(kernel, kKernelArgCount, sizeof(k), &k));
-  const size_t local = options_.local_size;
-  const size_t global = (samples + local - 1) / local * local;
-  GLINT_CL_CHECK(clEnqueueNDRangeKernel(queue.queue.get(), kernel, 1, nullptr, &global, &local, 0,
-                                        nullptr, nullptr));
+  const LaunchGrid grid = GridFor(samples, options_.local_size);
+  GLINT_CL_CHECK(clEnqueueNDRangeKernel(queue.queue.get(), kernel, 2, nullptr, grid.global,
+                                        grid.local, 0, nullptr, nullptr));
   return ReadBackAndFinish(queue.queue.get(), args.out.get(),
                            samples * kSampleFloats * sizeof(float));
 }

@@ -7,6 +7,7 @@
  * (GLINT_HAS_DIRECTIONAL, GLINT_HAS_POINT). */
 #include "kernels/kernel_args.h"
 #include "kernels/simd_io.h"
+#include "kernels/work_item.h"
 #include "models/binomial/binomial_eval.h"
 
 /* Component k of the `stride` floats per query of array a, for the queries [base, base +
@@ -18,7 +19,7 @@ GLINT_FN real binomial_lanes_load(const __global float *a, uint stride, uint k, 
 }
 
 __kernel void glint_binomial_lanes(GLINT_KERNEL_ARGS) {
-  uint base = (uint)get_global_id(0) * GLINT_LANES;
+  uint base = glint_work_item() * GLINT_LANES;
   /* Padding work-items; uniform for all lanes of a work-item, not divergent. */
   if (base >= n) return;
   EvalSpec spec = kernel_spec();

@@ -1,9 +1,10 @@
 /* The chermain model's sample pass (models/chermain/chermain_sample.h): one sample per
  * work-item, sample k of query i at work-item i K + k. */
+#include "kernels/work_item.h"
 #include "models/chermain/chermain_sample.h"
 
 __kernel void glint_chermain_sample(GLINT_SAMPLE_KERNEL_ARGS) {
-  uint s = (uint)get_global_id(0);
+  uint s = glint_work_item();
   if (s >= n * samples_per_query) return;
   sample_store(out, s,
                chermain_sample(kernel_spec(), GLINT_KERNEL_INPUTS(), s / samples_per_query,

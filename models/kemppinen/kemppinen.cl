@@ -6,6 +6,7 @@
  * (models/kemppinen/kemppinen_area.cl). */
 #include "kernels/kernel_args.h"
 #include "kernels/simd_io.h"
+#include "kernels/work_item.h"
 #include "models/kemppinen/kemppinen_eval.h"
 
 #if GLINT_LANES != 16
@@ -53,7 +54,7 @@ GLINT_FN void kemppinen_block_load_uv(__global const float *uv, __global const f
 }
 
 __kernel void glint_kemppinen(GLINT_KERNEL_ARGS) {
-  uint base = (uint)get_global_id(0) * GLINT_LANES;
+  uint base = glint_work_item() * GLINT_LANES;
   /* Padding work-items; uniform for all lanes of a work-item, not divergent. */
   if (base >= n) return;
   EvalSpec spec = kernel_spec();

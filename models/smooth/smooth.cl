@@ -1,14 +1,16 @@
 /* Entry of the smooth model for BRDF probes, directional and point lights
  * (models/smooth/smooth_eval.h). Each work-item evaluates GLINT_LANES (16)
  * queries as the lanes of OpenCL vectors (kernels/simd_io.h says why); the
- * global size is ceil(n / GLINT_LANES), padded to a multiple of the local
- * size. Inputs stay float in buffers; `real` is the arithmetic. */
+ * ceil(n / GLINT_LANES) work-items, padded, run as a 2D grid
+ * (kernels/work_item.h). Inputs stay float in buffers; `real` is the
+ * arithmetic. */
 #include "kernels/kernel_args.h"
 #include "kernels/simd_io.h"
+#include "kernels/work_item.h"
 #include "models/smooth/smooth_eval.h"
 
 __kernel void glint_smooth(GLINT_KERNEL_ARGS) {
-  uint base = (uint)get_global_id(0) * GLINT_LANES;
+  uint base = glint_work_item() * GLINT_LANES;
   /* Padding work-items; uniform for all lanes of a work-item, not divergent. */
   if (base >= n) return;
   EvalSpec spec = kernel_spec();

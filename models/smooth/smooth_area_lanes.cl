@@ -7,10 +7,11 @@
  * then adds to its output. */
 #include "kernels/kernel_args.h"
 #include "kernels/simd_io.h"
+#include "kernels/work_item.h"
 #include "models/smooth/smooth_polygons.h"
 
 __kernel void glint_smooth_area_lanes(GLINT_KERNEL_ARGS) {
-  uint base = (uint)get_global_id(0) * GLINT_LANES;
+  uint base = glint_work_item() * GLINT_LANES;
   /* Padding work-items; uniform for all lanes of a work-item, not divergent. */
   if (base >= n) return;
   EvalSpec spec = kernel_spec();

@@ -4,22 +4,27 @@
 // variant outside the warm set does (so the counters do see requests); the --warm modes list the
 // variants they promise; concurrent builds of the program cache build each program once; glintd
 // refuses a bad --warm value.
+#include "server/warmup.h"
+
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <regex>
+#include <set>
 #include <sstream>
 #include <thread>
 
 #include "server/device_engine.h"
 #include "server/eval_plan.h"
 #include "server/model_table.h"
+#include "server/query_view.h"
 #include "server/validation.h"
-#include "server/warmup.h"
 #include "test_queries.h"
 
 namespace glint {
@@ -175,8 +180,8 @@ TEST(WarmUp, ConcurrentProgramBuildsCompileEachProgramOnce) {
     ClKernel kernel(clCreateKernel(got[k], "scale", &err));
     ASSERT_EQ(err, CL_SUCCESS);
     float x[4] = {1, 2, 3, 4};
-    ClBuffer buf(clCreateBuffer(rt->context(), CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR,
-                                sizeof x, x, &err));
+    ClBuffer buf(
+        clCreateBuffer(rt->context(), CL_MEM_READ_WRITE | CL_MEM_COPY_HOST_PTR, sizeof x, x, &err));
     ASSERT_EQ(err, CL_SUCCESS);
     cl_mem m = buf.get();
     ASSERT_EQ(clSetKernelArg(kernel.get(), 0, sizeof m, &m), CL_SUCCESS);
@@ -186,11 +191,76 @@ TEST(WarmUp, ConcurrentProgramBuildsCompileEachProgramOnce) {
     ASSERT_EQ(clEnqueueNDRangeKernel(queue.get(), kernel.get(), 1, nullptr, &global, nullptr, 0,
                                      nullptr, nullptr),
               CL_SUCCESS);
-    ASSERT_EQ(clEnqueueReadBuffer(queue.get(), buf.get(), CL_TRUE, 0, sizeof x, x, 0, nullptr,
-                                  nullptr),
-              CL_SUCCESS);
+    ASSERT_EQ(
+        clEnqueueReadBuffer(queue.get(), buf.get(), CL_TRUE, 0, sizeof x, x, 0, nullptr, nullptr),
+        CL_SUCCESS);
     for (int i = 0; i < 4; ++i) EXPECT_EQ(x[i], float((i + 1) * (k + 2)));
   }
+}
+
+// PoCL's work-group functions in its kernel cache: one directory per compiled specialisation,
+// named <local size>[-goffs0][-smallgrid] under <program>/<kernel>/ (pocl_cache.c,
+// pocl_cache_kernel_cachedir_path, PoCL 3.1). The set of their paths.
+std::set<std::string> WorkGroupFunctions(const std::string &pocl_cache) {
+  std::set<std::string> out;
+  const std::regex name(R"(\d+-\d+-\d+(-goffs0)?(-smallgrid)?)");
+  std::error_code ec;
+  for (auto it = std::filesystem::recursive_directory_iterator(pocl_cache, ec);
+       !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec))
+    if (it->is_directory() && std::regex_match(it->path().filename().string(), name))
+      out.insert(it->path().lexically_relative(pocl_cache).string());
+  return out;
+}
+
+// PoCL 3.1 compiles a kernel's work-group function again for a launch with a grid dimension of
+// 65535 work-items or more (its "smallgrid" specialisation: pocl_cache.c, pocl_llvm_wg.cc,
+// grid_width_specialization_limit = USHRT_MAX). The device engine launches 2D grids whose
+// dimensions stay below that (server/launch_grid.h), so the one-query warm-up compiles the work-
+// group function every request of the variant uses: a request of 2^20 queries (65536 work-items
+// of the 16-lane smooth kernel, 8 grid rows) compiles nothing more. Its result is bit-identical
+// to the same queries evaluated in chunks of one grid row or less (the work-item index
+// kernels/work_item.h computes from the 2D id).
+TEST(WarmUp, LargeRequestAfterWarmUpCompilesNoWorkGroupFunction) {
+  // A fresh cache, so every work-group function this test needs is compiled here and seen.
+  const std::string dir =
+      ::testing::TempDir() + "glint_large_grid_cache_" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  DeviceEngineOptions o;
+  o.cache_dir = dir;
+  o.workers = 1;
+  std::unique_ptr<DeviceEngine> engine;
+  ASSERT_TRUE(DeviceEngine::Create(o, &engine).ok());
+  const std::string pocl = engine->runtime().platform_cache_dir();
+  if (pocl != dir + "/pocl")
+    GTEST_SKIP() << "PoCL's kernel cache is not this test's fresh one (\"" << pocl
+                 << "\": POCL_CACHE_DIR set, its cache off, or another OpenCL platform)";
+
+  constexpr uint32_t kQueries = 1u << 20;
+  const EvaluateRequest r = SmoothRequest(Shape::kProbe, v1::GGX, false, kQueries);
+  const EvalPlan plan = MakeEvalPlan(r, r.queries());
+  ASSERT_TRUE(WarmKernels(engine.get(), {plan.spec}, 1).ok());
+  const std::set<std::string> warmed = WorkGroupFunctions(pocl);
+  ASSERT_FALSE(warmed.empty()) << "the warm-up compiled no work-group function into " << pocl;
+  const int programs = engine->runtime().programs_compiled();
+
+  std::vector<float> whole(size_t(3) * kQueries);
+  ASSERT_TRUE(engine->Evaluate(0, plan, r.queries(), whole.data()).ok());
+  const std::set<std::string> after = WorkGroupFunctions(pocl);
+  for (const std::string &f : after)
+    EXPECT_TRUE(warmed.count(f)) << "the 2^20-query request compiled work-group function " << f;
+  EXPECT_EQ(engine->runtime().programs_compiled(), programs);
+
+  // Chunks of 4096 queries: 256 work-items, one grid row.
+  const QueryView all = QueryView::Of(r.queries());
+  std::vector<float> chunk(size_t(3) * 4096);
+  for (uint32_t begin = 0; begin < kQueries; begin += 4096) {
+    ASSERT_TRUE(engine->Evaluate(0, plan, all.Slice(begin, 4096), chunk.data()).ok());
+    ASSERT_EQ(std::memcmp(chunk.data(), whole.data() + size_t(3) * begin, sizeof(float) * 3 * 4096),
+              0)
+        << "queries " << begin << "..+4096 differ from the same queries in one launch";
+  }
+  engine.reset();
+  std::filesystem::remove_all(dir);
 }
 
 // glintd refuses a --warm value it does not know, naming the flag and the choices.

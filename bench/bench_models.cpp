@@ -28,7 +28,9 @@
 //                    probes and point-like lights, fp64 REFERENCE quadrature for polygons), the
 //                    relative bias of the batch mean against the smooth model for glint models:
 //                    the mean over request seeds (the case's error_seeds: 16 for BINOMIAL,
-//                    1 for the others; --error-seeds S for all; 2 with --tiny), error_mean
+//                    4 with --quick, 1 for the others; --error-seeds S for all; 2 with --tiny)
+//                    on the shared queries (--quick: a case may use fewer, KEMPPINEN's four
+//                    quads 4096; the row's error_queries says how many), error_mean
 //                    its absolute value, error_signed with the sign, error_se its standard
 //                    error (the larger of the delta method over seeds x queries and the spread
 //                    of the per-seed means; Driver::Errors says why one seed is not enough).
@@ -254,10 +256,9 @@ class Driver {
   // Calls fn for every combination the options select, in the order of the rows.
   void ForEach(const std::function<void(Combination &)> &fn) const;
   std::vector<WarmItem> WarmItems() const;
-  // Runs the item's kernels once on worker 0 (building or loading them); when that compiled
-  // them, also once on a grid PoCL compiles separately when the rows may reach it (see the
-  // definition). Prints what it did (compile or load; `child`: in a compile child) and the
-  // seconds. *compiled: whether it compiled. False (and a message) on failure.
+  // Runs the item's kernels once on worker 0 (building or loading them; see the definition).
+  // Prints what it did (compile or load; `child`: in a compile child) and the seconds.
+  // *compiled: whether it compiled. False (and a message) on failure.
   bool WarmOne(const WarmItem &item, bool child, bool *compiled = nullptr);
   // Claims `item` for this process: true for exactly one process of the run.
   static bool Claim(const std::string &claim_dir, const WarmItem &item);
@@ -574,8 +575,8 @@ void Driver::Errors(const Model &model, const ModelBenchCase &c, Lights lights,
     row->error_reference = "REFERENCE fp64 host";
     row->error_queries = uint32_t(truth.size());
   } else if (c.error == ErrorReference::kSmoothMean) {
-    // The glint model's mean over the case's error_seeds request seeds (16 for BINOMIAL; or
-    // --error-seeds) (the first the request's own; the
+    // The glint model's mean over the case's error_seeds request seeds (16 for BINOMIAL, 4 with
+    // --quick; or --error-seeds) (the first the request's own; the
     // others differ in both halves, seed_lo and seed_hi, and the models hash every glint from
     // the seed, so each is an independent realisation) against the smooth model's. One seed is
     // not enough: where a footprint holds few facets that reflect the light (BINOMIAL at N_P p
@@ -587,12 +588,19 @@ void Driver::Errors(const Model &model, const ModelBenchCase &c, Lights lights,
     // bias (bench/binomial_bias.cpp; models/binomial/README.md "Bias at N_P = 1e2?"). Over 16
     // seeds the spread of the mean is 1.23x its median standard error there (|t| > 3 in 0.6% of
     // groups): still a little small where N_P p << 1.
-    const auto &sv = SmoothReference(light_key, AsSmooth(request, model));
-    const uint32_t n = uint32_t(sv.size());
-    const int seeds = std::max(1, o_.error_seeds ? o_.error_seeds : c.error_seeds);
+    // --quick: the case's smaller sample where it names one (ModelBenchCase::quick_error_*).
+    const bool quick = o_.mode == "quick";
+    uint32_t n = request.queries().count();
+    if (quick && c.quick_error_queries && c.quick_error_queries(lights) > 0)
+      n = std::min(n, c.quick_error_queries(lights));
+    glint::v1::EvaluateRequest sample = request;
+    *sample.mutable_queries() = Tile(request.queries(), n);
+    const auto &sv = SmoothReference(light_key + "|" + std::to_string(n), AsSmooth(sample, model));
+    const int case_seeds = quick && c.quick_error_seeds > 0 ? c.quick_error_seeds : c.error_seeds;
+    const int seeds = std::max(1, o_.error_seeds ? o_.error_seeds : case_seeds);
     std::vector<std::vector<double>> gv;
     for (int k = 0; k < seeds; ++k) {
-      glint::v1::EvaluateRequest r = request;
+      glint::v1::EvaluateRequest r = sample;
       r.set_seed(request.seed() + uint64_t(k) * 0x100000001ull);
       if (!EvalForErrors(path, r, n, &out, &why)) return;
       gv.push_back(RgbSums(out.data(), n));
@@ -683,53 +691,23 @@ std::vector<Driver::WarmItem> Driver::WarmItems() const {
   return items;
 }
 
-// PoCL compiles a kernel's work-group function per local size and, separately, for grids of
-// fewer than 65535 work-items ("smallgrid") and for larger ones (pocl_cache.c,
-// grid_width_specialization_limit = USHRT_MAX). The one-query run builds the small-grid one. A
-// row whose batch grows past 65408 work-items (n / lanes, padded to the local size 128) needs
-// the large one too, and would compile it inside its batch growth, in the measuring process, one
-// at a time. So a compiling process also runs Time()'s batch growth (first batch 256, NextBatch)
-// until a run takes kGrowthMargin x min_time: a row grows its batch by at most 2x past the point
-// where a run takes min_time, so it reaches at most 2 min_time R at the measuring process's rate
-// R; with R up to 2.5x the rate here (the compiling processes share the two cores that PoCL's
-// two threads use when measuring), 5 x min_time here covers every batch a row reaches. The growth
-// costs ~2 x 5 x min_time per variant; an over-reach costs one unneeded large-grid compile, an
-// under-reach leaves that compile to the row, as before.
+// One run of the variant's kernels on one query builds (or loads) everything its rows use: its
+// programs and, at the first enqueue, PoCL's work-group function for the local size. PoCL 3.1
+// compiles another work-group function for grids with a dimension of 65535 work-items or more
+// ("smallgrid" specialisation, pocl_cache.c); the device engine's launches never reach that
+// (a 2D grid, server/launch_grid.h), so the rows' large batches run the one compiled here.
 bool Driver::WarmOne(const WarmItem &item, bool child, bool *compiled) {
-  constexpr double kGrowthMargin = 5;
   const auto t0 = Clock::now();
   std::vector<float> out;
   std::string why;
   const int compiled_before = engine_->runtime().programs_compiled();
-  bool ok = Eval("device", item.request, 1, &out, &why);
-  const double small = std::chrono::duration<double>(Clock::now() - t0).count();
-  // A variant loaded from the disk cache was compiled by an earlier run or a compile child,
-  // whose growth here built its large-grid function into PoCL's cache too: no growth then.
-  const bool large_grids = engine_->runtime().programs_compiled() != compiled_before;
-  if (compiled) *compiled = large_grids;
-  const auto t1 = Clock::now();
-  uint32_t n = std::min(o_.base_queries, 256u), largest = 0;
-  while (ok && large_grids && o_.min_time > 0) {
-    const auto t = Clock::now();
-    ok = Eval("device", item.request, n, &out, &why);
-    largest = n;
-    if (std::chrono::duration<double>(Clock::now() - t).count() >= kGrowthMargin * o_.min_time ||
-        n >= o_.max_batch)
-      break;
-    n = NextBatch(n, std::chrono::duration<double>(Clock::now() - t).count(),
-                  kGrowthMargin * o_.min_time, o_.max_batch);
-  }
-  const double growth = std::chrono::duration<double>(Clock::now() - t1).count();
-  {
-    char grown[80] = "";
-    if (largest)
-      std::snprintf(grown, sizeof grown, " + %.1f s growth to %u queries (%s grid)", growth,
-                    largest,
-                    (largest + item.lanes_min - 1) / item.lanes_min > 65408 ? "large" : "small");
-    std::fprintf(stderr, "  %s%s %.1f s%s: %s%s\n", large_grids ? "compile" : "load",
-                 child ? " (child)" : "", small, grown, item.key.c_str(),
-                 ok ? "" : (" failed: " + why).c_str());
-  }
+  const bool ok = Eval("device", item.request, 1, &out, &why);
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  // A variant loaded from the disk cache was compiled by an earlier run or a compile child.
+  const bool built = engine_->runtime().programs_compiled() != compiled_before;
+  if (compiled) *compiled = built;
+  std::fprintf(stderr, "  %s%s %.1f s: %s%s\n", built ? "compile" : "load", child ? " (child)" : "",
+               seconds, item.key.c_str(), ok ? "" : (" failed: " + why).c_str());
   return ok;
 }
 
@@ -757,7 +735,7 @@ bool Driver::Claim(const std::string &claim_dir, const WarmItem &item) {
 // disk cache, or with --compile-jobs 1, it compiles them all itself, still before any row, so no
 // row's first run compiles. A child that cannot be started, or ends with a failure or a signal,
 // is reported on stderr (and counted in the JSON's time breakdown); the variants it did not leave
-// in the cache are then compiled here like the others, large grids included.
+// in the cache are then compiled here like the others.
 void Driver::WarmUp() {
   const auto t0 = Clock::now();
   const std::vector<WarmItem> items = WarmItems();
@@ -818,9 +796,7 @@ void Driver::WarmUp() {
     std::filesystem::remove_all(claim_dir, ec);
   }
   // Every variant on this engine: built here already, loaded from the disk cache (a child's),
-  // or compiled now (no children, or a child failed: then with its large-grid compile too, unless
-  // the child died after its build was stamped and before its large-grid run: then the first row
-  // pays that compile).
+  // or compiled now (no children, or a child failed).
   int fallback = 0;
   for (const WarmItem &item : items) {
     if (built_here.count(item.key)) continue;

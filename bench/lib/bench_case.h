@@ -72,6 +72,13 @@ struct ModelBenchCase {
   // one evaluation of the error's queries each (KEMPPINEN's four --quick four-quad rows:
   // ~40 s per extra seed at the quiet machine's rates).
   int error_seeds = 1;
+  // --quick: seeds (0 = error_seeds) and, per light set, the first queries of the shared set
+  // (0 or unset = all of them) behind the bias, where the case's full sample makes the error
+  // evaluations most of a --quick run. The row states what it used (error_seeds,
+  // error_queries) and its standard error (error_se), which grows as 1/sqrt(seeds x queries);
+  // the full run keeps the full sample.
+  int quick_error_seeds = 0;
+  std::function<uint32_t(Lights)> quick_error_queries;
 };
 
 // Registration (see GLINT_BENCH_CASE); returns true so it can initialise a static.

@@ -90,7 +90,9 @@ Status WarmKernels(DeviceEngine *engine, const std::vector<KernelSpec> &specs, i
   for (std::thread &t : pool) t.join();
   if (!first_error.ok()) return first_error;
   // The other queues: the programs are in memory now, this only creates their kernels and runs
-  // them once (PoCL builds its work-group function per kernel and local size at first enqueue).
+  // them once (PoCL builds its work-group function per kernel and local size at first enqueue;
+  // the one-query run's function serves every batch: launches stay below PoCL's small-grid
+  // limit, server/launch_grid.h).
   for (size_t i = 0; i < specs.size(); ++i)
     for (int w = 0; w < engine->workers(); ++w) {
       if (w == ran_on[i]) continue;

@@ -28,7 +28,7 @@
 //                    probes and point-like lights, fp64 REFERENCE quadrature for polygons), the
 //                    relative bias of the batch mean against the smooth model for glint models:
 //                    the mean over request seeds (the case's error_seeds: 16 for BINOMIAL,
-//                    4 with --quick, 1 for the others; --error-seeds S for all; 2 with --tiny)
+//                    1 for the others; --error-seeds S for all; 2 with --tiny)
 //                    on the shared queries (--quick: a case may use fewer, KEMPPINEN's four
 //                    quads 4096; the row's error_queries says how many), error_mean
 //                    its absolute value, error_signed with the sign, error_se its standard
@@ -575,8 +575,8 @@ void Driver::Errors(const Model &model, const ModelBenchCase &c, Lights lights,
     row->error_reference = "REFERENCE fp64 host";
     row->error_queries = uint32_t(truth.size());
   } else if (c.error == ErrorReference::kSmoothMean) {
-    // The glint model's mean over the case's error_seeds request seeds (16 for BINOMIAL, 4 with
-    // --quick; or --error-seeds) (the first the request's own; the
+    // The glint model's mean over the case's error_seeds request seeds (16 for BINOMIAL; or
+    // --error-seeds) (the first the request's own; the
     // others differ in both halves, seed_lo and seed_hi, and the models hash every glint from
     // the seed, so each is an independent realisation) against the smooth model's. One seed is
     // not enough: where a footprint holds few facets that reflect the light (BINOMIAL at N_P p

@@ -16,11 +16,10 @@ ModelBenchCase MakeBinomialCase() {
   // The bias over 16 seeds: one seed's standard error is 1.3-1.9x too small at N_P p << 1 and its
   // law skewed (models/binomial/README.md "Bias at N_P = 1e2?").
   c.error_seeds = 16;
-  // --quick: 4 seeds, a quarter of the error evaluations (they were ~20 s of a 262 s quiet
-  // --quick run), the standard error 2x the full run's (stated in the row). Still several
-  // seeds: the reported SE is the larger of the delta method and the spread of the per-seed
-  // means, and the latter needs more than one seed to see the rare large values at N_P p << 1.
-  c.quick_error_seeds = 4;
+  // Not fewer in --quick: with 4 seeds (tried in session 12) the reported SE was too small at
+  // N_P = 1e2, where the rare large values dominate: 0.0022 for the quad against 0.0034 from 16
+  // seeds (a correct SE would have doubled, 0.0068), 0.079 against 0.055 for directional_point
+  // (bench_models --quick, loaded run). 16 seeds cost ~20 s of a quiet --quick run.
   c.base = [](glint::v1::Material *m) {
     m->set_ndf(glint::v1::GGX);
     m->set_alpha_x(0.3f);

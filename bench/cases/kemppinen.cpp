@@ -14,9 +14,10 @@ ModelBenchCase MakeKemppinenCase() {
   c.model = glint::v1::KEMPPINEN;
   c.error = ErrorReference::kSmoothMean;
   // --quick: the four-quad bias over the first 4096 queries, not 16384: that polygon pass runs
-  // ~1e4 queries/s, so its 16 rows' errors (4 k x 2 precisions x device and host) were ~16 s of a
-  // 262 s quiet --quick run. The standard error doubles (~0.019 instead of 0.0093, stated in the
-  // row); the full run keeps all queries. The other light sets run 10-100x faster: all queries.
+  // ~1e4 queries/s, so its 16 rows' errors (4 k x 2 precisions x device and host, ~1.5 s each)
+  // were most of KEMPPINEN's 20 s of errors in the 262 s quiet --quick run. The standard error
+  // doubles (0.017 instead of 0.0093, stated in the row); the full run keeps all queries. The
+  // other light sets run 10-100x faster: all queries.
   c.quick_error_queries = [](Lights l) { return l == Lights::kFourQuads ? 4096u : 0u; };
   c.base = [](glint::v1::Material *m) {
     m->set_ndf(glint::v1::GGX);

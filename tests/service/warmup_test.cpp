@@ -231,9 +231,12 @@ TEST(WarmUp, LargeRequestAfterWarmUpCompilesNoWorkGroupFunction) {
   std::unique_ptr<DeviceEngine> engine;
   ASSERT_TRUE(DeviceEngine::Create(o, &engine).ok());
   const std::string pocl = engine->runtime().platform_cache_dir();
-  if (pocl != dir + "/pocl")
+  if (pocl != dir + "/pocl") {
+    engine.reset();
+    std::filesystem::remove_all(dir);
     GTEST_SKIP() << "PoCL's kernel cache is not this test's fresh one (\"" << pocl
                  << "\": POCL_CACHE_DIR set, its cache off, or another OpenCL platform)";
+  }
 
   constexpr uint32_t kQueries = 1u << 20;
   const EvaluateRequest r = SmoothRequest(Shape::kProbe, v1::GGX, false, kQueries);

@@ -96,6 +96,12 @@ Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleReques
   // The normal map of a NORMAL_MAP material (NOT_FOUND naming the digest when it is gone).
   s = ResolveRequestTable(settings.material(), &plan);
   if (!s.ok()) return s;
+  // A sample pass not yet built on this worker is built first and timed apart, so the caller's
+  // compute_ms and the slice sizes see the sampling alone (EvaluateStats.compile_ms).
+  double compile_ms = 0;
+  if (engine) s = engine->PrepareSample(worker, plan, q, &compile_ms);
+  response->mutable_stats()->set_compile_ms(compile_ms);
+  if (!s.ok()) return s;
   std::vector<float> raw(samples * kSampleFloats);
   // Queries [begin, begin + size) write samples [begin K, (begin + size) K): the sample keys do
   // not depend on a query's index in the batch (kernels/sample.h), so slicing is bit-identical.

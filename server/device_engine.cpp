@@ -1,12 +1,14 @@
 #include "server/device_engine.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <tuple>
 
 #include "server/kernel_source.h"
 #include "server/launch_grid.h"
 #include "server/model_table.h"
+#include "server/sliced_eval.h"
 
 namespace glint {
 
@@ -212,13 +214,69 @@ DeviceEngine::~DeviceEngine() {
   model_tables_.clear();
 }
 
+namespace {
+
+// The spec's options plus the SIMD width, which only the pass decides. Also (with the source)
+// the key of the program cache.
+std::string PassOptions(const ModelPass &pass, const KernelSpec &spec) {
+  return spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(pass.simd_width);
+}
+
+// The key of a queue's kernel map.
+std::string PassKey(const ModelPass &pass, const KernelSpec &spec) {
+  return std::string(pass.kernel_file) + '\n' + pass.entry + '\n' + PassOptions(pass, spec);
+}
+
+double MsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+bool DeviceEngine::Ready(int worker, const EvalPlan &plan, bool sample) const {
+  const Queue &queue = *queues_.at(size_t(worker));
+  const Model *model = FindModel(plan.spec.model);
+  if (!model) return true;  // Evaluate / Sample refuse it; nothing to build
+  if (sample) {
+    if (!model->sample.kernel_file) return true;
+    const ModelPass pass = {
+        model->sample.kernel_file, model->sample.entry, 1, nullptr, nullptr, nullptr};
+    return queue.kernels.count(PassKey(pass, plan.spec)) > 0;
+  }
+  for (const ModelPass &pass : model->passes)
+    if ((!pass.needed || pass.needed(plan)) && !queue.kernels.count(PassKey(pass, plan.spec)))
+      return false;
+  return true;
+}
+
+Status DeviceEngine::Prepare(int worker, const EvalPlan &plan, const QueryView &queries,
+                             double *ms) {
+  *ms = 0;
+  if (queries.count == 0 || Ready(worker, plan, false)) return Status::Ok();
+  const auto t0 = std::chrono::steady_clock::now();
+  float rgb[3];
+  Status s = Evaluate(worker, plan, queries.Slice(0, 1), rgb);
+  *ms = MsSince(t0);
+  return s;
+}
+
+Status DeviceEngine::PrepareSample(int worker, const EvalPlan &plan,
+                                   const glint::v1::QueryBatch &queries, double *ms) {
+  *ms = 0;
+  if (queries.count() == 0 || Ready(worker, plan, true)) return Status::Ok();
+  const auto t0 = std::chrono::steady_clock::now();
+  glint::v1::QueryBatch first;
+  CopyQuerySlice(queries, 0, 1, &first);
+  float out[kSampleFloats];
+  Status s = Sample(worker, plan, first, 1, out);
+  *ms = MsSince(t0);
+  return s;
+}
+
 Status DeviceEngine::KernelFor(Queue &queue, const ModelPass &pass, const KernelSpec &spec,
                                cl_kernel *out) {
-  // The spec's options plus the SIMD width, which only the pass decides. Also the key of the
-  // queue's kernel map and (with the source) of the program cache.
-  const std::string options =
-      spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(pass.simd_width);
-  const std::string key = std::string(pass.kernel_file) + '\n' + pass.entry + '\n' + options;
+  const std::string options = PassOptions(pass, spec);
+  const std::string key = PassKey(pass, spec);
   auto it = queue.kernels.find(key);
   if (it != queue.kernels.end()) {
     *out = it->second.get();

@@ -55,6 +55,20 @@ class DeviceEngine {
   Status Sample(int worker, const EvalPlan &plan, const glint::v1::QueryBatch &queries,
                 uint32_t samples_per_query, float *out);
 
+  // Whether every kernel `plan` runs (its evaluation passes, or with `sample` its sample pass)
+  // is built on `worker`'s queue already, so a call builds nothing.
+  bool Ready(int worker, const EvalPlan &plan, bool sample) const;
+  // Readies a variant before the timed work of a request (EvaluateStats.compile_ms): when a
+  // kernel `plan` runs is not built on `worker`'s queue yet, builds it (or loads it from the
+  // cache) and runs the plan on the first query alone, output discarded, since PoCL compiles a
+  // kernel's work-group function at its first launch; *ms = the time that took. *ms = 0 and
+  // nothing runs when all are ready. The request then runs every query as usual (results are
+  // unaffected), and its compute time no longer carries the compile.
+  Status Prepare(int worker, const EvalPlan &plan, const QueryView &queries, double *ms);
+  // The same for the sample pass (one sample of the first query).
+  Status PrepareSample(int worker, const EvalPlan &plan, const glint::v1::QueryBatch &queries,
+                       double *ms);
+
   // Builds the kernels for `spec` and runs them once on every queue at the
   // production local size (PoCL compiles per local size at first enqueue).
   // worker >= 0: on that queue only (concurrent calls with different workers

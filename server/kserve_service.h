@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "inference/grpc_service.grpc.pb.h"
+#include "server/eval_plan.h"
 #include "server/kserve_models.h"
 #include "server/service.h"
 
@@ -32,9 +33,10 @@ class KServeServiceImpl final : public inference::GRPCInferenceService::Callback
   // ServerReady / ModelReady answer true only after this (glintd: when it reports SERVING).
   void SetReady(bool ready) { ready_ = ready; }
 
-  // Compiles and runs once each preset's kernel (queries without a world frame), so that a
-  // model's first ModelInfer does not pay for PoCL's compile. Errors name the model.
-  Status Warm(DeviceEngine *engine) const;
+  // The kernel variant of each preset (queries without a world frame), without duplicates:
+  // glintd warms them with the models' own (server/warmup.h) unless --warm none, so that a
+  // model's first ModelInfer does not pay for PoCL's compile.
+  std::vector<KernelSpec> WarmSpecs() const;
 
   const std::vector<KServeModel> &models() const { return models_; }
 

@@ -92,8 +92,13 @@ Status DecodeInferInputs(const inference::ModelInferRequest &request, bool has_l
                          glint::v1::QueryBatch *queries) {
   const std::vector<KServeInput> accepted = KServeInputs(has_lights);
   const bool raw = request.raw_input_contents_size() > 0;
-  if (Status s = CheckRawContentsCount(request); !s.ok()) return s;
-  // Check names and find the row count (wo's) before reading any data.
+  // The row count and wo itself (present, FP32 [N, 3], its data filling the shape): checked once,
+  // by the function admission calls first, so wo has one message per problem (the decoder had
+  // its own wo checks, worded differently: "N >= 1" here, "1 <= N < 2^32" there).
+  uint64_t wo_rows = 0;
+  if (Status s = InferQueryCount(request, &wo_rows); !s.ok()) return s;
+  const int64_t rows = int64_t(wo_rows);
+  // Check names before reading any data.
   std::map<std::string, int> index;  // input name -> position in request.inputs
   for (int i = 0; i < request.inputs_size(); ++i) {
     const std::string &name = request.inputs(i).name();
@@ -115,12 +120,6 @@ Status DecodeInferInputs(const inference::ModelInferRequest &request, bool has_l
           std::to_string(in.width) + "]" +
           (std::string(in.name) == "wi" ? ", BRDF probes: the model has no lights)" : ")"));
     }
-  }
-  const auto &wo_shape = request.inputs(index.at("wo")).shape();
-  const int64_t rows = wo_shape.size() == 2 ? wo_shape[0] : -1;
-  if (rows < 1 || rows > int64_t(std::numeric_limits<uint32_t>::max())) {
-    return Status::InvalidArgument("input 'wo': shape " + ShapeText(wo_shape) +
-                                   "; expected [N, 3] with N >= 1 queries");
   }
 
   for (const KServeInput &in : accepted) {
@@ -195,6 +194,12 @@ Status InferQueryCount(const inference::ModelInferRequest &request, uint64_t *ro
                                    "; expected [N, 3] with 1 <= N < 2^32 queries");
   }
   const uint64_t n = uint64_t(shape[0]);
+  if (!raw) {
+    if (const char *other = NonFp32Contents(input.contents())) {
+      return Status::InvalidArgument(std::string("input 'wo': data in contents.") + other +
+                                     "; expected contents.fp32_contents (datatype FP32)");
+    }
+  }
   // The data must fill the shape exactly: the shape is what admission charges.
   const uint64_t floats = raw ? request.raw_input_contents(wo).size() / sizeof(float)
                               : uint64_t(input.contents().fp32_contents_size());
@@ -285,6 +290,41 @@ Status CheckRequestedOutputs(const inference::ModelInferRequest &request) {
                                    "': the model has one output, radiance; request it at most "
                                    "once (or request none for all)");
   }
+  return Status::Ok();
+}
+
+namespace {
+
+// The refusal of a tensor parameter: the shared-memory extension's (Triton's system and CUDA
+// shared memory: the client's tritonclient set_shared_memory sets all three) named as such.
+Status TensorParameterRefusal(const std::string &what, const std::string &parameter) {
+  if (parameter.rfind("shared_memory_", 0) == 0) {
+    return Status::InvalidArgument(
+        what + ": parameter '" + parameter +
+        "': glintd does not implement the shared-memory extension (system or CUDA shared "
+        "memory); send the data in the request and receive radiance in raw_output_contents "
+        "(same-host clients: glint.v1 EvaluateRequest.shared_memory)");
+  }
+  return Status::InvalidArgument(what + ": parameter '" + parameter +
+                                 "': not supported; glintd reads no tensor parameters");
+}
+
+}  // namespace
+
+Status CheckTensorParameters(const inference::ModelInferRequest &request) {
+  // Map order is unspecified: name the smallest parameter so the message is deterministic.
+  auto first = [](const auto &parameters) {
+    std::string name;
+    for (const auto &[key, value] : parameters)
+      if (name.empty() || key < name) name = key;
+    return name;
+  };
+  for (const auto &input : request.inputs())
+    if (!input.parameters().empty())
+      return TensorParameterRefusal("input '" + input.name() + "'", first(input.parameters()));
+  for (const auto &output : request.outputs())
+    if (!output.parameters().empty())
+      return TensorParameterRefusal("output '" + output.name() + "'", first(output.parameters()));
   return Status::Ok();
 }
 

@@ -29,6 +29,7 @@ struct KServeInput {
 std::vector<KServeInput> KServeInputs(bool has_lights);
 
 // Fills `queries` from the request's input tensors: one query per row, as many rows as wo.
+// wo itself is checked by InferQueryCount (the same refusal, word for word, as at admission).
 Status DecodeInferInputs(const inference::ModelInferRequest &request, bool has_lights,
                          glint::v1::QueryBatch *queries);
 
@@ -47,6 +48,12 @@ Status ApplyInferParameters(const inference::ModelInferRequest &request,
 
 // Checks the requested outputs: none (= all) or "radiance" once.
 Status CheckRequestedOutputs(const inference::ModelInferRequest &request);
+
+// Input and requested-output tensors carry no parameters: glintd reads none, and ignoring them
+// answered a client that asked for its output in a shared-memory region (tritonclient's
+// InferRequestedOutput.set_shared_memory) with raw_output_contents and an untouched region.
+// INVALID_ARGUMENT naming the tensor and the parameter (the shared-memory ones as such).
+Status CheckTensorParameters(const inference::ModelInferRequest &request);
 
 // glint.v1's messages in the protocol's words: "queries.wo[17]: ..." becomes
 // "input 'wo' row 17: ..." and "queries.uv: ..." becomes "input 'uv': ..."; others stay as

@@ -113,6 +113,11 @@ void Metrics::CountEvaluated(const std::string &model, uint64_t queries, double 
   compute_.try_emplace(model, LatencyBuckets()).first->second.Observe(compute_seconds);
 }
 
+void Metrics::ObserveCompile(const std::string &model, double seconds) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  compile_.try_emplace(model, LatencyBuckets()).first->second.Observe(seconds);
+}
+
 void Metrics::ObserveQueueWait(double seconds) {
   std::lock_guard<std::mutex> lock(mutex_);
   queue_wait_.Observe(seconds);
@@ -147,10 +152,17 @@ std::string Metrics::Render() const {
   }
   Header("glint_compute_seconds", "histogram",
          "Evaluation time of one batch (a unary request or a stream chunk) on a worker, by "
-         "material model.",
+         "material model; a cold variant's kernel build is in glint_compile_seconds instead.",
          &out);
   for (const auto &[model, h] : compute_)
     h.Render("glint_compute_seconds", "model=\"" + Escape(model) + "\"", &out);
+  Header("glint_compile_seconds", "histogram",
+         "Kernel builds by requests: the time a request or stream chunk spent building (or "
+         "loading) a kernel variant its worker had not built yet, before its compute time, by "
+         "material model.",
+         &out);
+  for (const auto &[model, h] : compile_)
+    h.Render("glint_compile_seconds", "model=\"" + Escape(model) + "\"", &out);
   Header("glint_queue_wait_seconds", "histogram",
          "Time a request or stream chunk waited in the scheduler queue before a worker took it.",
          &out);

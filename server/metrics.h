@@ -48,8 +48,12 @@ class Metrics {
 
   // One finished RPC: `method` is gRPC's full name "/package.Service/Method".
   void CountRpc(const std::string &method, grpc::StatusCode code);
-  // One batch (unary request or stream chunk) evaluated successfully.
+  // One batch (unary request or stream chunk) evaluated successfully; compute_seconds without
+  // the kernel build of a cold variant (ObserveCompile), as EvaluateStats.compute_ms.
   void CountEvaluated(const std::string &model, uint64_t queries, double compute_seconds);
+  // A request or chunk that had to build its kernel variant on its worker's queue first
+  // (EvaluateStats.compile_ms > 0): how long that took.
+  void ObserveCompile(const std::string &model, double seconds);
   // Time a request or chunk waited in the scheduler's queue before a worker took it.
   void ObserveQueueWait(double seconds);
 
@@ -66,6 +70,7 @@ class Metrics {
   std::map<std::tuple<std::string, std::string, std::string>, uint64_t> rpcs_;
   std::map<std::string, uint64_t> queries_;   // model -> queries evaluated
   std::map<std::string, Histogram> compute_;  // model -> compute latency
+  std::map<std::string, Histogram> compile_;  // model -> kernel builds by requests
   Histogram queue_wait_;
   std::function<double()> queue_depth_;
   double queue_capacity_ = 0.0;

@@ -131,9 +131,8 @@ grpc::ServerUnaryReactor *GlintServiceImpl::ListNormalMaps(grpc::CallbackServerC
   using glint::v1::ListNormalMapsResponse;
   return AnswerNow<ListNormalMapsRequest, ListNormalMapsResponse>(
       ctx, options_.auth, body, reply,
-      [](const ListNormalMapsRequest &, ListNormalMapsResponse *response) {
-        NormalMaps().List(response);
-        return grpc::Status::OK;
+      [](const ListNormalMapsRequest &request, ListNormalMapsResponse *response) {
+        return ToGrpcStatus(NormalMaps().List(request, response));
       });
 }
 

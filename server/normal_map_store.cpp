@@ -1,6 +1,8 @@
 #include "server/normal_map_store.h"
 
+#include <algorithm>
 #include <new>
+#include <string>
 
 #include "models/normal_map/normal_map_params.h"
 #include "models/normal_map/normal_map_table.h"
@@ -242,9 +244,44 @@ Status NormalMapStore::Check(const std::string &digest, int subdivision) {
   return SubdivisionFits(it->second.info.width(), it->second.info.height(), limits_.max_texels);
 }
 
-void NormalMapStore::List(glint::v1::ListNormalMapsResponse *out) const {
+namespace {
+
+// A page token is the last digest of the page before, behind a prefix that marks it as ours.
+// The order is the digests' (maps_ is sorted by them), not recency: recency changes with every
+// request that uses a map, so pages in that order skipped and repeated maps between calls.
+constexpr const char *kPageTokenPrefix = "after:";
+
+}  // namespace
+
+Status NormalMapStore::List(const glint::v1::ListNormalMapsRequest &request,
+                            glint::v1::ListNormalMapsResponse *out) const {
+  if (request.page_size() < 0) {
+    return Status::InvalidArgument("page_size: " + std::to_string(request.page_size()) +
+                                   "; expected 0 (the default, " +
+                                   std::to_string(kDefaultNormalMapPageSize) + ") or more");
+  }
+  const size_t page_size = request.page_size() == 0 ? kDefaultNormalMapPageSize
+                                                    : std::min<size_t>(size_t(request.page_size()),
+                                                                       kMaxNormalMapPageSize);
+  std::string after;
+  if (!request.page_token().empty()) {
+    const std::string &token = request.page_token();
+    const size_t prefix = std::char_traits<char>::length(kPageTokenPrefix);
+    if (token.compare(0, prefix, kPageTokenPrefix) != 0 ||
+        !IsNormalMapDigest(token.substr(prefix))) {
+      return Status::InvalidArgument(
+          "page_token: not a token this server made; pass a previous reply's next_page_token, "
+          "or none for the first page");
+    }
+    after = token.substr(prefix);
+  }
   std::lock_guard<std::mutex> lock(mutex_);
-  for (const std::string &d : lru_) *out->add_maps() = maps_.at(d).info;
+  auto it = after.empty() ? maps_.begin() : maps_.upper_bound(after);
+  for (; it != maps_.end() && size_t(out->maps_size()) < page_size; ++it)
+    *out->add_maps() = it->second.info;
+  if (it != maps_.end())
+    out->set_next_page_token(kPageTokenPrefix + out->maps().rbegin()->digest());
+  return Status::Ok();
 }
 
 Status NormalMapStore::Delete(const std::string &digest) {

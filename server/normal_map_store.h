@@ -57,7 +57,11 @@ class NormalMapStore {
   // calls (ResolveRequestTable); its budget refusal comes from there.
   Status Check(const std::string &digest, int subdivision);
 
-  void List(glint::v1::ListNormalMapsResponse *out) const;
+  // One page of the held maps in digest order (AIP-158 paging, glint.proto
+  // ListNormalMapsRequest): INVALID_ARGUMENT naming page_size (negative) or page_token (not one
+  // this store made).
+  Status List(const glint::v1::ListNormalMapsRequest &request,
+              glint::v1::ListNormalMapsResponse *out) const;
   Status Delete(const std::string &digest);
   uint64_t bytes() const;
   // Subdivision-4 tables built since the store was made (each map's is built once however many
@@ -88,6 +92,12 @@ class NormalMapStore {
   std::map<std::string, std::shared_future<BuildResult>> building_;
   uint64_t subdivision_builds_ = 0;
 };
+
+// ListNormalMaps page sizes: page_size 0 means the default; larger than the maximum is read as
+// the maximum. A full page of 255-byte file names serializes to ~0.4 MB, within the smallest
+// --max-message-mb (1), so no reply outgrows the message limit however many maps are held.
+constexpr size_t kDefaultNormalMapPageSize = 100;
+constexpr size_t kMaxNormalMapPageSize = 1000;
 
 // The process's store (glintd configures it from its flags; the NORMAL_MAP model reads it).
 NormalMapStore &NormalMaps();

@@ -80,7 +80,7 @@ Status ValidateSampleRequest(const glint::v1::SampleRequest &r, const Validation
 
 Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleRequest &request,
                  const ValidationLimits &limits, glint::v1::SampleResponse *response,
-                 const SliceOptions *slicing) {
+                 const SliceOptions *slicing, double *compile_ms) {
   glint::v1::EvaluateRequest settings;
   Status s = ValidateSampleRequest(request, limits, &settings);
   if (!s.ok()) return s;
@@ -95,6 +95,12 @@ Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleReques
   plan.spec.sample_uv = q.uv_size() > 0 && settings.material().model() == glint::v1::SMOOTH;
   // The normal map of a NORMAL_MAP material (NOT_FOUND naming the digest when it is gone).
   s = ResolveRequestTable(settings.material(), &plan);
+  if (!s.ok()) return s;
+  // A sample pass not yet built on this worker is built first and timed apart, so the caller's
+  // compute_ms and the slice sizes see the sampling alone (EvaluateStats.compile_ms).
+  double prepare_ms = 0;
+  if (engine) s = engine->PrepareSample(worker, plan, q, &prepare_ms);
+  if (compile_ms) *compile_ms = prepare_ms;
   if (!s.ok()) return s;
   std::vector<float> raw(samples * kSampleFloats);
   // Queries [begin, begin + size) write samples [begin K, (begin + size) K): the sample keys do

@@ -36,13 +36,15 @@ Status ValidateSampleSettings(const glint::v1::SampleRequest &request,
 Status ValidateSampleRequest(const glint::v1::SampleRequest &request,
                              const ValidationLimits &limits, glint::v1::EvaluateRequest *settings);
 
-// Validates and samples: fills response's wi, pdf and weight (not its stats). `engine` null:
+// Validates and samples: fills response's wi, pdf and weight (not its stats; `compile_ms`, if
+// not null, gets the build of a sample pass not yet built on `worker`'s queue, done and timed
+// before the sampling: DeviceEngine::PrepareSample; 0 on the host path). `engine` null:
 // the host path. `worker` is the engine queue to run on. Runs in query slices as Evaluate does
 // (server/sliced_eval.h; `slicing`'s per_query_cost is replaced by the request's own:
 // EstimateSampleCost, server/request_cost.h) and returns slicing.stop's status when
 // that stops it between slices; null: one launch.
 Status RunSample(DeviceEngine *engine, int worker, const glint::v1::SampleRequest &request,
                  const ValidationLimits &limits, glint::v1::SampleResponse *response,
-                 const SliceOptions *slicing = nullptr);
+                 const SliceOptions *slicing = nullptr, double *compile_ms = nullptr);
 
 }  // namespace glint

@@ -265,6 +265,15 @@ Status GlintServiceImpl::RunShared(int worker, const glint::v1::EvaluateRequest 
   s = ResolveRequestTable(settings.material(), &plan);
   if (!s.ok()) return s;
   if (kernel) *kernel = plan.spec.Describe();
+  // A cold variant is built first and timed apart (EvaluateStats.compile_ms), as in RunBatchInto.
+  // In place, before the overlapped value check: the in-place kernels are safe on any bytes.
+  double compile_ms = 0;
+  if (engine_) s = engine_->Prepare(worker, plan, view, &compile_ms);
+  response->mutable_stats()->set_compile_ms(compile_ms);
+  if (options_.metrics && compile_ms > 0)
+    options_.metrics->ObserveCompile(glint::v1::Model_Name(settings.material().model()),
+                                     compile_ms / 1e3);
+  if (!s.ok()) return s;
   const auto start = std::chrono::steady_clock::now();
   SliceOptions slicing;
   slicing.per_query_cost = per_query_cost;

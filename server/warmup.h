@@ -6,9 +6,12 @@
 // work-group function, at a time per process (clBuildProgram holds the context's LLVM lock, the
 // first-enqueue compile a process-wide lock; bench/bench_models.cpp Driver::WarmUp compiles in
 // several processes for that reason). `--warm` chooses how much:
-//   none    nothing: SERVING at once, each variant is built by its first request (tests, tools)
-//   common  every model's warm_specs (the default)
+//   none    nothing, not even the KServe --model presets: SERVING at once, each variant is
+//           built by its first request (tests, tools), whose EvaluateStats.compile_ms says so
+//   common  every model's warm_specs (the default), plus each --model preset's variant
 //   all     those shapes with every Fresnel kind and, where the device has fp64, both precisions
+// glintd logs how many variants it warmed, how many of them for presets, and the programs the
+// runtime compiled and loaded from the disk cache.
 #pragma once
 
 #include <string>

@@ -46,6 +46,7 @@ commands:
   sample    importance-sample a material's BRDF: K directions, pdf and weight per query (CSV)
   upload    upload a normal map (EXR / PNG) and print its digest
   normal-map  generate a normal map: bumpy, flakes, brushed or scratches
+  normal-maps list or delete the normal maps a server holds
 
 Run 'glint <command> --help' for the options of a command.
 )";
@@ -287,6 +288,7 @@ int main(int argc, char **argv) {
   if (name == "load") return glint::cli::RunLoad(argc - 2, argv + 2);
   if (name == "upload") return glint::cli::RunUpload(argc - 2, argv + 2);
   if (name == "normal-map") return glint::cli::RunNormalMap(argc - 2, argv + 2);
+  if (name == "normal-maps") return glint::cli::RunNormalMaps(argc - 2, argv + 2);
   if (name == "sample") return glint::client::RunSampleCommand(argc - 2, argv + 2);
   if (name == "--help" || name == "-h" || name == "help") {
     std::fputs(kUsage, stdout);

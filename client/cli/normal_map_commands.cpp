@@ -1,6 +1,8 @@
 #include "client/cli/normal_map_commands.h"
 
+#include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -23,6 +25,18 @@ constexpr const char *kUploadUsage = R"(usage: glint upload --server ADDR FILE [
 Uploads a normal map (OpenEXR float RGB or 8/16-bit RGB PNG tangent-space normals) to glintd
 and prints its digest, sha256:<hex>, for material JSON {"normal_map": {"digest": ...}}. The
 server stores a map once however often it is uploaded.
+)";
+
+constexpr const char *kNormalMapsUsage =
+    R"(usage: glint normal-maps list --server ADDR [--page-size N]
+       glint normal-maps delete --server ADDR DIGEST
+                         [--tls-ca PEM] [--tls-cert PEM --tls-key PEM] [--token-file FILE]
+
+list    prints every normal map the server holds, one per line in digest order:
+        digest, width x height, bytes held, file name (tab-separated). Follows the server's
+        pages (ListNormalMaps page_token) until the last; --page-size N asks for N maps per call
+        (default 1000, the server's largest page).
+delete  drops the map DIGEST from the server (requests naming it then get NOT_FOUND).
 )";
 
 std::string ReadWholeFile(const std::string &path) {
@@ -192,6 +206,83 @@ int RunUpload(int argc, char **argv) {
                    uploaded ? ("uploaded to " + one).c_str() : ("already held by " + one).c_str());
     }
     std::printf("%s\n", digest.c_str());
+    return 0;
+  } catch (const std::exception &e) {
+    std::fprintf(stderr, "glint: %s\n", e.what());
+    return 1;
+  }
+}
+
+int RunNormalMaps(int argc, char **argv) {
+  auto usage = [](const std::string &problem) {
+    std::fprintf(stderr, "glint normal-maps: %s\n\n%s", problem.c_str(), kNormalMapsUsage);
+    return 2;
+  };
+  if (argc >= 1 && (std::strcmp(argv[0], "--help") == 0 || std::strcmp(argv[0], "-h") == 0)) {
+    std::fputs(kNormalMapsUsage, stdout);
+    return 0;
+  }
+  if (argc < 1) return usage("missing list or delete");
+  const std::string verb = argv[0];
+  if (verb != "list" && verb != "delete") return usage("unknown action '" + verb + "'");
+  std::string server, digest;
+  int32_t page_size = client::kNormalMapPageSize;
+  std::map<std::string, std::string> security;  // --tls-ca, --tls-cert, --tls-key, --token-file
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      std::fputs(kNormalMapsUsage, stdout);
+      return 0;
+    }
+    if (a == "--server" && i + 1 < argc) {
+      server = argv[++i];
+    } else if (a == "--page-size" && i + 1 < argc && verb == "list") {
+      const std::string v = argv[++i];
+      char *end = nullptr;
+      const long n = std::strtol(v.c_str(), &end, 10);
+      if (v.empty() || *end != '\0' || n < 1 || n > client::kNormalMapPageSize)
+        return usage("--page-size " + v + ": expected 1 to " +
+                     std::to_string(client::kNormalMapPageSize));
+      page_size = int32_t(n);
+    } else if ((a == "--tls-ca" || a == "--tls-cert" || a == "--tls-key" || a == "--token-file") &&
+               i + 1 < argc) {
+      security[a.substr(2)] = argv[++i];
+    } else if (verb == "delete" && a.rfind("--", 0) != 0 && digest.empty()) {
+      digest = a;
+    } else {
+      return usage("unexpected argument '" + a + "'");
+    }
+  }
+  if (server.empty()) return usage("missing --server");
+  if (verb == "delete" && digest.empty()) return usage("missing DIGEST");
+  try {
+    client::ClientOptions options;
+    options.security = client::LoadChannelSecurity(security["tls-ca"], security["tls-cert"],
+                                                   security["tls-key"], security["token-file"]);
+    client::GlintClient client(server, options);
+    if (verb == "delete") {
+      if (grpc::Status st = client.DeleteNormalMap(digest); !st.ok())
+        throw std::runtime_error("DeleteNormalMap: " + client::FormatStatus(st));
+      std::fprintf(stderr, "glint normal-maps: deleted %s\n", digest.c_str());
+      return 0;
+    }
+    // Page by page, printed as they come: the list may be long.
+    glint::v1::ListNormalMapsRequest request;
+    request.set_page_size(page_size);
+    uint64_t listed = 0;
+    do {
+      glint::v1::ListNormalMapsResponse page;
+      if (grpc::Status st = client.ListNormalMapsPage(request, &page); !st.ok())
+        throw std::runtime_error("ListNormalMaps: " + client::FormatStatus(st));
+      if (!page.next_page_token().empty() && page.next_page_token() == request.page_token())
+        throw std::runtime_error("ListNormalMaps: the server returned the same page token twice");
+      for (const auto &m : page.maps())
+        std::printf("%s\t%ux%u\t%llu\t%s\n", m.digest().c_str(), m.width(), m.height(),
+                    static_cast<unsigned long long>(m.bytes()), m.filename().c_str());
+      listed += uint64_t(page.maps_size());
+      request.set_page_token(page.next_page_token());
+    } while (!request.page_token().empty());
+    std::fprintf(stderr, "glint normal-maps: %llu maps\n", static_cast<unsigned long long>(listed));
     return 0;
   } catch (const std::exception &e) {
     std::fprintf(stderr, "glint: %s\n", e.what());

@@ -12,6 +12,10 @@ namespace glint::cli {
 // glint upload --server ADDR FILE: prints "sha256:<hex>". argv holds the command's arguments.
 int RunUpload(int argc, char **argv);
 
+// glint normal-maps list|delete --server ADDR ...: the server's maps, following
+// ListNormalMaps' pages; or drops one.
+int RunNormalMaps(int argc, char **argv);
+
 // glint normal-map bumpy|flakes|brushed|scratches --size N --out FILE [--seed S].
 int RunNormalMap(int argc, char **argv);
 

@@ -7,6 +7,7 @@
 #include <condition_variable>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -120,7 +121,11 @@ ChannelSecurity LoadChannelSecurity(const std::string &tls_ca_file,
 std::shared_ptr<grpc::Channel> MakeChannel(const std::string &address, int max_message_bytes,
                                            const ChannelSecurity &security) {
   grpc::ChannelArguments args;
-  args.SetMaxReceiveMessageSize(max_message_bytes);
+  // Replies may be kReplyOverheadBytes over the server's (= our) limit; int arithmetic clamped.
+  args.SetMaxReceiveMessageSize(max_message_bytes >
+                                        std::numeric_limits<int>::max() - kReplyOverheadBytes
+                                    ? std::numeric_limits<int>::max()
+                                    : max_message_bytes + kReplyOverheadBytes);
   args.SetMaxSendMessageSize(max_message_bytes);
   // gRPC backs off up to 120 s between connection attempts by default; an interactive tool that
   // waits for a starting server wants to notice it within a second or so.
@@ -184,7 +189,7 @@ uint32_t SampleQueriesPerCall(const glint::v1::Capabilities &caps, int client_ma
   const uint64_t overhead = settings_bytes + kEnvelopeBytes;
   const uint64_t room = budget > overhead ? budget - overhead : 0;
   // Per query: its arrays in the request, K samples of wi (3), pdf (1), weight (3) in the reply.
-  const uint64_t per_query = std::max<uint64_t>({query_bytes, k * 7 * sizeof(float), 1});
+  const uint64_t per_query = std::max<uint64_t>({query_bytes, k * kSampleReplyBytesPerSample, 1});
   const uint64_t by_bytes = std::max<uint64_t>(1, room / per_query);
   const uint64_t by_batch =
       std::max<uint64_t>(1, (caps.max_batch() ? caps.max_batch() : UINT32_MAX) / k);

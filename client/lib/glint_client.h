@@ -20,6 +20,16 @@
 
 namespace glint::client {
 
+// The wire contract's sizes (proto/glint/v1/glint.proto), one name each:
+// - replies may exceed Capabilities.max_message_bytes by this much (the server's send limit is
+//   its receive limit + 4096: stats, a stream result's indices), so a channel receives up to
+//   its send limit + this (MakeChannel);
+constexpr int kReplyOverheadBytes = 4096;
+// - each sample adds this many bytes to a SampleResponse (7 packed floats: wi, pdf, weight);
+constexpr uint64_t kSampleReplyBytesPerSample = 28;
+// - maps asked for per ListNormalMaps page when listing them all (the server's largest page).
+constexpr int32_t kNormalMapPageSize = 1000;
+
 // Called after each part of a batch has come back: `done` of `total` queries evaluated.
 // Runs on the calling thread of Evaluate.
 using ProgressFn = std::function<void(uint64_t done, uint64_t total)>;
@@ -43,13 +53,16 @@ ChannelSecurity LoadChannelSecurity(const std::string &tls_ca_file,
                                     const std::string &tls_cert_file,
                                     const std::string &tls_key_file, const std::string &token_file);
 
-// The channel every GlintClient uses: message limits, quick reconnects, and `security`.
+// The channel every GlintClient uses: message limits, quick reconnects, and `security`. It sends
+// up to `max_message_bytes` and receives up to max_message_bytes + kReplyOverheadBytes, so a
+// client whose limit equals the server's receives the server's largest reply.
 std::shared_ptr<grpc::Channel> MakeChannel(const std::string &address, int max_message_bytes,
                                            const ChannelSecurity &security);
 
 struct ClientOptions {
-  // Both directions. The server advertises its own limit in Capabilities.max_message_bytes; this
-  // only has to be at least as large so that the client is never the side that refuses.
+  // Requests sent (replies received: this + kReplyOverheadBytes). The server advertises its own
+  // limit in Capabilities.max_message_bytes; this only has to be at least as large so that the
+  // client is never the side that refuses.
   int max_message_bytes = 64 << 20;
   // Upper bound on the serialized size of one message (a unary request or a stream chunk).
   // Several MiB keeps per-message latency and memory small while amortising per-message
@@ -128,7 +141,13 @@ class GlintClient {
   // bytes in chunks of at most 1 MiB; `filename`'s extension tells the server its format.
   grpc::Status UploadNormalMap(const std::string &filename, const std::string &bytes,
                                glint::v1::NormalMapInfo *info);
+  // Every map the server holds, in digest order: follows ListNormalMaps' pages (AIP-158,
+  // kNormalMapPageSize per call) until next_page_token is empty; `maps` holds them all and no
+  // next_page_token. A server older than paging answers everything in one page, which works too.
   grpc::Status ListNormalMaps(glint::v1::ListNormalMapsResponse *maps);
+  // One page as asked (page_size, page_token).
+  grpc::Status ListNormalMapsPage(const glint::v1::ListNormalMapsRequest &request,
+                                  glint::v1::ListNormalMapsResponse *page);
   grpc::Status DeleteNormalMap(const std::string &digest);
 
  private:

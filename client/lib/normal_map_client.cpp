@@ -36,11 +36,30 @@ grpc::Status GlintClient::UploadNormalMap(const std::string &filename, const std
   });
 }
 
-grpc::Status GlintClient::ListNormalMaps(glint::v1::ListNormalMapsResponse *maps) {
+grpc::Status GlintClient::ListNormalMapsPage(const glint::v1::ListNormalMapsRequest &request,
+                                             glint::v1::ListNormalMapsResponse *page) {
   grpc::ClientContext context;
   PrepareContext(&context);
   context.set_deadline(std::chrono::system_clock::now() + options_.rpc_timeout);
-  return stub_->ListNormalMaps(&context, glint::v1::ListNormalMapsRequest(), maps);
+  return stub_->ListNormalMaps(&context, request, page);
+}
+
+grpc::Status GlintClient::ListNormalMaps(glint::v1::ListNormalMapsResponse *maps) {
+  glint::v1::ListNormalMapsResponse all;
+  glint::v1::ListNormalMapsRequest request;
+  request.set_page_size(kNormalMapPageSize);
+  do {
+    glint::v1::ListNormalMapsResponse page;
+    if (grpc::Status s = ListNormalMapsPage(request, &page); !s.ok()) return s;
+    // A token that does not advance would loop forever; the server's never repeats.
+    if (!page.next_page_token().empty() && page.next_page_token() == request.page_token())
+      return grpc::Status(grpc::StatusCode::INTERNAL,
+                          "ListNormalMaps: the server returned the same page token twice");
+    for (auto &m : *page.mutable_maps()) *all.add_maps() = std::move(m);
+    request.set_page_token(page.next_page_token());
+  } while (!request.page_token().empty());
+  *maps = std::move(all);
+  return grpc::Status::OK;
 }
 
 grpc::Status GlintClient::DeleteNormalMap(const std::string &digest) {

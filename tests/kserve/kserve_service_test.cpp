@@ -408,6 +408,55 @@ TEST_F(KServeService, BadTensorsAreInvalidArgumentNamingInputAndRow) {
   EXPECT_TRUE(server_->Alive());
 }
 
+// glintd implements no shared-memory extension and reads no tensor parameters: an output asked
+// for in a shared-memory region (as tritonclient's InferRequestedOutput.set_shared_memory asks)
+// was answered OK with raw_output_contents and the region left untouched; now it is refused
+// naming the output and the parameter, and so is an input whose data is said to be in one.
+TEST_F(KServeService, TensorParametersAreRefusedNamingTensorAndParameter) {
+  const Queries q = MakeQueries(4, false, false, 5);
+  ModelInferResponse response;
+  ModelInferRequest r = InferRequest("paint", q, true);
+  auto *out = r.add_outputs();
+  out->set_name("radiance");
+  (*out->mutable_parameters())["shared_memory_region"].set_string_param("out_region");
+  (*out->mutable_parameters())["shared_memory_byte_size"].set_int64_param(48);
+  grpc::Status s = Infer(r, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  // The smallest name of the map is named (shared_memory_byte_size < shared_memory_region).
+  EXPECT_NE(s.error_message().find("output 'radiance': parameter 'shared_memory_byte_size': "
+                                   "glintd does not implement the shared-memory extension"),
+            std::string::npos)
+      << s.error_message();
+  EXPECT_EQ(response.raw_output_contents_size(), 0);
+
+  r = InferRequest("paint", q, true);
+  out = r.add_outputs();
+  out->set_name("radiance");
+  (*out->mutable_parameters())["classification"].set_int64_param(3);
+  s = Infer(r, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("output 'radiance': parameter 'classification': not supported"),
+            std::string::npos)
+      << s.error_message();
+
+  r = InferRequest("paint", q, true);
+  (*r.mutable_inputs(0)->mutable_parameters())["shared_memory_region"].set_string_param("in");
+  s = Infer(r, &response);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("input '" + r.inputs(0).name() +
+                                   "': parameter 'shared_memory_region': glintd does not "
+                                   "implement the shared-memory extension"),
+            std::string::npos)
+      << s.error_message();
+
+  // Without parameters the output request is answered as before.
+  r = InferRequest("paint", q, true);
+  r.add_outputs()->set_name("radiance");
+  s = Infer(r, &response);
+  EXPECT_TRUE(s.ok()) << s.error_message();
+  EXPECT_EQ(Radiance(response, 4).size(), 12u);
+}
+
 TEST_F(KServeService, HealthMetadataConfigAndStatistics) {
   {
     grpc::ClientContext ctx;

@@ -140,12 +140,12 @@ TEST(KServeTensors, MalformedTensorsAreRefusedNamingTheInput) {
   {
     ModelInferRequest r;
     AddInput(&r, "wo", 6, 1, Ramp(6, 0), false);
-    ExpectRefused(r, true, "input 'wo': shape [6, 1]; expected [6, 3]");
+    ExpectRefused(r, true, "input 'wo': shape [6, 1]; expected [N, 3] with 1 <= N < 2^32");
   }
   {
     ModelInferRequest r;
     AddInput(&r, "wo", 0, 3, {}, false);
-    ExpectRefused(r, true, "input 'wo': shape [0, 3]; expected [N, 3] with N >= 1");
+    ExpectRefused(r, true, "input 'wo': shape [0, 3]; expected [N, 3] with 1 <= N < 2^32");
   }
   {
     ModelInferRequest r;  // uv with a row count other than wo's
@@ -157,13 +157,22 @@ TEST(KServeTensors, MalformedTensorsAreRefusedNamingTheInput) {
     ModelInferRequest r;  // shape says 2 rows, data holds 5 values
     AddInput(&r, "wo", 2, 3, Ramp(5, 0), false);
     ExpectRefused(r, true,
-                  "input 'wo': contents.fp32_contents holds 5 values; shape [2, 3] needs 6");
+                  "input 'wo': shape [2, 3] needs 6 values, but its contents.fp32_contents holds 5 "
+                  "values");
   }
   {
     ModelInferRequest r;
     AddInput(&r, "wo", 2, 3, Ramp(5, 0), true);
     ExpectRefused(r, true,
-                  "input 'wo': raw_input_contents holds 20 bytes; shape [2, 3] FP32 needs 24");
+                  "input 'wo': shape [2, 3] needs 24 bytes, but its raw_input_contents holds 20 "
+                  "bytes");
+  }
+  {
+    ModelInferRequest r;  // another input's data short of the shape: the decoder's own check
+    AddInput(&r, "wo", 2, 3, Ramp(6, 0), true);
+    AddInput(&r, "uv", 2, 2, Ramp(3, 0), true);
+    ExpectRefused(r, true,
+                  "input 'uv': raw_input_contents holds 12 bytes; shape [2, 2] FP32 needs 16");
   }
   {
     ModelInferRequest r;  // typed data in the wrong field
@@ -179,6 +188,41 @@ TEST(KServeTensors, MalformedTensorsAreRefusedNamingTheInput) {
     r.add_raw_input_contents()->assign(8, '\0');
     ExpectRefused(r, true, "input 'uv': has contents although the request uses raw");
   }
+}
+
+// wo is checked once: for every malformed wo the decoder's refusal is admission's, word for
+// word (before, the decoder had its own checks: "[N, 3] with N >= 1 queries" against
+// "1 <= N < 2^32", "holds 5 values; shape [2, 3] needs 6" against "needs 6 values, but ...").
+TEST(KServeTensors, MalformedWoGetsOneMessageAtAdmissionAndDecoding) {
+  struct Case {
+    int64_t rows, width;
+    size_t floats;
+  };
+  for (bool raw : {false, true})
+    for (const Case &c : {Case{0, 3, 0}, Case{6, 1, 6}, Case{5, 2, 10}, Case{2, 3, 5},
+                          Case{2, 3, 7}, Case{1000000000, 3, 3}}) {
+      SCOPED_TRACE(std::string(raw ? "raw" : "typed") + " [" + std::to_string(c.rows) + ", " +
+                   std::to_string(c.width) + "] with " + std::to_string(c.floats) + " floats");
+      ModelInferRequest r;
+      AddInput(&r, "wo", c.rows, c.width, std::vector<float>(c.floats, 0.0f), raw);
+      uint64_t rows = 0;
+      const Status admission = InferQueryCount(r, &rows);
+      glint::v1::QueryBatch q;
+      const Status decoding = Decode(r, true, &q);
+      EXPECT_EQ(admission.code(), Status::Code::kInvalidArgument);
+      EXPECT_EQ(decoding.code(), Status::Code::kInvalidArgument);
+      EXPECT_EQ(decoding.message(), admission.message());
+      EXPECT_EQ(admission.message().rfind("input 'wo': ", 0), 0u) << admission.message();
+    }
+  ModelInferRequest fp64;  // typed data in the wrong field
+  AddInput(&fp64, "wo", 1, 3, {}, false);
+  for (int i = 0; i < 3; ++i) fp64.mutable_inputs(0)->mutable_contents()->add_fp64_contents(1.0);
+  uint64_t rows = 0;
+  glint::v1::QueryBatch q;
+  EXPECT_EQ(Decode(fp64, true, &q).message(), InferQueryCount(fp64, &rows).message());
+  EXPECT_EQ(InferQueryCount(fp64, &rows).message(),
+            "input 'wo': data in contents.fp64_contents; expected contents.fp32_contents "
+            "(datatype FP32)");
 }
 
 // The query count admission charges before decoding: wo's rows, only when its data fills them;

@@ -176,6 +176,78 @@ TEST(MetricsEndToEnd, CountersMatchWhatWasSent) {
             1);
 }
 
+// --warm none builds nothing before SERVING, not even a --model preset's kernel (it compiled the
+// presets and logged "0 kernels warm"), and says so. Then a request of a variant its worker has
+// not built reports the build apart from its compute: compile_ms > 0 exactly when the program
+// cache counters show a build (or disk load) during that request, 0 for the next request of the
+// same variant; glint_compile_seconds observes the builds and glint_compute_seconds the
+// compute_ms the replies carried (before, compute_ms and the histogram included the build).
+TEST(MetricsEndToEnd, WarmNoneBuildsNothingAndColdVariantsReportCompileApart) {
+  TempDir dir("glint_metrics_cold");
+  const int metrics_port = glint::test::FreeLoopbackPort();
+  ASSERT_GT(metrics_port, 0);
+  const std::string examples = GLINT_EXAMPLES_DIR;
+  std::string error;
+  auto server = Glintd::Start(
+      GLINTD_PATH, dir, "glintd",
+      {"--warm", "none", "--workers", "1", "--model",
+       "paint=" + examples + "/materials/paint_schlick.json," + examples + "/lights/studio.json",
+       "--metrics-listen", "127.0.0.1:" + std::to_string(metrics_port)},
+      &error);
+  ASSERT_NE(server, nullptr) << error;
+  httplib::Client http("127.0.0.1", metrics_port);
+  auto scrape = [&] {
+    auto res = http.Get("/metrics");
+    EXPECT_TRUE(res) << "no answer from /metrics";
+    return res ? ParseExposition(res->body) : std::map<std::string, double>{};
+  };
+  auto builds = [&](const std::map<std::string, double> &s) {
+    return Get(s, "glint_program_cache_lookups_total{result=\"compiled\"}") +
+           Get(s, "glint_program_cache_lookups_total{result=\"disk_hit\"}");
+  };
+  const auto start = scrape();
+  EXPECT_EQ(builds(start), 0);
+  EXPECT_EQ(Get(start, "glint_program_cache_lookups_total{result=\"memory_hit\"}"), 0);
+  const std::string log = server->Stderr();
+  EXPECT_NE(log.find("--warm none: no kernels built before SERVING (0 compiled, 0 from cache"),
+            std::string::npos)
+      << log;
+
+  auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
+  auto stub = glint::v1::GlintService::NewStub(channel);
+  auto evaluate = [&](const glint::v1::EvaluateRequest &r) {
+    glint::v1::EvaluateResponse response;
+    grpc::ClientContext ctx;
+    const grpc::Status st = stub->Evaluate(&ctx, r, &response);
+    EXPECT_TRUE(st.ok()) << st.error_message();
+    return response.stats();
+  };
+  glint::v1::EvaluateRequest beckmann = SmoothProbes(30);
+  beckmann.mutable_material()->set_ndf(glint::v1::BECKMANN);
+  double compile_sum = 0, compute_sum = 0;
+  double before = builds(start);
+  int cold = 0;
+  for (const glint::v1::EvaluateRequest &r : {SmoothProbes(30), SmoothProbes(30), beckmann}) {
+    const glint::v1::EvaluateStats stats = evaluate(r);
+    const double now = builds(scrape());
+    const bool built = now > before;
+    before = now;
+    cold += built;
+    EXPECT_EQ(stats.compile_ms() > 0, built)
+        << "compile_ms " << stats.compile_ms() << " with " << (built ? "a" : "no") << " build";
+    EXPECT_GE(stats.compute_ms(), 0);
+    compile_sum += stats.compile_ms() / 1e3;
+    compute_sum += stats.compute_ms() / 1e3;
+  }
+  EXPECT_EQ(cold, 2);  // GGX's first request and Beckmann's; not GGX's second
+  const auto after = scrape();
+  EXPECT_EQ(Get(after, "glint_compile_seconds_count{model=\"SMOOTH\"}"), 2);
+  EXPECT_DOUBLE_EQ(Get(after, "glint_compile_seconds_sum{model=\"SMOOTH\"}"), compile_sum);
+  ExpectHistogram(after, "glint_compile_seconds", "model=\"SMOOTH\"");
+  EXPECT_EQ(Get(after, "glint_compute_seconds_count{model=\"SMOOTH\"}"), 3);
+  EXPECT_DOUBLE_EQ(Get(after, "glint_compute_seconds_sum{model=\"SMOOTH\"}"), compute_sum);
+}
+
 // Slow or idle HTTP peers must not starve a scrape: twelve connections each send half a request
 // and stall (cpp-httplib's default pool has 8 threads and a 5 s read timeout: the scrape waited
 // ~9 s). A Prometheus scrape times out after 10 s by default; this one gets 4 s.

@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "client/lib/glint_client.h"
 #include "glint/v1/glint.grpc.pb.h"
 #include "glintd_process.h"
 #include "grpc/health/v1/health.grpc.pb.h"
@@ -549,6 +550,78 @@ TEST(MessageLimit, RepliesOfRequestsWithinTheLimitAreSentOthersRefusedFirst) {
     EXPECT_NE(s.error_message().find("exceeds the server's message limit of 1048576 bytes"),
               std::string::npos)
         << s.error_message();
+  }
+}
+
+// The clients' side of the same limit. A reply may be up to 4096 bytes over the server's
+// --max-message-mb (its send limit), so a client whose own limit equals the server's must receive
+// that much more: MakeChannel (every GlintClient's channel) received only its limit, and the
+// stream result above (a chunk just within 1 MiB) failed in the client with RESOURCE_EXHAUSTED.
+// And the bytes a Sample reply takes per sample, which the clients size their calls by
+// (kSampleReplyBytesPerSample), are what a real reply takes: between 28 n and 28 n + the 1024
+// bytes the proto allows for the rest, for replies of 1 to 32768 samples.
+TEST(MessageLimit, AClientAtTheServersLimitReceivesItsLargestRepliesAndSizesSamplesRight) {
+  glint::test::TempDir dir("glint_client_limit_test");
+  std::string error;
+  auto server = glint::test::Glintd::Start(
+      GlintdPath(), dir, "limit", {"--device", "host", "--warm", "none", "--max-message-mb", "1"},
+      &error);
+  ASSERT_NE(server, nullptr) << error;
+  constexpr int kLimit = 1 << 20;
+  auto stub = v1::GlintService::NewStub(glint::client::MakeChannel(server->address(), kLimit, {}));
+  v1::EvaluateChunk first, second;
+  first.set_chunk_index(0);
+  *first.mutable_request() = SmoothRequest();
+  AddPointLight(first.mutable_request());
+  auto add_wo = [](v1::EvaluateChunk *c, uint32_t n) {
+    auto *q = c->mutable_request()->mutable_queries();
+    q->set_count(n);
+    for (uint32_t i = 0; i < n; ++i)
+      for (float v : {0.0f, 0.6f, 0.8f}) q->add_wo(v);
+  };
+  add_wo(&first, 10);
+  second.set_chunk_index(1);
+  uint32_t n = kLimit / 12;
+  do {
+    second.mutable_request()->clear_queries();
+    add_wo(&second, n--);
+  } while (second.ByteSizeLong() > size_t(kLimit));
+  {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
+    auto stream = stub->EvaluateStream(&ctx);
+    ASSERT_TRUE(stream->Write(first));
+    ASSERT_TRUE(stream->Write(second));
+    stream->WritesDone();
+    v1::EvaluateChunkResult result;
+    std::vector<size_t> sizes;
+    while (stream->Read(&result)) sizes.push_back(result.ByteSizeLong());
+    grpc::Status s = stream->Finish();
+    EXPECT_TRUE(s.ok()) << s.error_message();
+    ASSERT_EQ(sizes.size(), 2u);
+    EXPECT_GT(sizes[1], size_t(kLimit));  // the case at hand
+    EXPECT_LE(sizes[1], size_t(kLimit + glint::client::kReplyOverheadBytes));
+  }
+  for (uint32_t k : {1u, 100u, 4096u, 16384u}) {
+    for (uint32_t queries : {1u, 2u}) {
+      v1::SampleRequest r;
+      *r.mutable_material() = SmoothRequest().material();
+      r.set_samples_per_query(k);
+      auto *q = r.mutable_queries();
+      q->set_count(queries);
+      for (uint32_t i = 0; i < queries; ++i)
+        for (float v : {0.0f, 0.6f, 0.8f}) q->add_wo(v);
+      grpc::ClientContext ctx;
+      ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
+      v1::SampleResponse out;
+      grpc::Status s = stub->Sample(&ctx, r, &out);
+      ASSERT_TRUE(s.ok()) << s.error_message();
+      const uint64_t samples = uint64_t(k) * queries;
+      ASSERT_EQ(out.pdf_size(), int(samples));
+      EXPECT_GE(out.ByteSizeLong(), glint::client::kSampleReplyBytesPerSample * samples);
+      EXPECT_LE(out.ByteSizeLong(), glint::client::kSampleReplyBytesPerSample * samples + 1024)
+          << k << " x " << queries;
+    }
   }
 }
 

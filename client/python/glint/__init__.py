@@ -9,7 +9,14 @@
 The wire messages are in ``glint.v1.glint_pb2`` (generated from proto/glint/v1/glint.proto).
 """
 
-from glint._client import Client, EvaluateInfo, SampleResult
+from glint._client import (
+    NORMAL_MAP_PAGE_SIZE,
+    REPLY_OVERHEAD_BYTES,
+    SAMPLE_REPLY_BYTES_PER_SAMPLE,
+    Client,
+    EvaluateInfo,
+    SampleResult,
+)
 from glint._errors import Error
 from glint._retry import RetryPolicy
 from glint.v1 import glint_pb2 as pb
@@ -20,4 +27,15 @@ for _public in (Client, EvaluateInfo, Error, RetryPolicy, SampleResult):
 del _public
 
 __version__ = "0.1.0"
-__all__ = ["Client", "Error", "EvaluateInfo", "RetryPolicy", "SampleResult", "pb", "__version__"]
+__all__ = [
+    "Client",
+    "Error",
+    "EvaluateInfo",
+    "NORMAL_MAP_PAGE_SIZE",
+    "REPLY_OVERHEAD_BYTES",
+    "RetryPolicy",
+    "SAMPLE_REPLY_BYTES_PER_SAMPLE",
+    "SampleResult",
+    "pb",
+    "__version__",
+]

@@ -33,6 +33,16 @@ _RESPONSE_BYTES_PER_QUERY = 12
 # Room for framing, tags, stats and the chunk envelope on top of the payload (as the C++ client).
 _ENVELOPE_BYTES = 4096
 
+# The wire contract's sizes (proto/glint/v1/glint.proto), as the C++ client names them
+# (client/lib/glint_client.h):
+# replies may exceed Capabilities.max_message_bytes by this much (the server's send limit is its
+# receive limit + 4096), so the channel receives up to max_message_bytes + this;
+REPLY_OVERHEAD_BYTES = 4096
+# each sample adds this many bytes to a SampleResponse (7 packed floats: wi 3, pdf 1, weight 3);
+SAMPLE_REPLY_BYTES_PER_SAMPLE = 28
+# maps asked for per ListNormalMaps page when listing them all (the server's largest page).
+NORMAL_MAP_PAGE_SIZE = 1000
+
 ProgressLike = Union[None, bool, Callable[[int, int], None]]
 
 
@@ -93,8 +103,9 @@ class Client:
     """A connection to one glintd (any gRPC target: ``"127.0.0.1:50051"``, ``"dns:///glint:50051"``,
     ``"unix:/path"``). Thread-safe; use as a context manager or call :meth:`close`.
 
-    ``max_message_bytes`` is this side's gRPC limit in both directions (at least the server's, so
-    the client is never the side that refuses); ``max_chunk_bytes`` bounds one message (a few MiB
+    ``max_message_bytes`` is this side's gRPC send limit (at least the server's, so the client is
+    never the side that refuses; replies are received up to it + ``REPLY_OVERHEAD_BYTES``, the
+    most a reply may exceed the server's limit by); ``max_chunk_bytes`` bounds one message (a few MiB
     keeps latency and memory small); ``max_chunk_queries`` caps queries per message (0: only the
     server's ``max_batch``); ``timeout`` (seconds) applies to ``capabilities()`` only, since a
     large batch may legitimately take minutes. ``retry`` is how :meth:`upload_normal_map` retries
@@ -123,7 +134,7 @@ class Client:
         self._channel = grpc.insecure_channel(
             address,
             options=[
-                ("grpc.max_receive_message_length", self.max_message_bytes),
+                ("grpc.max_receive_message_length", min(self.max_message_bytes + REPLY_OVERHEAD_BYTES, 2**31 - 1)),
                 ("grpc.max_send_message_length", self.max_message_bytes),
                 # gRPC backs off up to 120 s between connection attempts by default; a client of
                 # a server that is starting wants to notice it within a second or so.
@@ -411,7 +422,7 @@ class Client:
         # arrays) and the reply (7 floats per sample) both within half the smaller message limit.
         message_limit = min(caps.max_message_bytes or _GRPC_DEFAULT_MESSAGE_BYTES, self.max_message_bytes)
         room = max(0, message_limit // 2 - pb.SampleRequest(**settings).ByteSize() - _ENVELOPE_BYTES)
-        per_query = max(queries.bytes_per_query(), k * 7 * 4, 1)
+        per_query = max(queries.bytes_per_query(), k * SAMPLE_REPLY_BYTES_PER_SAMPLE, 1)
         by_batch = max(1, (caps.max_batch or 0xFFFFFFFF) // k)
         by_bytes = max(1, room // per_query)
         per_call = max(1, min(by_batch, by_bytes, queries.count))
@@ -459,6 +470,34 @@ class Client:
         except grpc.RpcError as e:
             raise Error.from_rpc_error(e) from None
         return info.digest
+
+    def list_normal_maps(self, page_size: int = NORMAL_MAP_PAGE_SIZE) -> "list[pb.NormalMapInfo]":
+        """Every normal map the server holds, in digest order (``pb.NormalMapInfo``: digest, width,
+        height, bytes, filename). Follows the server's pages (``ListNormalMaps``, AIP-158
+        ``page_token``) until the last, ``page_size`` maps per call (1 to 1000)."""
+        if not 1 <= int(page_size) <= NORMAL_MAP_PAGE_SIZE:
+            raise ValueError(f"page_size: {page_size}; expected 1 to {NORMAL_MAP_PAGE_SIZE}")
+        maps: "list[pb.NormalMapInfo]" = []
+        token = ""
+        while True:
+            request = pb.ListNormalMapsRequest(page_size=int(page_size), page_token=token)
+            try:
+                page = self._stub.ListNormalMaps(request, timeout=self.timeout)
+            except grpc.RpcError as e:
+                raise Error.from_rpc_error(e) from None
+            maps.extend(page.maps)
+            if not page.next_page_token:
+                return maps
+            if page.next_page_token == token:  # would never end; the server's tokens advance
+                raise Error(grpc.StatusCode.INTERNAL, "ListNormalMaps: the same page token twice")
+            token = page.next_page_token
+
+    def delete_normal_map(self, digest: str) -> None:
+        """Drops the map ``digest`` from the server (``NOT_FOUND`` if it does not hold it)."""
+        try:
+            self._stub.DeleteNormalMap(pb.DeleteNormalMapRequest(digest=digest), timeout=self.timeout)
+        except grpc.RpcError as e:
+            raise Error.from_rpc_error(e) from None
 
 
 @dataclasses.dataclass

@@ -96,9 +96,9 @@ TEST(NormalMapStore, SameNormalsAreStoredOnceDifferentNormalsApart) {
   ASSERT_TRUE(store.Upload("three.png", PngBytes(8, 8, xyz, false), &c).ok());
   EXPECT_NE(c.digest(), a.digest());
   glint::v1::ListNormalMapsResponse list;
-  store.List(&list);
+  ASSERT_TRUE(store.List({}, &list).ok());
   ASSERT_EQ(list.maps_size(), 2);
-  EXPECT_EQ(list.maps(0).digest(), c.digest());  // most recently used first
+  EXPECT_LT(list.maps(0).digest(), list.maps(1).digest());  // by digest (paging's order)
 }
 
 TEST(NormalMapStore, NotFoundNamesTheDigestUntilUploadedAgain) {
@@ -161,7 +161,7 @@ TEST(NormalMapStore, FilenamesLongerThanNameMaxAreRefused) {
   EXPECT_EQ(store.bytes(), 0u);
   ASSERT_TRUE(store.Upload(longest, ExrBytes(4, 4, xyz), &info).ok());
   glint::v1::ListNormalMapsResponse list;
-  store.List(&list);
+  ASSERT_TRUE(store.List({}, &list).ok());
   ASSERT_EQ(list.maps_size(), 1);
   EXPECT_EQ(list.maps(0).filename(), longest);
 }
@@ -216,9 +216,83 @@ TEST(NormalMapStore, RefusesOversizeAndCorruptUploadsStoringNothing) {
   s = store.Upload("empty.png", "", &info);
   EXPECT_EQ(s.code(), Status::Code::kInvalidArgument);
   glint::v1::ListNormalMapsResponse list;
-  store.List(&list);
+  ASSERT_TRUE(store.List({}, &list).ok());
   EXPECT_EQ(list.maps_size(), 0);
   EXPECT_EQ(store.bytes(), 0u);
+}
+
+// ListNormalMaps is paged (AIP-158): with 1000 maps of 255-byte names held (one page of the
+// old unpaged reply was ~0.36 MB and grew with every map), pages of every size give each map
+// exactly once, in digest order, whatever is used in between; the largest page stays well
+// inside the smallest message limit (1 MiB); bad sizes and tokens are refused by field name.
+TEST(NormalMapStore, ListPagesEveryMapOnceInDigestOrder) {
+  NormalMapStore store;
+  constexpr int kMaps = 1000;
+  std::vector<std::string> digests;
+  for (int i = 0; i < kMaps; ++i) {
+    DecodedNormalMap map;
+    map.width = map.height = 2;
+    // Distinct unit normals per map: a tilt of i / kMaps in x.
+    const float x = 0.5f * float(i) / kMaps, z = std::sqrt(1.0f - x * x);
+    for (int t = 0; t < 4; ++t) map.xyz.insert(map.xyz.end(), {x, 0.0f, z});
+    std::string name(kMaxNormalMapFilenameBytes, 'a' + char(i % 26));
+    glint::v1::NormalMapInfo info;
+    ASSERT_TRUE(store.Insert(name, map, &info).ok());
+    ASSERT_FALSE(info.already_present()) << i;
+    digests.push_back(info.digest());
+  }
+  std::sort(digests.begin(), digests.end());
+
+  for (int page_size : {0, 1, 7, 100, 999, 1000, 5000}) {
+    std::vector<std::string> seen;
+    glint::v1::ListNormalMapsRequest request;
+    request.set_page_size(page_size);
+    const size_t expected_page = page_size == 0
+                                     ? kDefaultNormalMapPageSize
+                                     : std::min<size_t>(page_size, kMaxNormalMapPageSize);
+    for (int pages = 0;; ++pages) {
+      ASSERT_LE(pages, kMaps) << "paging does not end";
+      glint::v1::ListNormalMapsResponse page;
+      Status s = store.List(request, &page);
+      ASSERT_TRUE(s.ok()) << s.message();
+      EXPECT_LE(page.ByteSizeLong(), size_t{1} << 20);
+      for (const auto &m : page.maps()) seen.push_back(m.digest());
+      if (page.next_page_token().empty()) {
+        EXPECT_LE(size_t(page.maps_size()), expected_page);
+        break;
+      }
+      EXPECT_EQ(size_t(page.maps_size()), expected_page);
+      // Using a map between pages (recency changes) must not move it between pages.
+      NormalMapTable table;
+      ASSERT_TRUE(store.Table(digests[size_t(pages) % digests.size()], 1, &table).ok());
+      request.set_page_token(page.next_page_token());
+    }
+    EXPECT_EQ(seen, digests) << "page_size " << page_size;
+  }
+
+  // A map deleted between pages is skipped; the others still come once each.
+  glint::v1::ListNormalMapsRequest request;
+  request.set_page_size(10);
+  glint::v1::ListNormalMapsResponse first;
+  ASSERT_TRUE(store.List(request, &first).ok());
+  ASSERT_TRUE(store.Delete(first.maps(9).digest()).ok());  // the token's own digest
+  ASSERT_TRUE(store.Delete(digests[10]).ok());
+  request.set_page_token(first.next_page_token());
+  glint::v1::ListNormalMapsResponse second;
+  ASSERT_TRUE(store.List(request, &second).ok());
+  EXPECT_EQ(second.maps(0).digest(), digests[11]);
+
+  request.set_page_size(-1);
+  Status s = store.List(request, &second);
+  EXPECT_EQ(s.code(), Status::Code::kInvalidArgument);
+  EXPECT_NE(s.message().find("page_size: -1"), std::string::npos) << s.message();
+  for (const char *token : {"garbage", "after:sha256:00", "sha256:"}) {
+    request.set_page_size(0);
+    request.set_page_token(token);
+    s = store.List(request, &second);
+    EXPECT_EQ(s.code(), Status::Code::kInvalidArgument) << token;
+    EXPECT_NE(s.message().find("page_token"), std::string::npos) << s.message();
+  }
 }
 
 TEST(NormalMapStore, TwoClientsUploadingTheSameMapAtOnceStoreItOnce) {
@@ -234,7 +308,7 @@ TEST(NormalMapStore, TwoClientsUploadingTheSameMapAtOnceStoreItOnce) {
   EXPECT_EQ(a.digest(), b.digest());
   EXPECT_NE(a.already_present(), b.already_present());
   glint::v1::ListNormalMapsResponse list;
-  store.List(&list);
+  ASSERT_TRUE(store.List({}, &list).ok());
   EXPECT_EQ(list.maps_size(), 1);
   EXPECT_EQ(store.bytes(), a.bytes());
 }

@@ -285,16 +285,18 @@ class EvaluateRequest(_message.Message):
     def __init__(self, material: _Optional[_Union[Material, _Mapping]] = ..., lights: _Optional[_Iterable[_Union[Light, _Mapping]]] = ..., queries: _Optional[_Union[QueryBatch, _Mapping]] = ..., precision: _Optional[_Union[Precision, str]] = ..., seed: _Optional[int] = ..., area_method: _Optional[_Union[AreaMethod, str]] = ..., area_samples: _Optional[int] = ..., shared_memory: _Optional[_Union[SharedMemoryIo, _Mapping]] = ..., max_relative_error: _Optional[float] = ...) -> None: ...
 
 class EvaluateStats(_message.Message):
-    __slots__ = ("queue_ms", "compute_ms", "device", "batch_requests")
+    __slots__ = ("queue_ms", "compute_ms", "device", "batch_requests", "compile_ms")
     QUEUE_MS_FIELD_NUMBER: _ClassVar[int]
     COMPUTE_MS_FIELD_NUMBER: _ClassVar[int]
     DEVICE_FIELD_NUMBER: _ClassVar[int]
     BATCH_REQUESTS_FIELD_NUMBER: _ClassVar[int]
+    COMPILE_MS_FIELD_NUMBER: _ClassVar[int]
     queue_ms: float
     compute_ms: float
     device: str
     batch_requests: int
-    def __init__(self, queue_ms: _Optional[float] = ..., compute_ms: _Optional[float] = ..., device: _Optional[str] = ..., batch_requests: _Optional[int] = ...) -> None: ...
+    compile_ms: float
+    def __init__(self, queue_ms: _Optional[float] = ..., compute_ms: _Optional[float] = ..., device: _Optional[str] = ..., batch_requests: _Optional[int] = ..., compile_ms: _Optional[float] = ...) -> None: ...
 
 class EvaluateResponse(_message.Message):
     __slots__ = ("count", "radiance", "stats")
@@ -441,14 +443,20 @@ class NormalMapInfo(_message.Message):
     def __init__(self, digest: _Optional[str] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., bytes: _Optional[int] = ..., already_present: bool = ..., filename: _Optional[str] = ...) -> None: ...
 
 class ListNormalMapsRequest(_message.Message):
-    __slots__ = ()
-    def __init__(self) -> None: ...
+    __slots__ = ("page_size", "page_token")
+    PAGE_SIZE_FIELD_NUMBER: _ClassVar[int]
+    PAGE_TOKEN_FIELD_NUMBER: _ClassVar[int]
+    page_size: int
+    page_token: str
+    def __init__(self, page_size: _Optional[int] = ..., page_token: _Optional[str] = ...) -> None: ...
 
 class ListNormalMapsResponse(_message.Message):
-    __slots__ = ("maps",)
+    __slots__ = ("maps", "next_page_token")
     MAPS_FIELD_NUMBER: _ClassVar[int]
+    NEXT_PAGE_TOKEN_FIELD_NUMBER: _ClassVar[int]
     maps: _containers.RepeatedCompositeFieldContainer[NormalMapInfo]
-    def __init__(self, maps: _Optional[_Iterable[_Union[NormalMapInfo, _Mapping]]] = ...) -> None: ...
+    next_page_token: str
+    def __init__(self, maps: _Optional[_Iterable[_Union[NormalMapInfo, _Mapping]]] = ..., next_page_token: _Optional[str] = ...) -> None: ...
 
 class DeleteNormalMapRequest(_message.Message):
     __slots__ = ("digest",)

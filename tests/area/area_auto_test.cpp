@@ -56,25 +56,14 @@ TEST(AreaAuto, MonteCarloSamplesAreTheCentralLimitBound) {
   }
 }
 
-// The first 12 configurations of the training set (MakeConfigs draws them in sequence, so they
-// are the fit's own first ones), measured again, once per process: the two checked-in-table tests
-// below use them, and ctest runs both in one process (tests/area/CMakeLists.txt), so the
-// measurement (adaptive truth, every candidate, MONTE_CARLO's cv) is not made twice.
-constexpr int kRegeneratedConfigs = 12;
-const std::vector<Sample> &RegeneratedTrainingSample(int ndf) {
-  static std::vector<Sample> samples[2];
-  std::vector<Sample> &s = samples[ndf == GLINT_NDF_BECKMANN];
-  if (s.empty()) s = Measure(MakeConfigs(kTrainSeed, kRegeneratedConfigs, 8, ndf), 2);
-  return s;
-}
-
-// The regenerated training sample: each candidate's error exceeds its table entry for at most
-// 1 - kErrorQuantile of them, and MONTE_CARLO's cv its entry for at most 1 - kCvQuantile, up to 3
-// standard errors. A table left stale by a change of a method, of the cells or of the measurement
-// fails this.
+// The first configurations of the training set (MakeConfigs draws them in sequence, so they
+// are the fit's own first ones), measured again: each candidate's error exceeds its table
+// entry for at most 1 - kErrorQuantile of them, and MONTE_CARLO's cv its entry for at most
+// 1 - kCvQuantile, up to 3 standard errors. A table left stale by a change of a method, of the
+// cells or of the measurement fails this.
 TEST(AreaAuto, CheckedInTableAgreesWithItsRegeneratedTrainingSample) {
   for (int ndf : {GLINT_NDF_GGX, GLINT_NDF_BECKMANN}) {
-    const std::vector<Sample> &samples = RegeneratedTrainingSample(ndf);
+    const std::vector<Sample> samples = Measure(MakeConfigs(kTrainSeed, 12, 8, ndf), 2);
     const int t = ndf == GLINT_NDF_BECKMANN ? 1 : 0;
     size_t pairs = 0, above = 0, cv_n = 0, cv_above = 0;
     for (const Sample &s : samples) {
@@ -103,13 +92,10 @@ TEST(AreaAuto, CheckedInTableAgreesWithItsRegeneratedTrainingSample) {
 // but another compiler may contract the fp32 arithmetic differently, moving an output by a few
 // ulps, i.e. an error by up to ~4 x 6e-8 / kFloor = 2.4e-4 at the floor; 1e-3 relative + 3e-4
 // absolute is far below the smallest budget validated (0.005), so no choice depends on it.
-// The fingerprint's queries are the first ones of the regenerated sample (configurations of 8
-// views in the fit's order, each measured on its own: Measure's result for a configuration does
-// not depend on the others in the batch).
 TEST(AreaAuto, CheckedInTableIsFromTodaysMeasurements) {
-  static_assert((GLINT_AUTO_FINGERPRINT_QUERIES + 7) / 8 <= kRegeneratedConfigs);
   for (int ndf : {GLINT_NDF_GGX, GLINT_NDF_BECKMANN}) {
-    const std::vector<Sample> &samples = RegeneratedTrainingSample(ndf);
+    const int configs = (GLINT_AUTO_FINGERPRINT_QUERIES + 7) / 8;
+    const std::vector<Sample> samples = Measure(MakeConfigs(kTrainSeed, configs, 8, ndf), 2);
     ASSERT_GE(samples.size(), size_t(GLINT_AUTO_FINGERPRINT_QUERIES));
     const float *fp = kf::glint_area_auto_fingerprint + (ndf == GLINT_NDF_BECKMANN) *
                                                             GLINT_AUTO_FINGERPRINT_QUERIES *

@@ -110,28 +110,19 @@ GLINT_FN real3 binomial_polygon(FootprintGrids g, BinomialParams b, SmoothMateri
                         lit);
 }
 
-/* Polygon light l by LTC (area_ltc.h), lane-safe: its smooth radiance, p and glints, from the
- * query's LTC table entry `view` at (alpha, wo.z), which binomial_shade looks up once for D_H and
- * every polygon light (as area_ltc_shade does). area_ltc_form_factor would look the same entry up
- * again per light: the same values, bit for bit, and a second bilinear lookup (on the host path
- * 114 instructions of ~4200 per one-quad query; on the device within the noise, models/binomial/
- * README.md "Quad throughput (session 12)").
+/* Polygon light l by LTC (area_ltc.h), lane-safe: its smooth radiance, p and glints.
  * Called with a constant n for quads (unrolled vertex loops, as area_ltc_shade_light). */
 GLINT_FN real3 binomial_polygon_ltc(FootprintGrids g, BinomialParams b, SmoothMaterial m,
-                                    EvalSpec spec, KernelInputs in, ShadingPoint sp,
-                                    const GLINT_PRIVATE real *view, real d_n, uint l, int n,
-                                    glint_mask live) {
+                                    EvalSpec spec, KernelInputs in, ShadingPoint sp, real alpha,
+                                    real d_n, uint l, int n, glint_mask live) {
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   const GLINT_GLOBAL float *rec = in.polygons + GLINT_POLYGON_FLOATS * l;
   real3 v[GLINT_POLYGON_MAX_VERTICES];
   area_polygon_load_n(rec, n, spec.has_frame, sp.frame, sp.p, v);
   glint_mask facing = live & area_polygon_facing(v, n, rec[1] != 0.0f);
   if (!glint_any(facing)) return zero;
-  real tx, ty;
-  area_ltc_view_tangent(sp.wo, &tx, &ty);
   real e[GLINT_LTC_ENTRY];
-  for (int k = 0; k < GLINT_LTC_ENTRY; ++k) e[k] = view[k];
-  real ff = area_ltc_form_factor_entry(sp.wo, tx, ty, v, n, e);
+  real ff = area_ltc_form_factor(in.ltc_table, alpha, sp.wo, v, n, e);
   real3 ls = r3_mul(r3_scale(area_ltc_albedo(m, e), ff),
                     make_real3((real)rec[2], (real)rec[3], (real)rec[4]));
   return binomial_polygon(g, b, m, sp.wo, d_n, v, n, ls, ff, e[6], e[7], l, facing);
@@ -188,9 +179,9 @@ GLINT_FN real3 binomial_shade(EvalSpec spec, KernelInputs in, QueryInputs q, rea
     }
 #endif
     int n = (int)in.polygons[GLINT_POLYGON_FLOATS * l];
-    radiance =
-        r3_add(radiance, n == 4 ? binomial_polygon_ltc(g, b, m, spec, in, sp, e, d_n, l, 4, live)
-                                : binomial_polygon_ltc(g, b, m, spec, in, sp, e, d_n, l, n, live));
+    radiance = r3_add(radiance,
+                      n == 4 ? binomial_polygon_ltc(g, b, m, spec, in, sp, alpha, d_n, l, 4, live)
+                             : binomial_polygon_ltc(g, b, m, spec, in, sp, alpha, d_n, l, n, live));
   }
   return r3_select(zero, radiance, live);
 }

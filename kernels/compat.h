@@ -126,6 +126,7 @@ using std::isfinite;
 using std::log;
 using std::log1p;
 using std::log2;
+using std::logb;
 using std::pow;
 using std::sin;
 using std::sqrt;

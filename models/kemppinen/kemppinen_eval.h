@@ -34,7 +34,8 @@ GLINT_FN real3 kemppinen_reflect_at(SmoothMaterial m, const GLINT_PRIVATE Kemppi
   /* Dead lanes (wi = -wo: h = 0) compute on a safe h and are dropped. */
   real3 hv = r3_add(wi, wo);
   real hl = r3_length(hv);
-  real3 h = r3_div(hv, glint_select(GLINT_R(1.0), hl, hl > GLINT_R(0.0)));
+  /* One reciprocal, not three divisions (smooth_reflect_cos normalises h the same way). */
+  real3 h = r3_scale(hv, GLINT_R(1.0) / glint_select(GLINT_R(1.0), hl, hl > GLINT_R(0.0)));
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
   real3 s = kemppinen_glint_factor_at(p, levels, m.ndf, h, m.alpha_x, m.alpha_y, D);
   /* (f cos D_star / D) radiance: the radiance last, so that a light whose smooth term overflows

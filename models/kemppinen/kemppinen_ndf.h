@@ -105,11 +105,12 @@ GLINT_FN kemp_uint kemppinen_absorb(kemp_uint h, kemp_uint key) {
 #define GLINT_KEMPPINEN_ROULETTE_EPS 0.1f
 
 typedef struct {
-  real density; /* K_P, facets per unit uv area */
-  real micro;   /* alpha_star */
-  real filter;  /* f */
-  int n_side;   /* sqrt(k): angular cells per axis explicitly evaluated */
-  real aniso;   /* a, A_star = diag(a, 1/a) */
+  real density;   /* K_P, facets per unit uv area */
+  real micro;     /* alpha_star */
+  real filter;    /* f */
+  int n_side;     /* sqrt(k): angular cells per axis explicitly evaluated */
+  real aniso;     /* a, A_star = diag(a, 1/a) */
+  real inv_aniso; /* 1 / a: uniform, a product per lane instead of a division */
   /* The facets' colours (K25 3.3.6), uniform over the lanes: n_colors >= 1
    * RGB triples (one white one without colours) and their mean, the colour
    * of the compensation (each facet takes colour c with probability 1/n). */
@@ -132,6 +133,7 @@ GLINT_FN KemppinenParams kemppinen_params_unpack(const GLINT_GLOBAL float *packe
   int k = (int)packed[GLINT_KEMPPINEN_NEIGHBORS];
   p.n_side = k >= 16 ? 4 : k >= 9 ? 3 : k >= 4 ? 2 : 1;
   p.aniso = (real)packed[GLINT_KEMPPINEN_ANISO];
+  p.inv_aniso = GLINT_R(1.0) / p.aniso;
   int n = (int)packed[GLINT_KEMPPINEN_N_COLORS];
   n = n > GLINT_KEMPPINEN_MAX_COLORS ? GLINT_KEMPPINEN_MAX_COLORS : n;
   p.n_colors = n >= 1 ? n : 1;
@@ -261,13 +263,20 @@ GLINT_FN real kemppinen_erfc_abs(real x) {
  * the compensation's 4 erfc per light and level and P_s's 4 per level would
  * otherwise cost more than their explicit facets (an exp each on the PoCL
  * CPU device; models/kemppinen/README.md "Neighbourhood"). */
-GLINT_FN real kemppinen_erfc_abs_cheap(real x) {
-  real y = fabs(x) * GLINT_R(0.70710678118654752440);
+/* Its denominator (1 + a1 y + ... + a4 y^4)^4, y = |x| / sqrt 2 clamped to
+ * `ymax` (callers that zero erfc beyond a cut clamp there, so that four of
+ * them multiply without overflow: kemppinen_erfc4_with). */
+GLINT_FN real kemppinen_erfc_cheap_denominator(real x, real ymax) {
+  real y = fmin(fabs(x) * GLINT_R(0.70710678118654752440), ymax);
   real d = GLINT_R(1.0) +
            y * (GLINT_R(0.278393) +
                 y * (GLINT_R(0.230389) + y * (GLINT_R(0.000972) + y * GLINT_R(0.078108))));
   real d2 = d * d;
-  return GLINT_R(1.0) / (d2 * d2);
+  return d2 * d2;
+}
+
+GLINT_FN real kemppinen_erfc_abs_cheap(real x) {
+  return GLINT_R(1.0) / kemppinen_erfc_cheap_denominator(x, GLINT_R(3.0e38));
 }
 
 /* Phi(b) - Phi(a) for a <= b (standard normal) from ea = erfc(|a| / sqrt 2)
@@ -310,16 +319,16 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
   fp.u = u;
   fp.v = v;
   fp.xs = a * u;
-  fp.ys = v / a;
+  fp.ys = v * p.inv_aniso;
   /* Columns of J_s = A_star J: (a du/dx, dv/dx / a) and (a du/dy, dv/dy / a). */
   /* Footprint entries clamped to +-1e6 uv per pixel: far beyond any useful
    * footprint (the level saturates at GLINT_KEMPPINEN_MAX_LEVEL long before),
    * and Sigma_s stays finite in fp32 (<= ~1e16) for any finite input. */
   real f = p.filter;
   real j00 = f * a * clamp(footprint[0], GLINT_R(-1e6), GLINT_R(1e6));
-  real j10 = f * clamp(footprint[1], GLINT_R(-1e6), GLINT_R(1e6)) / a;
+  real j10 = f * clamp(footprint[1], GLINT_R(-1e6), GLINT_R(1e6)) * p.inv_aniso;
   real j01 = f * a * clamp(footprint[2], GLINT_R(-1e6), GLINT_R(1e6));
-  real j11 = f * clamp(footprint[3], GLINT_R(-1e6), GLINT_R(1e6)) / a;
+  real j11 = f * clamp(footprint[3], GLINT_R(-1e6), GLINT_R(1e6)) * p.inv_aniso;
   /* Eq. 5 / Algorithm 1 line 11: Sigma_s = f^2 J J^T. */
   real sxx = j00 * j00 + j01 * j01;
   real syy = j10 * j10 + j11 * j11;
@@ -449,9 +458,15 @@ typedef struct {
 GLINT_FN KemppinenSpatial kemppinen_spatial(KemppinenParams p, KemppinenFootprint fp, real level) {
   KemppinenSpatial s;
   /* Algorithm 1 lines 9-10 (with res = sqrt(K_P)). */
-  s.res_a = floor(exp2(level) + GLINT_R(0.5)); /* 2^l exactly (l integer, <= 24) */
-  s.inv_res_a = GLINT_R(1.0) / s.res_a;        /* exact: a power of two */
-  s.res_s = sqrt(p.density) / s.res_a;
+  /* 2^l exactly (l integer in [0, 24]) by a shift, not exp2 (a polynomial per
+   * lane on the device); the same value as the former floor(exp2(l) + 1/2). */
+  s.res_a =
+      KEMP_TO_REAL(((kemp_uint)1u)
+                   << KEMP_TO_UINT(clamp(level, GLINT_R(0.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL))));
+  s.inv_res_a = GLINT_R(1.0) / s.res_a; /* exact: a power of two */
+  /* sqrt(K_P) / 2^l as a product by the exact 2^-l: the same bits as the
+   * quotient (both round sqrt(K_P) 2^-l once), without a division. */
+  s.res_s = sqrt(p.density) * s.inv_res_a;
   s.ts_x = fp.xs * s.res_s;
   s.ts_y = fp.ys * s.res_s;
   /* 2x2 spatial cells around the nearest cell vertex. */
@@ -494,16 +509,35 @@ GLINT_FN KemppinenErfc4 kemppinen_erfc4_with(real a, real b, real c, real d, int
   glint_mask na = fabs(a) < cut, nb = fabs(b) < cut, nc = fabs(c) < cut, nd = fabs(d) < cut;
   if (cheap) {
     if (glint_any(na | nb | nc | nd)) {
-      e.a = glint_select(zero, kemppinen_erfc_abs_cheap(a), na);
-      e.b = glint_select(zero, kemppinen_erfc_abs_cheap(b), nb);
-      e.c = glint_select(zero, kemppinen_erfc_abs_cheap(c), nc);
-      e.d = glint_select(zero, kemppinen_erfc_abs_cheap(d), nd);
+      /* A&S 7.1.27 is 1 / P with P = (1 + a1 y + ...)^4: the four from one
+       * division, 1 / (Pa Pb Pc Pd), and products (a division costs ~10
+       * multiplies on the CPU device). y is clamped at the cut (6 / sqrt 2),
+       * where P < 1.2e6, so the product of four stays < 2e24 (no overflow in
+       * fp32); lanes beyond the cut are zeroed below as before. Each erfc
+       * then carries ~5 roundings instead of 1 (relative 3e-7 in fp32), far
+       * below the approximation's 5e-4 (tested against libm). */
+      real ymax = GLINT_R(GLINT_KEMPPINEN_ERFC_CUT) * GLINT_R(0.70710678118654752440);
+      real pa = kemppinen_erfc_cheap_denominator(a, ymax);
+      real pb = kemppinen_erfc_cheap_denominator(b, ymax);
+      real pc = kemppinen_erfc_cheap_denominator(c, ymax);
+      real pd = kemppinen_erfc_cheap_denominator(d, ymax);
+      real pab = pa * pb, pcd = pc * pd;
+      real r = GLINT_R(1.0) / (pab * pcd);
+      real rab = r * pcd, rcd = r * pab; /* 1 / (pa pb), 1 / (pc pd) */
+      e.a = glint_select(zero, rab * pb, na);
+      e.b = glint_select(zero, rab * pa, nb);
+      e.c = glint_select(zero, rcd * pd, nc);
+      e.d = glint_select(zero, rcd * pc, nd);
     }
   } else if (glint_any(na | nb | nc | nd)) {
-    e.a = glint_select(zero, kemppinen_erfc_abs(a), na);
-    e.b = glint_select(zero, kemppinen_erfc_abs(b), nb);
-    e.c = glint_select(zero, kemppinen_erfc_abs(c), nc);
-    e.d = glint_select(zero, kemppinen_erfc_abs(d), nd);
+    /* The lanes beyond the cut evaluate at the cut (their value is dropped):
+     * far beyond it exp(-y^2) is subnormal in fp32, which costs a microcode
+     * assist per instruction on x86 (kemppinen_lobe_cut). Lanes inside: the
+     * same bits. */
+    e.a = glint_select(zero, kemppinen_erfc_abs(fmin(fabs(a), cut)), na);
+    e.b = glint_select(zero, kemppinen_erfc_abs(fmin(fabs(b), cut)), nb);
+    e.c = glint_select(zero, kemppinen_erfc_abs(fmin(fabs(c), cut)), nc);
+    e.d = glint_select(zero, kemppinen_erfc_abs(fmin(fabs(d), cut)), nd);
   }
   return e;
 }
@@ -518,7 +552,22 @@ GLINT_FN KemppinenErfc4 kemppinen_erfc4(real a, real b, real c, real d) {
  * two tails. */
 GLINT_FN real kemppinen_outside_width(KemppinenFootprint fp, real res_s, real ts_x, real ts_y,
                                       real bs_x, real bs_y, real width, int cheap) {
-  real isx = GLINT_R(1.0) / (sqrt(fp.sxx) * res_s), isy = GLINT_R(1.0) / (sqrt(fp.syy) * res_s);
+  real isx, isy;
+  if (cheap) {
+    /* One division for both (the cheap neighbourhoods). qx qy stays within
+     * fp32: qx = sigma_x res_s is ~1/8 or less where the level follows the
+     * footprint, >= sqrt(1e-4) / 8 by the regulariser, >= 1e-3 at level 0
+     * (eps >= 1e-6 / K_P), and at level 24 <= 1.2e8 (footprint clamp 1e6,
+     * f <= 4, a <= 20) x 6e7 (K_P <= 1e30): qx in [1e-3, 7e15]. ~3 roundings
+     * instead of 1. */
+    real qx = sqrt(fp.sxx) * res_s, qy = sqrt(fp.syy) * res_s;
+    real r = GLINT_R(1.0) / (qx * qy);
+    isx = qy * r;
+    isy = qx * r;
+  } else {
+    isx = GLINT_R(1.0) / (sqrt(fp.sxx) * res_s);
+    isy = GLINT_R(1.0) / (sqrt(fp.syy) * res_s);
+  }
   KemppinenErfc4 e = kemppinen_erfc4_with((bs_x - ts_x) * isx, (bs_x + width - ts_x) * isx,
                                           (bs_y - ts_y) * isy, (bs_y + width - ts_y) * isy, cheap);
   real tx = GLINT_R(0.5) * (e.a + e.b);
@@ -634,7 +683,8 @@ GLINT_FN KemppinenBlocks kemppinen_blocks(KemppinenParams p, KemppinenFootprint 
  * cells, q = Sigma_s^-1 / 2 in cells, norm = both Gaussians' norms. */
 GLINT_FN real kemppinen_facet_lobe_at(real inv_res_a, real ta_x, real ta_y, real inv_sax,
                                       real inv_say, real dxc, real dyc, real qxx, real qxy,
-                                      real qyy, real norm, real ix, real iy, KemppinenFacet g) {
+                                      real qyy, real norm, real e_lim, real ix, real iy,
+                                      KemppinenFacet g) {
   real gx = (ix + g.ax) * inv_res_a - GLINT_R(0.5);
   real gy = (iy + g.ay) * inv_res_a - GLINT_R(0.5);
   glint_mask outside = gx * gx + gy * gy >= GLINT_R(0.25);
@@ -643,13 +693,32 @@ GLINT_FN real kemppinen_facet_lobe_at(real inv_res_a, real ta_x, real ta_y, real
   real ux = (ta_x - ix - g.ax) * inv_sax, uy = (ta_y - iy - g.ay) * inv_say;
   real dx = dxc - g.sx, dy = dyc - g.sy;
   real e = GLINT_R(0.5) * (ux * ux + uy * uy) + (qxx * dx * dx + qxy * dx * dy + qyy * dy * dy);
-  return glint_select(exp(-e) * norm, GLINT_R(0.0), outside);
+  /* Beyond e_lim (kemppinen_lobe_cut) the lobe is 0: the exp's argument is
+   * clamped there, so neither exp(-e) nor its product with norm is subnormal. */
+  return glint_select(exp(-fmin(e, e_lim)) * norm, GLINT_R(0.0), outside | (e > e_lim));
+}
+
+/* The exponent beyond which a facet's lobe exp(-e) norm is taken as 0:
+ * min(80, (logb(norm) + 125) ln 2). Below it exp(-e) >= e^-80 = 1.8e-35 and
+ * exp(-e) norm >= 2^-125, both normal floats. Why: exp(-e) for e in (87, 104)
+ * and small norms give subnormal fp32 results, PoCL does not flush them to 0,
+ * and on x86 every vector instruction that produces or reads a subnormal lane
+ * takes a microcode assist (~100+ cycles); with 16 random queries per
+ * work-item some lane almost always had one, and the instructions after the
+ * facet's exp were ~20% of the ONE_CELL kernel's time (perf annotate). What is
+ * dropped: lobes below e^-80 of the facet's peak or below 2^-125 absolute (S
+ * is ~1; a dropped term changes it by < 1e-34 relative to the facet's own
+ * weight). */
+GLINT_FN real kemppinen_lobe_cut(real norm) {
+  return fmin(GLINT_R(80.0), (logb(norm) + GLINT_R(125.0)) * GLINT_R(0.69314718055994530942));
 }
 
 GLINT_FN real kemppinen_facet_lobe(KemppinenBlocks b, real cx, real cy, real ix, real iy,
                                    KemppinenFacet g) {
+  /* No cut (the tests' explicit sums and the sampler's pdf take every lobe). */
   return kemppinen_facet_lobe_at(GLINT_R(1.0) / b.res_a, b.ta_x, b.ta_y, b.inv_sax, b.inv_say,
-                                 b.ts_x - cx, b.ts_y - cy, b.qxx, b.qxy, b.qyy, b.norm, ix, iy, g);
+                                 b.ts_x - cx, b.ts_y - cy, b.qxx, b.qxy, b.qyy, b.norm,
+                                 GLINT_R(INFINITY), ix, iy, g);
 }
 
 /* 1 - P_s of the blocks (the polygon pass). */
@@ -747,6 +816,7 @@ GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
   /* 1 / sigma_a and the angular norm in cells: exact rescalings by 2^-l. */
   real inv_sax = a.inv_sx * inv_res_a, inv_say = a.inv_sy * inv_res_a;
   real norm = q->s.norm_s * (a.norm * (inv_res_a * inv_res_a));
+  real e_lim = kemppinen_lobe_cut(norm);
   real3 sum = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   int n_cells = p->one_cell ? 1 : 4;
   for (int j = 0; j < n_cells; ++j) {
@@ -765,11 +835,12 @@ GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
         glint_mask valid = (ix < ea_x) & (iy < ea_y);
         KemppinenFacet g = kemppinen_facet_in_column(column[mx], iy);
         /* One level (w = 1): R(r, 1) = 1 for every r, no roulette. */
-        real keep = p->one_level ? GLINT_R(1.0) : kemppinen_roulette(g.r, w);
+        real keep = GLINT_R(1.0);
+        if (!p->one_level) keep = kemppinen_roulette(g.r, w); /* uniform: a branch, not a select */
         /* No branch on the roulette: with 16 lanes some lane almost always
          * keeps the facet, and the branch cost 10% (measured at k = 1, 4). */
         real lobe = kemppinen_facet_lobe_at(inv_res_a, ta_x, ta_y, inv_sax, inv_say, dxc, dyc,
-                                            q->s.qxx, q->s.qxy, q->s.qyy, norm, ix, iy, g);
+                                            q->s.qxx, q->s.qxy, q->s.qyy, norm, e_lim, ix, iy, g);
         real wt = glint_select(GLINT_R(0.0), keep * lobe, valid & (keep > GLINT_R(0.0)));
         /* K25 3.3.6: the facet's colour from its cell's hash. */
         sum = r3_add(sum, r3_scale(kemppinen_facet_color_of(p, g), wt));
@@ -845,12 +916,62 @@ GLINT_FN KemppinenQueryLevels kemppinen_query_levels(KemppinenParams p, Kemppine
   return L;
 }
 
+/* kemppinen_lobe(kemppinen_angular(p, kemppinen_to_disk(h))) with fewer
+ * divisions, for the point-light pass (one per light and query; a division or
+ * square root costs ~10 multiplies on the CPU device, and this chain had 7
+ * divisions and 3 roots per light). The same formulas rearranged, so the
+ * values agree to a few fp32 roundings (not bit for bit; tested against the
+ * composed functions in fp64):
+ *  - GGX: |J_T| = (ax ay)^2 / (8 len^3) (kemppinen_to_disk), so 1 / sigma =
+ *    1 / (alpha_star sqrt(|J_T|)) = len^(3/2) sqrt(8) / (alpha_star ax ay):
+ *    one square root and a product, the quotient uniform per request (the
+ *    composed form is a chain of 3 divisions and 2 roots per light).
+ *  - both NDFs: 1 / sigma once, the anisotropic pair as products with a and
+ *    1 / a (sigma_x = sigma / a, sigma_y = sigma a, Eq. 4). */
+GLINT_FN KemppinenLobe kemppinen_lobe_of_h(const GLINT_PRIVATE KemppinenParams *p, int ndf, real3 h,
+                                           real ax, real ay, real D) {
+  KemppinenLobe l;
+  real sd = GLINT_R(0.0); /* sqrt(|J_T|), Beckmann */
+  if (ndf == GLINT_NDF_BECKMANN) {
+    DiskPoint d = kemppinen_to_disk(ndf, h, ax, ay, D);
+    l.x = d.x;
+    l.y = d.y;
+    sd = sqrt(fmax(d.jac, GLINT_R(0.0)));
+  } else {
+    /* kemppinen_to_disk's GGX branch (K25 3.2.1, Eq. 6-7). */
+    real hz = fmax(h.z, GLINT_R(0.0));
+    real3 s = make_real3(h.x * ay, h.y * ax, hz * ax * ay);
+    real len = fmax(r3_length(s), GLINT_R(1e-30));
+    real nz = s.z / len;
+    real k = GLINT_R(0.5) / (len * sqrt(GLINT_R(1.0) + nz));
+    l.x = GLINT_R(0.5) + s.x * k;
+    l.y = GLINT_R(0.5) + s.y * k;
+    /* 1 / sigma = len^(3/2) sqrt(8) / (alpha_star ax ay): no division on the
+     * chain after len (the last quotient is uniform). kemppinen_angular's
+     * floor sigma >= 1e-12 becomes 1 / sigma <= 1e12; alpha_star ax ay >=
+     * 1e-13 (validation), so the uniform factor is finite (and +inf only
+     * gives the floor's 1e12, as sigma would); len >= 1e-30 > 0. */
+    real c = GLINT_R(2.8284271247461900976) / (p->micro * ax * ay); /* uniform */
+    real inv_s = fmin(len * sqrt(len) * c, GLINT_R(1e12));
+    l.inv_sx = inv_s * p->aniso;
+    l.inv_sy = inv_s * p->inv_aniso;
+    l.norm = l.inv_sx * l.inv_sy * GLINT_R(0.15915494309189533577);
+    return l;
+  }
+  /* kemppinen_angular's floor: sigma >= 1e-12, so a dead half-vector stays finite. */
+  real inv_s = GLINT_R(1.0) / fmax(p->micro * sd, GLINT_R(1e-12));
+  l.inv_sx = inv_s * p->aniso;
+  l.inv_sy = inv_s * p->inv_aniso;
+  l.norm = l.inv_sx * l.inv_sy * GLINT_R(0.15915494309189533577);
+  return l;
+}
+
 /* S(x, h) = D_star / D (RGB: the facets' colours) for the query's levels and
  * half-vector h (unit). */
 GLINT_FN real3 kemppinen_glint_factor_at(const GLINT_PRIVATE KemppinenParams *p,
                                          const GLINT_PRIVATE KemppinenQueryLevels *L, int ndf,
                                          real3 h, real ax, real ay, real D) {
-  KemppinenLobe a = kemppinen_lobe(kemppinen_angular(*p, kemppinen_to_disk(ndf, h, ax, ay, D)));
+  KemppinenLobe a = kemppinen_lobe_of_h(p, ndf, h, ax, ay, D);
   real3 s = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   GLINT_KEMPPINEN_NOUNROLL
   for (int lv = 0; lv < L->n; ++lv) s = r3_add(s, kemppinen_level_at(p, &L->l[lv], a, L->w[lv]));

@@ -77,6 +77,44 @@ TEST(CheapErfc, WithinItsPublishedBoundOfLibm) {
   EXPECT_LE(worst32, kCheapErfcBound + 10 * 5.96e-8);
 }
 
+// The four cheap erfc of one kemppinen_erfc4_with call share one division (1 / (Pa Pb Pc Pd)
+// and products; y clamped at the 6-sigma cut so the product cannot overflow fp32). Against libm
+// on [-12, 12] in each slot: within A&S's 5e-4 plus the fp32 rounding of the ~10 operations of
+// the polynomial and the 6 of the shared reciprocal (values <= 1: 16 x 2^-24), exactly 0 beyond
+// the cut; and against one division per erfc (kemppinen_erfc_abs_cheap) within those 6
+// roundings relative, so the sharing changes nothing but rounding.
+TEST(CheapErfc, FourFromOneDivisionWithinTheBoundAndZeroBeyondTheCut) {
+  const double u = 5.96e-8;
+  double worst64 = 0, worst32 = 0, worst_rel32 = 0;
+  for (int i = -12000; i <= 12000; ++i) {
+    const double x = i * 1e-3;
+    const double xs[4] = {x, -0.5 * x, 0.25 * x + 1.0, 7.0 - 0.3 * x};
+    k64::KemppinenErfc4 e = k64::kemppinen_erfc4_with(xs[0], xs[1], xs[2], xs[3], 1);
+    k32::KemppinenErfc4 f =
+        k32::kemppinen_erfc4_with(float(xs[0]), float(xs[1]), float(xs[2]), float(xs[3]), 1);
+    const double v64[4] = {e.a, e.b, e.c, e.d}, v32[4] = {f.a, f.b, f.c, f.d};
+    for (int k = 0; k < 4; ++k) {
+      const double ref = std::erfc(std::fabs(xs[k]) / std::sqrt(2.0));
+      if (std::fabs(xs[k]) >= 6.0) {
+        EXPECT_EQ(v64[k], 0.0) << xs[k];
+        EXPECT_EQ(v32[k], 0.0) << xs[k];
+        continue;
+      }
+      worst64 = std::max(worst64, std::fabs(v64[k] - ref));
+      worst32 = std::max(worst32, std::fabs(v32[k] - ref));
+      const double one = double(k32::kemppinen_erfc_abs_cheap(float(xs[k])));
+      worst_rel32 = std::max(worst_rel32, std::fabs(v32[k] / one - 1.0));
+    }
+  }
+  std::printf(
+      "four cheap erfc from one division vs libm on [-12, 12]: max absolute error %.3g "
+      "(fp64), %.3g (fp32); fp32 vs one division each: max relative %.3g\n",
+      worst64, worst32, worst_rel32);
+  EXPECT_LE(worst64, kCheapErfcBound);
+  EXPECT_LE(worst32, kCheapErfcBound + 16 * u);
+  EXPECT_LE(worst_rel32, 6 * u);
+}
+
 // The dither of the one-level neighbourhoods: at lambda = l + w1 a query takes level l + 1
 // with probability w1 (kemppinen_query_levels), else l, from a hash of its uv. Over n random uv
 // the fraction taking l + 1 is binomial: within 4.5 standard errors sqrt(w1 (1 - w1) / n) of

@@ -89,6 +89,85 @@ TEST(DiskMap, JacobianMatchesFiniteDifferencesOfT) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// The point-light pass's lobe (kemppinen_lobe_of_h: T(h), Eq. 4's 1 / sigma_a per axis and the
+// Gaussian's norm, rearranged to fewer divisions) against an independent long-double
+// evaluation of the paper's formulas for GGX: n = (hx / ax, hy / ay, hz) / |.| (the stretch,
+// 3.2.1), x_a = 1/2 + (nx, ny) / (2 sqrt(1 + nz)) (Lambert, Eq. 7), |J_T| = (ax ay)^2 / (8 |M^T
+// h|^3 (ax ay)^3) (kemppinen_to_disk; checked against finite differences of T above), sigma =
+// alpha_star sqrt(|J_T|), sigma_x = sigma / a, sigma_y = sigma a. fp64 agrees to ~1e-15; fp32
+// within the rounding of its ~16 operations (16 x 2^-24 relative for 1 / sigma, 19 for the norm,
+// 8 ulps of 1/2 for x_a). Beckmann keeps kemppinen_to_disk and only shares the reciprocal: against
+// the composed kemppinen_lobe(kemppinen_angular(.)) in the same precision, 4 roundings.
+TEST(DiskMap, PointPassLobeMatchesThePaperFormulas) {
+  const V3 hs[] = {{0.0, 0.0, 1.0},  {0.2, 0.1, 1.0},  {-0.5, 0.3, 1.0},
+                   {0.9, -0.7, 1.0}, {0.05, 2.0, 1.0}, {3.0, -1.0, 0.01}};
+  const double u = 5.96e-8;  // 2^-24
+  double worst_rel32 = 0, worst_abs32 = 0;
+  for (int ndf : {GLINT_NDF_GGX, GLINT_NDF_BECKMANN})
+    for (auto c :
+         {std::array<double, 4>{0.3, 0.3, 0.02, 1.0}, std::array<double, 4>{0.5, 0.12, 0.05, 3.0},
+          std::array<double, 4>{1e-3, 0.8, 1e-3, 0.2}, std::array<double, 4>{1.0, 1.0, 0.1, 1.0}}) {
+      Glinty g;
+      g.ndf = ndf;
+      g.ax = c[0];
+      g.ay = c[1];
+      g.micro = c[2];
+      g.aniso = c[3];
+      for (V3 h0 : hs) {
+        V3 h = Normalize(h0);
+        auto l64 = k64::LobeOfH(g, h);
+        auto l32 = k32::LobeOfH(g, h);
+        if (ndf == GLINT_NDF_GGX) {
+          using ld = long double;
+          ld sx = ld(h.x) / ld(g.ax), sy = ld(h.y) / ld(g.ay), sz = ld(h.z);
+          ld m = std::sqrt(sx * sx + sy * sy + sz * sz);  // |M^T h|
+          ld nx = sx / m, ny = sy / m, nz = sz / m;
+          ld x = 0.5L + nx / (2 * std::sqrt(1 + nz)), y = 0.5L + ny / (2 * std::sqrt(1 + nz));
+          ld jac = 1 / (8 * ld(g.ax) * ld(g.ay) * m * m * m);
+          ld sigma = ld(float(g.micro)) * std::sqrt(jac);
+          ld a = ld(float(g.aniso));  // packed as float (kemppinen_params.h)
+          ld inv_sx = a / sigma, inv_sy = 1 / (sigma * a);
+          ld norm = inv_sx * inv_sy / (2 * ld(M_PI));
+          const double ref[5] = {double(x), double(y), double(inv_sx), double(inv_sy),
+                                 double(norm)};
+          const double got64[5] = {l64.x, l64.y, l64.inv_sx, l64.inv_sy, l64.norm};
+          const double got32[5] = {l32.x, l32.y, l32.inv_sx, l32.inv_sy, l32.norm};
+          for (int i = 0; i < 5; ++i) {
+            if (i < 2) {
+              EXPECT_NEAR(got64[i], ref[i], 1e-14);
+              EXPECT_NEAR(got32[i], ref[i], 8 * 0.5 * u) << "x_a, h " << h.x << "," << h.y;
+              worst_abs32 = std::max(worst_abs32, std::fabs(got32[i] - ref[i]));
+            } else {
+              double rel32 = std::fabs(got32[i] / ref[i] - 1);
+              EXPECT_NEAR(got64[i] / ref[i], 1.0, 1e-13);
+              EXPECT_LE(rel32, (i == 4 ? 19 : 16) * u)
+                  << "slot " << i << " alpha " << g.ax << "," << g.ay << " h " << h.x << "," << h.y;
+              worst_rel32 = std::max(worst_rel32, rel32);
+            }
+          }
+        } else {
+          auto c64 = k64::LobeComposed(g, h);
+          auto c32 = k32::LobeComposed(g, h);
+          EXPECT_DOUBLE_EQ(l64.x, c64.x);
+          EXPECT_DOUBLE_EQ(l64.y, c64.y);
+          EXPECT_FLOAT_EQ(l32.x, c32.x);
+          EXPECT_FLOAT_EQ(l32.y, c32.y);
+          EXPECT_NEAR(l64.inv_sx / c64.inv_sx, 1.0, 1e-15);
+          EXPECT_NEAR(l64.inv_sy / c64.inv_sy, 1.0, 1e-15);
+          EXPECT_NEAR(l64.norm / c64.norm, 1.0, 1e-15);
+          EXPECT_NEAR(double(l32.inv_sx) / double(c32.inv_sx), 1.0, 4 * u);
+          EXPECT_NEAR(double(l32.inv_sy) / double(c32.inv_sy), 1.0, 4 * u);
+          EXPECT_NEAR(double(l32.norm) / double(c32.norm), 1.0, 8 * u);
+        }
+      }
+    }
+  std::printf(
+      "point-pass lobe (GGX) fp32 vs long double: x_a max abs %.3g, 1/sigma and norm max "
+      "rel %.3g\n",
+      worst_abs32, worst_rel32);
+}
+
+// ---------------------------------------------------------------------------------------------
 // Gaussian rectangle masses (the erf of Eq. 10): Abramowitz & Stegun 7.1.26 for erfc, arranged
 // so tails do not cancel. First the approximation against libm over [0, 12] (its published
 // bound: absolute error <= 1.5e-7), then the masses against composite Simpson quadrature of the

@@ -343,7 +343,8 @@ GLINT_FN real kemppinen_lin_phi_int(real q0, real r, real ym, real c, real s, re
  *   Qx(x) = sx [psi((bx0 - x) / sx) - psi((bx1 - x) / sx)]  (dQx/dx = qx),
  * integrated per edge by 8-point Gauss-Legendre over the edge's part within
  * GLINT_KEMPPINEN_FAR_SIGMAS sy of the block's rows (qy below 4e-8 beyond),
- * in pieces split where the edge crosses the transitions of qy and Qx;
+ * in pieces split where the edge crosses the transitions of qy and Qx (and
+ * into GLINT_KEMPPINEN_GL_SPAN-sigma sub-pieces within a transition);
  * R far inside or outside the block gives its area or 0 directly. Exact as R shrinks (A Q_B(c))
  * and as sigma -> 0 (area of R in B); tested against Monte Carlo. */
 GLINT_FN real kemppinen_image_block_mass(const GLINT_PRIVATE KemppinenUPolygon *R, real bx0,
@@ -375,7 +376,9 @@ GLINT_FN real kemppinen_image_block_mass(const GLINT_PRIVATE KemppinenUPolygon *
     /* Pieces between the places where the edge enters or leaves the
      * transitions of qy (rows by0, by1) and of Qx (columns bx0, bx1), each
      * +-GLINT_KEMPPINEN_FAR_SIGMAS wide: Gauss-Legendre then integrates
-     * smooth pieces (an erf over ~11 sigma, or nearly constant). */
+     * smooth pieces (nearly constant, or within transitions, there in
+     * sub-pieces: 8 nodes are not enough for an erf times psi over ~11
+     * sigma, see GLINT_KEMPPINEN_GL_SPAN). */
     real tt[10];
     int nt = 0;
     tt[nt++] = t0;

@@ -45,24 +45,36 @@
  * below 3e-9 of one facet at the filter's peak, under the fp32 resolution of
  * that facet's term (the point pass's erfc is dropped at 6 scores already,
  * GLINT_KEMPPINEN_ERFC_CUT). A spatial cell whose nearest point is that far
- * (bounded by the filter's smallest eigenvalue) is skipped before its hashes. */
+ * (kemppinen_filter_cell_min) is skipped before its hashes. */
 #define GLINT_KEMPPINEN_FILTER_CUT 24.5
 
 /* Lower bound of the pixel-filter exponent q(d) = qxx dx^2 + qxy dx dy +
- * qyy dy^2 over the facets of a spatial cell: d = (dxc - sx, dyc - sy) with
- * the facet's offsets sx, sy in [0, 1), so q >= lambda_min |d|^2 >=
- * lambda_min dist^2, dist the distance from 0 to [dxc - 1, dxc] x
- * [dyc - 1, dyc]; lambda_min the smallest eigenvalue of [[qxx, qxy / 2],
- * [qxy / 2, qyy]] (clamped at 0 against rounding). */
-GLINT_FN real kemppinen_filter_min_eigen(real qxx, real qxy, real qyy) {
-  real d = GLINT_R(0.5) * (qxx - qyy), o = GLINT_R(0.5) * qxy;
-  return fmax(GLINT_R(0.5) * (qxx + qyy) - sqrt(d * d + o * o), GLINT_R(0.0));
+ * qyy dy^2 over the facets of a spatial cell, d = (dxc - sx, dyc - sy) with
+ * the facet's offsets sx, sy in [0, 1): the exact minimum of q over the
+ * closed cell [dxc - 1, dxc] x [dyc - 1, dyc] (q convex, qxx, qyy > 0: the filter is regularised,
+ * kemppinen_footprint): 0 when the cell holds d = 0, else the smallest of
+ * the four sides' minima, each a 1D quadratic minimised at its clamped
+ * vertex (side dx = X: qyy dy^2 + qxy X dy + qxx X^2, at dy = -qxy X / (2
+ * qyy)). Session 11 bounded q by the smallest eigenvalue times the distance
+ * squared, loose for an elongated filter: 80% of the facets hashed in the
+ * bench's quad were then cut by their own exponent. Scaled by (1 - 1e-5)
+ * so that rounding cannot lift it above a facet's own q (relative errors
+ * ~1e-7 in fp32): it stays a lower bound. */
+GLINT_FN real kemppinen_filter_quad(real qxx, real qxy, real qyy, real dx, real dy) {
+  return qxx * dx * dx + qxy * dx * dy + qyy * dy * dy;
 }
 
-GLINT_FN real kemppinen_filter_cell_bound(real lmin, real dxc, real dyc) {
-  real ex = fmax(fmax(dxc - GLINT_R(1.0), -dxc), GLINT_R(0.0));
-  real ey = fmax(fmax(dyc - GLINT_R(1.0), -dyc), GLINT_R(0.0));
-  return lmin * (ex * ex + ey * ey);
+GLINT_FN real kemppinen_filter_cell_min(real qxx, real qxy, real qyy, real dxc, real dyc) {
+  real x0 = dxc - GLINT_R(1.0), y0 = dyc - GLINT_R(1.0);
+  if (x0 <= GLINT_R(0.0) && dxc >= GLINT_R(0.0) && y0 <= GLINT_R(0.0) && dyc >= GLINT_R(0.0))
+    return GLINT_R(0.0);
+  real hx = GLINT_R(-0.5) * qxy / qxx, hy = GLINT_R(-0.5) * qxy / qyy;
+  /* Sides dx = x0, dx = dxc (dy free in [y0, dyc]), then dy = y0, dy = dyc. */
+  real m = kemppinen_filter_quad(qxx, qxy, qyy, x0, clamp(hy * x0, y0, dyc));
+  m = fmin(m, kemppinen_filter_quad(qxx, qxy, qyy, dxc, clamp(hy * dxc, y0, dyc)));
+  m = fmin(m, kemppinen_filter_quad(qxx, qxy, qyy, clamp(hx * y0, x0, dxc), y0));
+  m = fmin(m, kemppinen_filter_quad(qxx, qxy, qyy, clamp(hx * dyc, x0, dxc), dyc));
+  return fmax(m, GLINT_R(0.0)) * GLINT_R(0.99999);
 }
 
 /* rho at U point (x, y) (see the header comment), RGB, without L. */
@@ -133,19 +145,21 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
      * Gaussians' norms, the angular one 1 / (2 pi sax say) in cells. */
     real sn = b.norm * GLINT_R(2.0) * GLINT_PI * (a.sx * res_a) * (a.sy * res_a);
     real3 sum = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-    int n = pb.n_side;
     /* res_a = 2^l (l <= 24): a product by inv_res_a is the exact quotient,
      * without a division per cell and facet. */
     real inv_res_a = GLINT_R(1.0) / res_a;
-    /* The filter's smallest eigenvalue, for the per-cell bound. */
-    real lmin = kemppinen_filter_min_eigen(b.qxx, b.qxy, b.qyy);
+    /* The column keys of each spatial cell once per column, not per facet
+     * (kemppinen_facet = kemppinen_facet_in_column o kemppinen_column_key). */
+    int n = pb.n_side;
     for (int j = 0; j < 4; ++j) {
       real cx = b.bs_x + (real)(j & 1);
       real cy = b.bs_y + (real)(j >> 1);
-      if (kemppinen_filter_cell_bound(lmin, b.ts_x - cx, b.ts_y - cy) >
+      if (kemppinen_filter_cell_min(b.qxx, b.qxy, b.qyy, b.ts_x - cx, b.ts_y - cy) >
           GLINT_R(GLINT_KEMPPINEN_FILTER_CUT))
         continue;
       kemp_uint key = kemppinen_spatial_key(fp.seed_key, level, cx, cy);
+      kemp_uint column[GLINT_KEMPPINEN_POLYGON_MAX_SIDE];
+      for (int mx = 0; mx < n; ++mx) column[mx] = kemppinen_column_key(key, b.ba_x + (real)mx);
       /* Rows outer, columns inner, in the order of the former single loop
        * over mm (ix = mm % n, iy = mm / n): the same sum, no integer division. */
       for (int my = 0; my < n; ++my) {
@@ -158,18 +172,35 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
           if (kemppinen_lines_rect_apart(&lines, ix * inv_res_a, (ix + GLINT_R(1.0)) * inv_res_a,
                                          iy * inv_res_a, (iy + GLINT_R(1.0)) * inv_res_a))
             continue;
-          KemppinenFacet g = kemppinen_facet(key, ix, iy);
-          real keep = kemppinen_roulette(g.r, w);
-          if (!(keep > GLINT_R(0.0))) continue;
-          real gx = (ix + g.ax) * inv_res_a, gy = (iy + g.ay) * inv_res_a;
-          real ox = gx - GLINT_R(0.5), oy = gy - GLINT_R(0.5);
-          if (ox * ox + oy * oy >= GLINT_R(0.25)) continue; /* rejected (3.3.1) */
-          real dx = b.ts_x - cx - g.sx, dy = b.ts_y - cy - g.sy;
+          /* kemppinen_facet_in_column (kemppinen_ndf.h: the same hashes
+           * and fields), in the order of its tests' costs:
+           * the spatial offsets (one mix) and the filter cut first (most
+           * facets of a cell lie beyond it when the filter is smaller than
+           * the cell), then the roulette, the angular offsets and the
+           * disk's rejection. Each test only drops the facet, so the order
+           * does not change the sum. */
+          kemp_uint fkey = kemppinen_absorb(column[mx], KEMP_TO_UINT(iy));
+          kemp_uint h1 = kemppinen_mix(fkey ^ 0x1u);
+          real dx = b.ts_x - cx - kemppinen_u16_hi(h1), dy = b.ts_y - cy - kemppinen_u16_lo(h1);
           real es = b.qxx * dx * dx + b.qxy * dx * dy + b.qyy * dy * dy;
           if (es > GLINT_R(GLINT_KEMPPINEN_FILTER_CUT)) continue;
+          real keep = kemppinen_roulette(kemppinen_u16_hi(fkey), w);
+          if (!(keep > GLINT_R(0.0))) continue;
+          kemp_uint h2 = kemppinen_mix(fkey ^ 0x2u);
+          real gx = (ix + kemppinen_u16_hi(h2)) * inv_res_a,
+               gy = (iy + kemppinen_u16_lo(h2)) * inv_res_a;
+          real ox = gx - GLINT_R(0.5), oy = gy - GLINT_R(0.5);
+          if (ox * ox + oy * oy >= GLINT_R(0.25)) continue; /* rejected (3.3.1) */
+          KemppinenFacet g; /* the fields of kemppinen_facet_in_column */
+          g.sx = kemppinen_u16_hi(h1);
+          g.sy = kemppinen_u16_lo(h1);
+          g.ax = kemppinen_u16_hi(h2);
+          g.ay = kemppinen_u16_lo(h2);
+          g.r = kemppinen_u16_hi(fkey);
+          g.pick = kemppinen_u16_lo(fkey);
           real ns = sn * exp(-es);
           real mass = kemppinen_lines_mass(R, &lines, gx, gy, a.sx, a.sy);
-          sum = r3_add(sum, r3_scale(kemppinen_facet_color(p, g), keep * ns * mass));
+          sum = r3_add(sum, r3_scale(kemppinen_facet_color_of(&p, g), keep * ns * mass));
         }
       }
     }

@@ -309,6 +309,9 @@ int main(int argc, char **argv) {
     options.limits.fp64_available = engine->info().fp64;
   }
   glint::Scheduler scheduler(flags.workers, size_t(flags.max_pending));
+  // The port opens before the warm-up: a request that arrives meanwhile is queued (or refused
+  // when the queue is full), not run beside a warm-up thread on the same device queue.
+  if (engine) scheduler.Hold();
   glint::Ops ops(flags.ops);
   if (std::string error; !ops.Init(&error)) {
     std::fprintf(stderr, "glintd: %s\n", error.c_str());
@@ -363,6 +366,7 @@ int main(int argc, char **argv) {
   }
   if (std::string error; !ops.Start(&error)) {
     std::fprintf(stderr, "glintd: %s\n", error.c_str());
+    scheduler.Release();
     server->Shutdown();
     return 1;
   }
@@ -383,6 +387,7 @@ int main(int argc, char **argv) {
     if (glint::Status s = glint::WarmKernels(engine.get(), warm_specs, engine->workers());
         !s.ok()) {
       std::fprintf(stderr, "glintd: %s\n", s.message().c_str());
+      scheduler.Release();  // the held requests run (and fail or finish) so Shutdown can end
       server->Shutdown();
       return 1;
     }
@@ -412,6 +417,7 @@ int main(int argc, char **argv) {
     std::fprintf(stderr, "glintd: device host (scalar C++ path, no OpenCL)\n");
   }
 
+  scheduler.Release();
   health.SetServing(true);
   kserve.SetReady(true);
   std::string host = flags.listen.substr(0, flags.listen.rfind(':'));

@@ -16,6 +16,19 @@ Scheduler::~Scheduler() {
   for (auto &t : workers_) t.join();
 }
 
+void Scheduler::Hold() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  held_ = true;
+}
+
+void Scheduler::Release() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    held_ = false;
+  }
+  wake_.notify_all();
+}
+
 bool Scheduler::TrySubmit(Job job) {
   return TrySubmit(std::move(job), nullptr);
 }
@@ -133,7 +146,7 @@ void Scheduler::WorkerLoop(int worker) {
     std::vector<Respond> dropped;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
+      wake_.wait(lock, [this] { return stopping_ || (!held_ && !queue_.empty()); });
       // Work whose call died while it waited never starts, here or in a batch.
       DropDead(&dropped);
       if (queue_.empty()) {

@@ -77,6 +77,12 @@ class Scheduler {
   // away, or the deadline passed) frees its slot at once instead of when the queue is next full
   // or a worker takes a job, so --max-pending and the queue-depth metric count live calls only.
   void DropDeadJobs();
+  // Jobs are accepted and queued but no worker starts one until Release(): glintd holds its
+  // workers while the kernel warm-up builds and runs kernels on the same device queues, since a
+  // job and a warm-up thread on one queue would share its kernel objects (clSetKernelArg on one
+  // cl_kernel from two threads is a data race). Shutdown runs held jobs as it runs queued ones.
+  void Hold();
+  void Release();
   // Before any job is submitted.
   void EnableBatching(BatchOptions options, BatchJob run);
   const BatchOptions &batching() const { return batching_; }
@@ -104,6 +110,7 @@ class Scheduler {
   std::deque<Entry> queue_;
   size_t running_ = 0;
   bool stopping_ = false;
+  bool held_ = false;
   std::vector<std::thread> workers_;
 };
 

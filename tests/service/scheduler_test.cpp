@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <functional>
 #include <future>
 #include <memory>
@@ -40,6 +41,31 @@ TEST(Scheduler, RefusesBeyondMaxPendingAndRecovers) {
     // Destruction drains the queue.
   }
   EXPECT_EQ(ran.load(), 2);
+}
+
+// glintd holds its workers during the kernel warm-up (server/main.cpp): jobs queue, count against
+// --max-pending and start only on Release. Not a timing check: a held job must not run however
+// long we wait, and must run once released.
+TEST(Scheduler, HeldJobsQueueAndStartOnlyWhenReleased) {
+  std::atomic<int> ran{0};
+  std::promise<void> both_ran;
+  {
+    Scheduler scheduler(2, 2);
+    scheduler.Hold();
+    auto job = [&](int) -> Scheduler::Respond {
+      if (++ran == 2) both_ran.set_value();
+      return nullptr;
+    };
+    ASSERT_TRUE(scheduler.TrySubmit(job));
+    ASSERT_TRUE(scheduler.TrySubmit(job));
+    EXPECT_FALSE(scheduler.TrySubmit(job));  // held jobs hold their slots
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    EXPECT_EQ(ran.load(), 0);
+    EXPECT_EQ(scheduler.pending(), 2u);
+    scheduler.Release();
+    both_ran.get_future().wait();
+    EXPECT_EQ(ran.load(), 2);
+  }
 }
 
 TEST(Scheduler, EachWorkerHasItsOwnLane) {

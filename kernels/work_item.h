@@ -1,7 +1,7 @@
 /* The linear index of this work-item in a launch of one or two dimensions.
  *
- * The device engine launches a batch as a 2D grid (server/launch_grid.h): rows of at most 65408
- * work-items (a multiple of the local size below 65535), as many rows as the batch needs. Why:
+ * The device engine launches a batch as a 2D grid (server/launch_grid.h): rows of at most 65534
+ * work-items (the largest multiple of the local size below 65535: 65408 at the default 128), as many rows as the batch needs. Why:
  * PoCL 3.1 compiles a kernel's work-group function separately for grids whose widest dimension
  * is below 65535 work-items ("smallgrid", pocl_cache.c pocl_cache_kernel_cachedir_path,
  * pocl_llvm_wg.cc; grid_width_specialization_limit = USHRT_MAX in devices/common.c) and for

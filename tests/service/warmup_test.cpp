@@ -217,7 +217,7 @@ std::set<std::string> WorkGroupFunctions(const std::string &pocl_cache) {
 // grid_width_specialization_limit = USHRT_MAX). The device engine launches 2D grids whose
 // dimensions stay below that (server/launch_grid.h), so the one-query warm-up compiles the work-
 // group function every request of the variant uses: a request of 2^20 queries (65536 work-items
-// of the 16-lane smooth kernel, 8 grid rows) compiles nothing more. Its result is bit-identical
+// of the 16-lane smooth kernel, 2 grid rows: 65408 + 128) compiles nothing more. Its result is bit-identical
 // to the same queries evaluated in chunks of one grid row or less (the work-item index
 // kernels/work_item.h computes from the 2D id).
 TEST(WarmUp, LargeRequestAfterWarmUpCompilesNoWorkGroupFunction) {

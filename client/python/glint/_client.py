@@ -107,8 +107,9 @@ class Client:
     never the side that refuses; replies are received up to it + ``REPLY_OVERHEAD_BYTES``, the
     most a reply may exceed the server's limit by); ``max_chunk_bytes`` bounds one message (a few MiB
     keeps latency and memory small); ``max_chunk_queries`` caps queries per message (0: only the
-    server's ``max_batch``); ``timeout`` (seconds) applies to ``capabilities()`` only, since a
-    large batch may legitimately take minutes. ``retry`` is how :meth:`upload_normal_map` retries
+    server's ``max_batch``); ``timeout`` (seconds) applies to ``capabilities()``,
+    ``list_normal_maps()`` and ``delete_normal_map()`` only, since a large batch may legitimately
+    take minutes. ``retry`` is how :meth:`upload_normal_map` retries
     the server's pushback (glint.RetryPolicy; ``RetryPolicy(max_attempts=1)`` never retries).
     """
 

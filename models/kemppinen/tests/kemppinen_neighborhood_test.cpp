@@ -112,7 +112,9 @@ TEST(CheapErfc, FourFromOneDivisionWithinTheBoundAndZeroBeyondTheCut) {
       worst64, worst32, worst_rel32);
   EXPECT_LE(worst64, kCheapErfcBound);
   EXPECT_LE(worst32, kCheapErfcBound + 16 * u);
-  EXPECT_LE(worst_rel32, 6 * u);
+  // 6 roundings on the shared-division path (pab, pcd, their product, the division, r pcd, x pb)
+  // and 1 in the one-division reference's own 1 / P.
+  EXPECT_LE(worst_rel32, 7 * u);
 }
 
 // The dither of the one-level neighbourhoods: at lambda = l + w1 a query takes level l + 1

@@ -97,7 +97,9 @@ TEST(DiskMap, JacobianMatchesFiniteDifferencesOfT) {
 // alpha_star sqrt(|J_T|), sigma_x = sigma / a, sigma_y = sigma a. fp64 agrees to ~1e-15; fp32
 // within the rounding of its ~16 operations (16 x 2^-24 relative for 1 / sigma, 19 for the norm,
 // 8 ulps of 1/2 for x_a). Beckmann keeps kemppinen_to_disk and only shares the reciprocal: against
-// the composed kemppinen_lobe(kemppinen_angular(.)) in the same precision, 4 roundings.
+// the composed kemppinen_lobe(kemppinen_angular(.)) in the same precision, 1/sigma_x differs by
+// at most 4 roundings, 1/sigma_y by 5 (fl(fl(1/s) fl(1/a)): 3 roundings against fl(1/fl(s a)): 2)
+// and the norm by 13 (two more products on each side of those).
 TEST(DiskMap, PointPassLobeMatchesThePaperFormulas) {
   const V3 hs[] = {{0.0, 0.0, 1.0},  {0.2, 0.1, 1.0},  {-0.5, 0.3, 1.0},
                    {0.9, -0.7, 1.0}, {0.05, 2.0, 1.0}, {3.0, -1.0, 0.01}};
@@ -156,8 +158,8 @@ TEST(DiskMap, PointPassLobeMatchesThePaperFormulas) {
           EXPECT_NEAR(l64.inv_sy / c64.inv_sy, 1.0, 1e-15);
           EXPECT_NEAR(l64.norm / c64.norm, 1.0, 1e-15);
           EXPECT_NEAR(double(l32.inv_sx) / double(c32.inv_sx), 1.0, 4 * u);
-          EXPECT_NEAR(double(l32.inv_sy) / double(c32.inv_sy), 1.0, 4 * u);
-          EXPECT_NEAR(double(l32.norm) / double(c32.norm), 1.0, 8 * u);
+          EXPECT_NEAR(double(l32.inv_sy) / double(c32.inv_sy), 1.0, 5 * u);
+          EXPECT_NEAR(double(l32.norm) / double(c32.norm), 1.0, 13 * u);
         }
       }
     }

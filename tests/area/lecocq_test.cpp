@@ -698,12 +698,12 @@ TEST(AreaLecocq, GrazingViewsSubdivisionOfTheLight) {
               const double t = i / 1000.0;
               double at[4];
               for (int j = 0; j < 4; ++j) at[j] = (1 - t) * acc[1][j] + t * acc[2][j];
-              const double wt = lecocq_weight(m, mat.ax, mat.ay, wo, at).x;
+              const double wt = lecocq_weight(m, mat.ax, mat.ay, wo, at, 0.0).x;
               wmin = std::min(wmin, wt);
               wmax = std::max(wmax, wt);
             }
             const double albedo = TableAlbedo(mat, o);
-            const double wh = lecocq_weight(m, mat.ax, mat.ay, wo, acc[3]).x;
+            const double wh = lecocq_weight(m, mat.ax, mat.ay, wo, acc[3], 0.0).x;
             const double bound =
                 albedo / (wh * std::fabs(acc[3][0])) * std::fabs(acc[0][0]) * (wmax - wmin);
             worst = std::max(worst, std::fabs(whole - parts) / bound);

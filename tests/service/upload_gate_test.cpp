@@ -7,6 +7,7 @@
 // Against a real glintd; the uploads are held open by not half-closing their streams.
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
+#include <httplib.h>
 
 #include <memory>
 #include <string>
@@ -14,6 +15,7 @@
 
 #include "glint/v1/glint.grpc.pb.h"
 #include "glintd_process.h"
+#include "scraped_metric.h"
 
 namespace {
 
@@ -89,11 +91,16 @@ class UploadGate : public ::testing::Test {
  protected:
   void SetUp() override {
     std::string error;
+    const int metrics_port = glint::test::FreeLoopbackPort();
+    ASSERT_GT(metrics_port, 0);
     // 1 MiB files: the buffered-bytes bound is 2 MiB.
-    server_ =
-        glint::test::Glintd::Start(glint::test::GlintdUnderTest(GLINTD_PATH), dir_, "glintd",
-                                   {"--normal-map-max-upload-mb", "1", "--warm", "none"}, &error);
+    server_ = glint::test::Glintd::Start(
+        glint::test::GlintdUnderTest(GLINTD_PATH), dir_, "glintd",
+        {"--normal-map-max-upload-mb", "1", "--warm", "none", "--metrics-listen",
+         "127.0.0.1:" + std::to_string(metrics_port)},
+        &error);
     ASSERT_NE(server_, nullptr) << error;
+    http_ = std::make_unique<httplib::Client>("127.0.0.1", metrics_port);
     stub_ = v1::GlintService::NewStub(
         grpc::CreateChannel(server_->address(), grpc::InsecureChannelCredentials()));
   }
@@ -111,17 +118,29 @@ class UploadGate : public ::testing::Test {
   glint::test::TempDir dir_{"upload_gate_test"};
   std::unique_ptr<glint::test::Glintd> server_;
   std::unique_ptr<v1::GlintService::Stub> stub_;
+  std::unique_ptr<httplib::Client> http_;
 };
 
 // Opens `n` uploads of `bytes` each and holds them all open, then finishes them: exactly one
 // (whichever the server reached last) must be refused with `words` and the pushback, the others
 // answered as the unreadable files they are (INVALID_ARGUMENT). The order in which the server
 // reads the streams is its own, so which one is refused is not checked.
-void ExpectExactlyOneRefused(v1::GlintService::Stub *stub, int n, size_t bytes,
-                             const std::string &words) {
+//
+// A client's Write returns once gRPC has queued the chunk, not once the server has read it, so
+// before finishing any upload the test waits until the server has answered one with
+// RESOURCE_EXHAUSTED (/metrics): a refusal means the others hold their shares. Finishing at once
+// let the server answer the first upload, freeing its share, before it read the last one's chunk
+// (seen in CI under load: no refusal, all three answered).
+void ExpectExactlyOneRefused(v1::GlintService::Stub *stub, httplib::Client &http, int n,
+                             size_t bytes, const std::string &words) {
+  const std::string refusals = glint::test::HandledSeries("UploadNormalMap", "RESOURCE_EXHAUSTED");
+  const double before = glint::test::ScrapedValue(http, refusals);
+  ASSERT_GE(before, 0) << "/metrics unreadable";
   std::vector<std::unique_ptr<OpenUpload>> uploads;
   for (int i = 0; i < n; ++i)
     uploads.push_back(std::make_unique<OpenUpload>(stub, "u" + std::to_string(i) + ".exr", bytes));
+  EXPECT_EQ(glint::test::WaitForScrapedValue(http, refusals, before + 1, std::chrono::seconds(60)),
+            before + 1);
   int refused = 0, unreadable = 0;
   for (auto &u : uploads) {
     const grpc::Status s = u->Finish();
@@ -140,14 +159,14 @@ void ExpectExactlyOneRefused(v1::GlintService::Stub *stub, int n, size_t bytes,
 
 // Two 1 MiB files fill the 2 MiB bound; a third is refused while both are held.
 TEST_F(UploadGate, BufferedBytesOfAllUploadsAreBounded) {
-  ExpectExactlyOneRefused(stub_.get(), 3, size_t{1} << 20, "buffers at most 2097152");
+  ExpectExactlyOneRefused(stub_.get(), *http_, 3, size_t{1} << 20, "buffers at most 2097152");
   ExpectAnUploadSucceeds();  // the refused and the answered ones freed their share
   EXPECT_TRUE(server_->Alive());
 }
 
 // Sixteen small uploads in progress; a seventeenth is refused while they are held.
 TEST_F(UploadGate, UploadsInProgressAreCounted) {
-  ExpectExactlyOneRefused(stub_.get(), 17, 16, "16 already in progress");
+  ExpectExactlyOneRefused(stub_.get(), *http_, 17, 16, "16 already in progress");
   ExpectAnUploadSucceeds();
   EXPECT_TRUE(server_->Alive());
 }

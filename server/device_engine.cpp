@@ -8,6 +8,7 @@
 #include "server/kernel_source.h"
 #include "server/launch_grid.h"
 #include "server/model_table.h"
+#include "server/shm_guard.h"
 #include "server/sliced_eval.h"
 
 namespace glint {
@@ -335,10 +336,16 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const QueryView 
                            ltc_tables_[plan.spec.ndf == GLINT_NDF_BECKMANN ? 1 : 0].get(),
                            model_table, out_rgb, &args);
   if (!s.ok()) return s;
+  // Every pass's kernel first: building one may have LLVM install its SIGBUS handler over the
+  // guard of the shared-memory regions the kernels may read in place (server/shm_guard.h).
+  std::vector<cl_kernel> kernels(passes.size());
   for (size_t k = 0; k < passes.size(); ++k) {
-    cl_kernel kernel = nullptr;
-    s = KernelFor(queue, *passes[k], plan.spec, &kernel);
+    s = KernelFor(queue, *passes[k], plan.spec, &kernels[k]);
     if (!s.ok()) return s;
+  }
+  KeepSigbusGuardFirst();
+  for (size_t k = 0; k < passes.size(); ++k) {
+    cl_kernel kernel = kernels[k];
     // In-order queue: each later pass runs after the earlier ones and adds to their output.
     s = BindKernelArguments(kernel, args, queue.dummy.get(), k > 0);
     if (!s.ok()) return s;

@@ -2,7 +2,7 @@
 // page of a MAP_SHARED mapping beyond the object's current end raises SIGBUS, which would kill
 // glintd. GuardedCopy catches that fault on the copying thread (a SIGBUS handler that jumps back
 // when, and only when, the faulting thread is inside a GuardedCopy) and reports it as false; any
-// other SIGBUS keeps its usual meaning (the previous handler, or the default action).
+// other SIGBUS takes the default action (the process dumps core, as without the handler).
 //
 // Mappings that other threads read and write without a copy (the device engine's kernels on a
 // region, server/shm_io.cpp) are watched instead (WatchMapping): a SIGBUS inside a watched
@@ -27,5 +27,11 @@ bool GuardedCopy(void *dst, const void *src, size_t bytes);
 constexpr int kWatchSlots = 1024;
 int WatchMapping(void *begin, size_t bytes, std::atomic<bool> *lost);
 void UnwatchMapping(int handle);
+
+// Puts the handler back in front when other code installed a SIGBUS handler over it (LLVM does,
+// inside PoCL, the first time it compiles; shm_guard.cpp InstallFirst says why that kills) and a
+// mapping is watched. Call it after anything that may have compiled and before kernels touch
+// watched memory; a no-op costing one atomic load while nothing is watched.
+void KeepSigbusGuardFirst();
 
 }  // namespace glint

@@ -18,11 +18,13 @@
 #include <fcntl.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/mman.h>
 #include <unistd.h>
 
 #include <cmath>
 #include <cstring>
+#include <ctime>
 #include <random>
 #include <thread>
 
@@ -271,6 +273,52 @@ TEST_F(ShmViewEngine, RegionTruncatedUnderTheKernelsIsLostNotFatal) {
   const glint::Status again = r.call.in->CheckRange(0, 16, "shared_memory.input_offset");
   EXPECT_EQ(again.code(), glint::Status::Code::kFailedPrecondition);
   EXPECT_NE(again.message().find("lost its pages"), std::string::npos) << again.message();
+  close(fd);
+}
+
+// A SIGBUS handler like the one LLVM (inside PoCL) installs the first time it writes a file:
+// SA_RESETHAND, so the action is the default from the moment it is entered until it puts back
+// the handler it displaced. It lingers 200 ms before doing so, long enough for the other PoCL
+// thread to fault inside that window.
+struct sigaction g_displaced;
+void LingeringResetHandler(int) {
+  const timespec linger = {0, 200 * 1000 * 1000};
+  nanosleep(&linger, nullptr);
+  sigaction(SIGBUS, &g_displaced, nullptr);
+}
+
+// The same truncation with such a handler installed over the guard after the region was
+// registered (in glintd the engine's first compile can do that). Before, the first faulting
+// thread entered it, the second met the default action, and the process died with "Bus error"
+// (seen in CI: the engine's device enumeration installed LLVM's handler after an earlier test
+// had installed the guard). The engine now puts the guard first again before its kernels run.
+TEST_F(ShmViewEngine, RegionTruncatedWithAForeignHandlerInstalledOverTheGuard) {
+  const EvaluateRequest request = Probe(100000, 4);
+  auto buffer = Buffer(RegionBytes(request, 0));
+  uint64_t out_offset = 0;
+  const EvaluateRequest shared = SharedRequest(request, *buffer, "io", 0, &out_offset);
+  Resolved r;
+  Resolve(*buffer, shared, &r);
+  ASSERT_TRUE(glint::EvaluatesInPlace(r.call, shared, true));
+  struct sigaction foreign {};
+  foreign.sa_handler = LingeringResetHandler;
+  foreign.sa_flags = SA_RESETHAND | SA_NODEFER;
+  sigemptyset(&foreign.sa_mask);
+  ASSERT_EQ(sigaction(SIGBUS, &foreign, &g_displaced), 0);
+  const int fd = shm_open(buffer->key().c_str(), O_RDWR, 0);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(ftruncate(fd, 0), 0);
+  const glint::QueryView view = glint::SharedQueryView(r.call, shared.shared_memory());
+  glint::v1::QueryBatch shape;
+  shape.add_wi(0.0f);
+  shape.add_normal(0.0f);
+  const glint::Status s =
+      engine_->Evaluate(0, glint::MakeEvalPlan(shared, shape), view, r.call.output);
+  EXPECT_TRUE(s.ok()) << s.message();
+  EXPECT_TRUE(r.call.in->lost());
+  struct sigaction now {};
+  sigaction(SIGBUS, nullptr, &now);
+  EXPECT_NE(now.sa_handler, &LingeringResetHandler) << "the guard was not put back in front";
   close(fd);
 }
 

@@ -20,10 +20,11 @@
 //                    after an untimed run that compiles and warms the kernel (--quick: on 16
 //                    queries, and a first run of the starting batch at >= 2x the minimum time
 //                    is the first repeat: Driver::Time says why);
-//   timing_shared_with  --quick only: the variant whose evals_per_s and batch the row reports,
-//                    not timed again, because the same program and passes gave bit-identical
-//                    radiance on every query of its timed batch (Driver::SharedTiming:
-//                    KEMPPINEN's polygon rows for k = 1/4/9/16); null = timed itself;
+//   timing_shared_with  --quick (and --tiny) only: the variant whose evals_per_s and batch the
+//                    row reports, not timed again: the case declares their work the same
+//                    (ModelBenchCase::same_work: KEMPPINEN's k under polygon lights) and the
+//                    same program and passes gave bit-identical radiance on every query of the
+//                    timed batch (Driver::SharedTiming); null = timed itself;
 //   ratio_to_smooth  evals_per_s / that of SMOOTH `schlick` `directional_point` on the same path
 //                    and precision (the issue's "smooth kernel with the same queries and a
 //                    directional light");
@@ -147,6 +148,7 @@ struct Row {
   uint64_t output_hash = 0;
   uint32_t output_queries = 0;
   std::string kernel;  // the program and passes the row runs (Driver::KernelKey)
+  std::string work;    // ModelBenchCase::same_work of its variant and light set ("" = none)
   // --quick: the variant whose timing this row reports (evals_per_s, batch), when both run the
   // same program and passes and gave bit-identical radiance on every query of this row's timed
   // batch (see Driver::SharedTiming); "" = timed itself.
@@ -313,7 +315,8 @@ class Driver {
   void Errors(const Model &model, const ModelBenchCase &c, Lights lights,
               const glint::v1::EvaluateRequest &request, const std::string &path, Row *row);
   // --quick: an earlier row whose timing `row` may report instead of timing itself: the same
-  // model, light set, precision, path, program and passes (Row::kernel), timed itself, and the
+  // model, light set, precision, path, declared work (ModelBenchCase::same_work, non-empty),
+  // program and passes (Row::kernel), timed itself, and the
   // same radiance bits on `row`'s first error queries (Row::output_hash, the request's own
   // seed), which hold every query of that row's timed batch (its batch tiles the first `batch`
   // shared queries: no more than were compared). Same program, same inputs but for a quality
@@ -580,12 +583,12 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
 }
 
 const Row *Driver::SharedTiming(const Row &row) const {
-  if (row.kernel.empty() || row.output_queries == 0) return nullptr;
+  if (row.work.empty() || row.kernel.empty() || row.output_queries == 0) return nullptr;
   for (const Row &r : rows_)
     if (r.model == row.model && r.lights == row.lights && r.precision == row.precision &&
-        r.path == row.path && r.kernel == row.kernel && r.timing_shared_with.empty() &&
-        r.output_queries == row.output_queries && r.output_hash == row.output_hash &&
-        r.batch <= row.output_queries)
+        r.path == row.path && r.work == row.work && r.kernel == row.kernel &&
+        r.timing_shared_with.empty() && r.output_queries == row.output_queries &&
+        r.output_hash == row.output_hash && r.batch <= row.output_queries)
       return &r;
   return nullptr;
 }
@@ -945,12 +948,14 @@ void Driver::Run() {
         phases.references += refs;
         phases.errors += std::chrono::duration<double>(Clock::now() - t0).count() - refs;
       };
-      // --quick, device and host: the errors first, so that a row whose radiance is
+      // --quick (and --tiny, so that the smoke tests run it), device and host: the errors
+      // first, so that a row of the same work (ModelBenchCase::same_work) whose radiance is
       // bit-identical to an earlier variant's can report that variant's timing
       // (SharedTiming). The full run times every row itself.
-      const bool share = o_.mode == "quick" && !service;
+      const bool share = o_.mode != "full" && !service;
       const Row *same = nullptr;
       if (share) {
+        if (k.bench_case->same_work) row.work = k.bench_case->same_work(*k.variant, k.lights);
         try {
           row.kernel = KernelKey(*k.model, ResolvedPlan(k.request, Tile(k.request.queries(), 1)));
         } catch (const std::exception &) {

@@ -76,6 +76,28 @@ def problems(doc):
         # bench_models counts the queries whose radiance was not finite (left out of the errors).
         if row.get("nonfinite", 0):
             out.append(f"{where}: {row['nonfinite']} queries gave non-finite radiance")
+    # A row reporting another variant's timing (bench_models --quick, Driver::SharedTiming): that
+    # variant's row on the same model, light set, precision and path was timed itself, with the
+    # same rate and batch; its radiance was bit-identical, so its errors are the same too.
+    for i, row in enumerate(doc["rows"]):
+        shared = row.get("timing_shared_with") if isinstance(row, dict) else None
+        if shared is None:
+            continue
+        where = f"rows[{i}].timing_shared_with"
+        same = [r for r in doc["rows"] if isinstance(r, dict) and r.get("variant") == shared
+                and all(r.get(k) == row.get(k) for k in ["model", "lights", "precision", "path"])]
+        if not same:
+            out.append(f"{where}: {shared!r}; no such row on the same model, lights, precision "
+                       "and path")
+            continue
+        base = same[0]
+        if base.get("timing_shared_with") is not None:
+            out.append(f"{where}: {shared!r} reports another row's timing itself")
+        for key in ["evals_per_s", "batch", "error_mean", "error_p95", "error_max",
+                    "error_signed", "error_se"]:
+            if base.get(key) != row.get(key):
+                out.append(f"{where}: {key} {row.get(key)!r} differs from {shared!r}'s "
+                           f"{base.get(key)!r}")
     return out
 
 

@@ -24,7 +24,8 @@ ModelBenchCase MakeKemppinenCase() {
   // block to cover the light's image, n = clamp(max(sqrt k, cover), 4) cells per axis
   // (kemppinen_polygons.h, GLINT_KEMPPINEN_POLYGON_MAX_SIDE; README "Polygon lights"), so k
   // only matters where the image covers fewer than sqrt k cells: on the 6 x 6 quad never, on
-  // the four small quads for k = 16 (its radiance differs, so bench_models times it itself).
+  // the four small quads for k = 9 and 16 (their radiance differs from k = 1's on some of the
+  // queries, so bench_models times them itself).
   // The key is the variant's name without its k.
   c.same_work = [](const BenchVariant &v, Lights l) -> std::string {
     const size_t at = v.name.find(",k=");

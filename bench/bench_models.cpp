@@ -17,7 +17,14 @@
 // in fp32 and fp64. One row per measurement:
 //   evals_per_s      queries / median seconds of --repeat runs; the batch (the shared queries
 //                    tiled) grows until one run takes >= the minimum time or reaches 2^20 queries,
-//                    after an untimed run that compiles and warms the kernel;
+//                    after an untimed run that compiles and warms the kernel (--quick: on 16
+//                    queries, and a first run of the starting batch at >= 2x the minimum time
+//                    is the first repeat: Driver::Time says why);
+//   timing_shared_with  --quick (and --tiny) only: the variant whose evals_per_s and batch the
+//                    row reports, not timed again: the case declares their work the same
+//                    (ModelBenchCase::same_work: KEMPPINEN's k under polygon lights) and the
+//                    same program and passes gave bit-identical radiance on every query of the
+//                    timed batch (Driver::SharedTiming); null = timed itself;
 //   ratio_to_smooth  evals_per_s / that of SMOOTH `schlick` `directional_point` on the same path
 //                    and precision (the issue's "smooth kernel with the same queries and a
 //                    directional light");
@@ -136,7 +143,28 @@ struct Row {
   // timed on the same batch right before each of this path's runs (the device rate of this VM
   // changes 2x between moments: the PoCL threads stacked on one core or spread over two).
   std::optional<double> ratio_to_device;
+  // The radiance bits of the row's own request (its seed) on its first error queries, from
+  // Errors: FNV-1a over the floats, and the query count (0 = not recorded).
+  uint64_t output_hash = 0;
+  uint32_t output_queries = 0;
+  std::string kernel;  // the program and passes the row runs (Driver::KernelKey)
+  std::string work;    // ModelBenchCase::same_work of its variant and light set ("" = none)
+  // --quick: the variant whose timing this row reports (evals_per_s, batch), when both run the
+  // same program and passes and gave bit-identical radiance on every query of this row's timed
+  // batch (see Driver::SharedTiming); "" = timed itself.
+  std::string timing_shared_with;
 };
+
+// FNV-1a over the bits of the first n RGB results.
+uint64_t OutputHash(const std::vector<float> &rgb, uint32_t n) {
+  uint64_t h = 1469598103934665603ull;
+  for (size_t i = 0; i < 3 * size_t(n) && i < rgb.size(); ++i) {
+    uint32_t bits = 0;
+    std::memcpy(&bits, &rgb[i], sizeof bits);
+    for (int b = 0; b < 4; ++b) h = (h ^ ((bits >> (8 * b)) & 0xffu)) * 1099511628211ull;
+  }
+  return h;
+}
 
 struct Skipped {
   std::string model, variant, lights, precision, reason;
@@ -213,10 +241,21 @@ struct Combination {
   Status valid;
 };
 
+// What DeviceEngine compiles and runs for a plan: the model, the spec, the passes it needs and
+// the build options ("SMOOTH smooth/ggx/schlick/probe/fp32 glint_smooth [-DGLINT_NDF=1 ...]").
+std::string KernelKey(const Model &model, const EvalPlan &plan) {
+  std::string key = std::string(model.name) + " " + plan.spec.Describe();
+  for (const ModelPass &pass : model.passes)
+    if (!pass.needed || pass.needed(plan)) key += std::string(" ") + pass.entry;
+  return key + " [" + plan.spec.BuildOptions() + "]";
+}
+
 // Where the wall time of a run goes, per model (stderr and the JSON's machine block).
 struct Phases {
   double first_run = 0;   // each row's untimed first run (compile or load, when not warmed)
   double timed = 0;       // batch growth and the timed runs
+  double clocked = 0;     // of `timed`: inside the clock of the timed and growth runs (the rest
+                          // tiles the batch, copies requests, allocates the output)
   double errors = 0;      // the rows' own evaluations for their errors
   double references = 0;  // fp64 host references and REFERENCE truths (shared between rows)
 };
@@ -275,6 +314,19 @@ class Driver {
                      std::vector<float> *out, std::string *why);
   void Errors(const Model &model, const ModelBenchCase &c, Lights lights,
               const glint::v1::EvaluateRequest &request, const std::string &path, Row *row);
+  // --quick: an earlier row whose timing `row` may report instead of timing itself: the same
+  // model, light set, precision, path, declared work (ModelBenchCase::same_work, non-empty),
+  // program and passes (Row::kernel), timed itself, and the same radiance bits on `row`'s first
+  // error queries (Row::output_hash, the request's own seed), which hold every query of that
+  // row's timed batch (its batch tiles the first `batch` shared queries: no more than were
+  // compared). The case says why the knob does not change the work; the same program giving
+  // the same bits on every query of the batch checks that it changed nothing the kernel
+  // computes there. KEMPPINEN's polygon pass is the case: it widens the explicit angular block
+  // to cover the light's image up to 4 x 4 cells whatever k (models/kemppinen/README.md, Polygon
+  // lights), so on the 6 x 6 quad k = 1, 4, 9, 16 run the same block, on the four small quads
+  // k = 1 and 4 (k = 9 and 16 differ there on some queries and are timed themselves). nullptr:
+  // time it.
+  const Row *SharedTiming(const Row &row) const;
   const std::vector<double> &ExactReference(const std::string &key,
                                             const glint::v1::EvaluateRequest &request);
   const std::vector<double> &AreaTruth(const std::string &key,
@@ -401,7 +453,14 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
   uint32_t n = std::min(o_.base_queries, 256u);
   Phases &phases = phases_[row->model];
   const auto start = Clock::now();
-  const bool first_ok = Eval(path, request, n, &out, why);  // compile or load, if not warmed
+  // The untimed first run: compile or load, if not warmed. --quick runs it on a few queries:
+  // WarmUp ran every variant once already (programs built, PoCL's work-group function compiled
+  // for the engine's local size, which a batch of any size shares), the device engine makes its
+  // buffers per call (nothing sized by this run carries over), and the service paths start the
+  // loopback service on any request; on the slowest rows (NORMAL_MAP quad, ~500 evals/s) 256
+  // queries took 0.5 s each.
+  const uint32_t first_n = o_.mode == "quick" ? std::min(n, 16u) : n;
+  const bool first_ok = Eval(path, request, first_n, &out, why);
   const auto timed_start = Clock::now();
   phases.first_run += std::chrono::duration<double>(timed_start - start).count();
   if (!first_ok) return false;
@@ -411,16 +470,30 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
     Clock::time_point since;
     ~AddOnExit() { *to += std::chrono::duration<double>(Clock::now() - since).count(); }
   } add_timed{&phases.timed, timed_start};
+  // The request of `count` queries, tiled once per batch size: the repeats and the interleaved
+  // device runs reuse it (tiling 2^20 queries costs more than a fast row's timed run; none of it
+  // is inside the clock).
+  glint::v1::EvaluateRequest tiled;
+  uint32_t tiled_count = 0;
+  std::vector<float> o;
+  auto batch_of = [&](uint32_t count) -> const glint::v1::EvaluateRequest & {
+    if (tiled_count != count || !tiled.has_queries()) {
+      tiled = request;
+      *tiled.mutable_queries() = Tile(request.queries(), count);
+      tiled_count = count;
+    }
+    o.resize(3 * size_t(count));
+    return tiled;
+  };
   auto once = [&](uint32_t count, double *seconds) {
-    glint::v1::EvaluateRequest r = request;
-    *r.mutable_queries() = Tile(request.queries(), count);
-    std::vector<float> o(3 * size_t(count));
+    const glint::v1::EvaluateRequest &r = batch_of(count);
     bool ok = true;
     if (path == "end_to_end") {
       glint::client::EvaluateInfo info;
       const auto t0 = Clock::now();
       grpc::Status s = service_->Evaluate(r, &o, &info);
       *seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+      phases.clocked += *seconds;
       row->transport = info.streamed ? "stream" : "unary";
       if (!s.ok()) *why = "end_to_end: " + s.error_message(), ok = false;
       return ok;
@@ -439,6 +512,7 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
       const auto t0 = Clock::now();
       s = service_->EvaluateSharedInPlace(r, &info);
       *seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+      phases.clocked += *seconds;
       row->transport = "shm-in-place";
       if (!s.ok()) *why = "shared_memory: " + s.error_message(), ok = false;
       return ok;
@@ -452,6 +526,7 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
       if (!s.ok()) *why = "device: " + s.message(), ok = false;
     }
     *seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    phases.clocked += *seconds;
     return ok;
   };
   double t = 0;
@@ -464,6 +539,7 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
           d.lights == row->lights && d.precision == row->precision)
         same_as_device = d.batch;
   if (same_as_device) n = same_as_device;
+  const uint32_t start_n = n;
   if (!once(n, &t)) return false;
   while (!same_as_device && t < o_.min_time && n < o_.max_batch) {
     n = NextBatch(n, t, o_.min_time, o_.max_batch);
@@ -471,18 +547,25 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
   }
   // The device on the same batch, for the interleaved ratio of a transport row.
   auto device_once = [&](uint32_t count, double *seconds) {
-    glint::v1::EvaluateRequest r = request;
-    *r.mutable_queries() = Tile(request.queries(), count);
-    std::vector<float> o(3 * size_t(count));
+    const glint::v1::EvaluateRequest &r = batch_of(count);
     const EvalPlan plan = ResolvedPlan(r, r.queries());
     const auto t0 = Clock::now();
     Status s = engine_->Evaluate(0, plan, r.queries(), o.data());
     *seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    phases.clocked += *seconds;
     if (!s.ok()) *why = "device: " + s.message();
     return s.ok();
   };
   std::vector<double> times, device_times;
-  for (int k = 0; k < o_.repeat; ++k) {
+  // --quick: a first run of the starting batch that took at least twice the minimum time is the
+  // first of the repeats. Its batch was fixed before it ran and the growth rule could only keep
+  // it (growing would have needed it under half its time), so it measures that batch as the
+  // repeats do; on the slowest rows (NORMAL_MAP quad: 256 queries, 0.2-0.7 s a run) it saves one
+  // run of five. Not for end_to_end and shared_memory, whose runs pair with interleaved device
+  // runs.
+  if (o_.mode == "quick" && !same_as_device && n == start_n && t >= 2 * o_.min_time)
+    times.push_back(t);
+  for (int k = int(times.size()); k < o_.repeat; ++k) {
     if (same_as_device) {
       double d = 0;
       if (!device_once(n, &d)) return false;
@@ -498,6 +581,17 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
     row->ratio_to_device = device_times[device_times.size() / 2] / times[times.size() / 2];
   row->batch = n;
   return true;
+}
+
+const Row *Driver::SharedTiming(const Row &row) const {
+  if (row.work.empty() || row.kernel.empty() || row.output_queries == 0) return nullptr;
+  for (const Row &r : rows_)
+    if (r.model == row.model && r.lights == row.lights && r.precision == row.precision &&
+        r.path == row.path && r.work == row.work && r.kernel == row.kernel &&
+        r.timing_shared_with.empty() && r.output_queries == row.output_queries &&
+        r.output_hash == row.output_hash && r.batch <= row.output_queries)
+      return &r;
+  return nullptr;
 }
 
 const std::vector<double> &Driver::ExactReference(const std::string &key,
@@ -560,6 +654,8 @@ void Driver::Errors(const Model &model, const ModelBenchCase &c, Lights lights,
     if (path == "host" && row->precision == "fp64") return;  // the reference itself
     const auto &ref = ExactReference(light_key + "|" + row->variant, request);
     if (!EvalForErrors(path, request, uint32_t(ref.size()), &out, &why)) return;
+    row->output_hash = OutputHash(out, uint32_t(ref.size()));
+    row->output_queries = uint32_t(ref.size());
     double top = 0;
     for (double v : ref) top = std::max(top, v);
     const ErrorStats s = Summarise(RelativeErrors(out.data(), ref, 1e-3 * top, &row->nonfinite));
@@ -570,6 +666,8 @@ void Driver::Errors(const Model &model, const ModelBenchCase &c, Lights lights,
     double floor = 0;
     const auto &truth = AreaTruth(light_key, request, &floor);
     if (!EvalForErrors(path, request, uint32_t(truth.size()), &out, &why)) return;
+    row->output_hash = OutputHash(out, uint32_t(truth.size()));
+    row->output_queries = uint32_t(truth.size());
     const ErrorStats s = Summarise(RelativeErrors(out.data(), truth, floor, &row->nonfinite));
     row->error_mean = s.mean, row->error_p95 = s.p95, row->error_max = s.max;
     row->error_reference = "REFERENCE fp64 host";
@@ -603,6 +701,7 @@ void Driver::Errors(const Model &model, const ModelBenchCase &c, Lights lights,
       glint::v1::EvaluateRequest r = sample;
       r.set_seed(request.seed() + uint64_t(k) * 0x100000001ull);
       if (!EvalForErrors(path, r, n, &out, &why)) return;
+      if (k == 0) row->output_hash = OutputHash(out, n), row->output_queries = n;
       gv.push_back(RgbSums(out.data(), n));
     }
     double mean_s = 0;
@@ -667,16 +766,14 @@ std::vector<Driver::WarmItem> Driver::WarmItems() const {
     } catch (const std::exception &) {
       return;  // the row reports it
     }
-    item.key = std::string(k.model->name) + " " + plan.spec.Describe();
+    item.key = KernelKey(*k.model, plan);
     item.lanes_min = 1 << 30, item.lanes_max = 1;
     for (const ModelPass &pass : k.model->passes)
       if (!pass.needed || pass.needed(plan)) {
-        item.key += std::string(" ") + pass.entry;
         item.lanes_min = std::min(item.lanes_min, pass.simd_width);
         item.lanes_max = std::max(item.lanes_max, pass.simd_width);
       }
     item.lanes_min = std::min(item.lanes_min, item.lanes_max);
-    item.key += " [" + plan.spec.BuildOptions() + "]";
     // Expected compile cost, for the order: seen cold on this machine (loaded), a SMOOTH
     // probe or punctual variant ~12 s, SMOOTH polygons with the 8-lane LTC pass ~50 s, with the
     // one-query-per-item area pass ~150 s, BINOMIAL ~170 s; other glint models taken as heavy.
@@ -843,24 +940,51 @@ void Driver::Run() {
       row.precision = PrecisionName(k.fp64);
       row.path = path;
       std::string why;
-      if (!Time(path, k.request, &row, &why)) {
+      const auto row_start = Clock::now();
+      auto errors = [&] {
+        const auto t0 = Clock::now();
+        const double refs0 = reference_seconds_;
+        Errors(*k.model, *k.bench_case, k.lights, k.request, path, &row);
+        const double refs = reference_seconds_ - refs0;
+        phases.references += refs;
+        phases.errors += std::chrono::duration<double>(Clock::now() - t0).count() - refs;
+      };
+      // --quick (and --tiny, so that the smoke tests run it), device and host: the errors
+      // first, so that a row of the same work (ModelBenchCase::same_work) whose radiance is
+      // bit-identical to an earlier variant's can report that variant's timing
+      // (SharedTiming). The full run times every row itself.
+      const bool share = o_.mode != "full" && !service;
+      const Row *same = nullptr;
+      if (share) {
+        if (k.bench_case->same_work) row.work = k.bench_case->same_work(*k.variant, k.lights);
+        try {
+          row.kernel = KernelKey(*k.model, ResolvedPlan(k.request, Tile(k.request.queries(), 1)));
+        } catch (const std::exception &) {
+          // Time reports it.
+        }
+        errors();
+        same = SharedTiming(row);
+      }
+      if (same) {
+        row.evals_per_s = same->evals_per_s;
+        row.batch = same->batch;
+        row.timing_shared_with = same->variant;
+      } else if (!Time(path, k.request, &row, &why)) {
         skipped_.push_back(
             {row.model, row.variant, row.lights, row.precision, std::string(path) + ": " + why});
         continue;
       }
-      const auto t0 = Clock::now();
-      const double refs0 = reference_seconds_;
-      Errors(*k.model, *k.bench_case, k.lights, k.request, path, &row);
-      const double refs = reference_seconds_ - refs0;
-      phases.references += refs;
-      phases.errors += std::chrono::duration<double>(Clock::now() - t0).count() - refs;
+      if (!share) errors();
       char vs_device[64] = "";
       if (row.ratio_to_device)
         std::snprintf(vs_device, sizeof vs_device, ", %.2f of the device (interleaved)",
                       *row.ratio_to_device);
-      std::fprintf(stderr, "%s %s %s %s %s: %.4g evals/s (batch %u)%s\n", row.model.c_str(),
-                   row.variant.c_str(), row.lights.c_str(), row.precision.c_str(), path,
-                   row.evals_per_s, row.batch, vs_device);
+      const std::string shared =
+          same ? "; timing shared with " + same->variant + " (bit-identical radiance)" : "";
+      std::fprintf(stderr, "%s %s %s %s %s: %.4g evals/s (batch %u)%s%s; row %.2f s\n",
+                   row.model.c_str(), row.variant.c_str(), row.lights.c_str(),
+                   row.precision.c_str(), path, row.evals_per_s, row.batch, vs_device,
+                   shared.c_str(), std::chrono::duration<double>(Clock::now() - row_start).count());
       rows_.push_back(row);
       if (first.empty()) first = variant;
     }
@@ -989,7 +1113,11 @@ int Main(int argc, char **argv) {
         return 2;
       }
   if (o.mode == "quick") {
-    o.base_queries = 16384, o.area_ref_queries = 64, o.min_time = 0.03, o.repeat = 3;
+    // Runs of >= 20 ms (30 ms until session 13): the growth and the three repeats are most of a
+    // --quick row's time (issue 13: under 3 minutes, cold), and the median of three absorbs one
+    // preempted run; rows that want tighter numbers are the full run's (0.2 s, median of 5) or
+    // the interleaved benchmarks'.
+    o.base_queries = 16384, o.area_ref_queries = 64, o.min_time = 0.02, o.repeat = 3;
   } else if (o.mode == "tiny") {
     o.base_queries = 64, o.area_ref_queries = 8, o.max_batch = 64, o.min_time = 0, o.repeat = 1;
     o.area_truth_tiny = true;
@@ -1029,10 +1157,12 @@ int Main(int argc, char **argv) {
                driver.warm_up_processes());
   for (const auto &[model, p] : driver.phases()) {
     std::fprintf(stderr,
-                 "  %-10s first runs %6.1f s, timing %6.1f s, errors %6.1f s, references %6.1f s\n",
-                 model.c_str(), p.first_run, p.timed, p.errors, p.references);
+                 "  %-10s first runs %6.1f s, timing %6.1f s (%5.1f s in the clock), errors %6.1f "
+                 "s, references %6.1f s\n",
+                 model.c_str(), p.first_run, p.timed, p.clocked, p.errors, p.references);
     breakdown["per_model_s"][model] = {{"first_runs", Num(p.first_run)},
                                        {"timing", Num(p.timed)},
+                                       {"timing_clocked", Num(p.clocked)},
                                        {"errors", Num(p.errors)},
                                        {"references", Num(p.references)}};
   }
@@ -1046,9 +1176,14 @@ int Main(int argc, char **argv) {
       "| model | variant | lights | precision | path | evals/s | ratio to smooth | "
       "error mean | p95 | max |\n|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row &r : driver.rows())
-    std::printf("| %s | %s | %s | %s | %s | %.4g | %s | %s | %s | %s |\n", r.model.c_str(),
+    std::printf("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", r.model.c_str(),
                 r.variant.c_str(), r.lights.c_str(), r.precision.c_str(), r.path.c_str(),
-                r.evals_per_s, Fmt(r.ratio_to_smooth, "%.3g").c_str(),
+                (Fmt(r.evals_per_s, "%.4g") +
+                 (r.timing_shared_with.empty()
+                      ? ""
+                      : " (timing of " + r.timing_shared_with + ": bit-identical radiance)"))
+                    .c_str(),
+                Fmt(r.ratio_to_smooth, "%.3g").c_str(),
                 r.error_signed
                     ? (Fmt(r.error_signed, "%+.3g") + " +- " + Fmt(r.error_se, "%.2g")).c_str()
                     : Fmt(r.error_mean, "%.3g").c_str(),
@@ -1107,7 +1242,10 @@ int Main(int argc, char **argv) {
                       {"batch", r.batch},
                       {"transport", r.transport.empty() ? nlohmann::ordered_json(nullptr)
                                                         : nlohmann::ordered_json(r.transport)},
-                      {"ratio_to_device", Num(r.ratio_to_device)}});
+                      {"ratio_to_device", Num(r.ratio_to_device)},
+                      {"timing_shared_with", r.timing_shared_with.empty()
+                                                 ? nlohmann::ordered_json(nullptr)
+                                                 : nlohmann::ordered_json(r.timing_shared_with)}});
     }
     j["rows"] = rows;
     nlohmann::ordered_json skipped = nlohmann::ordered_json::array();

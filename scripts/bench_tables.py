@@ -76,6 +76,28 @@ def problems(doc):
         # bench_models counts the queries whose radiance was not finite (left out of the errors).
         if row.get("nonfinite", 0):
             out.append(f"{where}: {row['nonfinite']} queries gave non-finite radiance")
+    # A row reporting another variant's timing (bench_models --quick, Driver::SharedTiming): that
+    # variant's row on the same model, light set, precision and path was timed itself, with the
+    # same rate and batch; its radiance was bit-identical, so its errors are the same too.
+    for i, row in enumerate(doc["rows"]):
+        shared = row.get("timing_shared_with") if isinstance(row, dict) else None
+        if shared is None:
+            continue
+        where = f"rows[{i}].timing_shared_with"
+        same = [r for r in doc["rows"] if isinstance(r, dict) and r.get("variant") == shared
+                and all(r.get(k) == row.get(k) for k in ["model", "lights", "precision", "path"])]
+        if not same:
+            out.append(f"{where}: {shared!r}; no such row on the same model, lights, precision "
+                       "and path")
+            continue
+        base = same[0]
+        if base.get("timing_shared_with") is not None:
+            out.append(f"{where}: {shared!r} reports another row's timing itself")
+        for key in ["evals_per_s", "batch", "error_mean", "error_p95", "error_max",
+                    "error_signed", "error_se"]:
+            if base.get(key) != row.get(key):
+                out.append(f"{where}: {key} {row.get(key)!r} differs from {shared!r}'s "
+                           f"{base.get(key)!r}")
     return out
 
 
@@ -150,12 +172,27 @@ def render(doc, json_ref):
     out.append("| model | variant | lights | device fp32 | device fp64 | host fp32 | host fp64 | "
                "end to end fp32 | ratio to smooth |")
     out.append("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    def rate_cell(r):
+        # bench_models --quick: a row timed as another variant's (Driver::SharedTiming).
+        shared = r.get("timing_shared_with")
+        return rate(r["evals_per_s"]) + (f" (= `{shared}`)" if shared else "")
+
+    any_shared = False
     for k in keys:
         c = cell[k]
-        vals = [rate(c[p]["evals_per_s"]) if p in c else "-" for p in cols]
+        vals = [rate_cell(c[p]) if p in c else "-" for p in cols]
+        any_shared = any_shared or any(r.get("timing_shared_with") for r in c.values())
         ratio = num(c[("device", "fp32")]["ratio_to_smooth"]) if ("device", "fp32") in c else "-"
         out.append(f"| {k[0]} | `{k[1]}` | {k[2]} | " + " | ".join(vals) + f" | {ratio} |")
     out.append("")
+    if any_shared:
+        out.append(
+            "A rate marked (= `v`) is the timing of variant `v`'s row, not measured again: the "
+            "same program and passes gave bit-identical radiance on every query of that row's "
+            "timed batch (`--quick` only; `bench/bench_models.cpp` Driver::SharedTiming; "
+            "KEMPPINEN's polygon pass widens the explicit block to the light's image whatever "
+            "k).")
+        out.append("")
     out.append(
         "Errors of the device fp32 results (fp64 in the JSON): `SMOOTH` probes and "
         "point-like lights against the same request in fp64 on the host (fp32 rounding), "

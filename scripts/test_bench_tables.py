@@ -77,6 +77,34 @@ class Markers(unittest.TestCase):
         os.unlink(js)
         os.unlink(readme)
 
+    def test_shared_timing_is_marked(self):
+        # A row that reports another variant's timing says so in its cell and below the table;
+        # a document without such rows renders no note (the checked-in README section).
+        self.assertNotIn("(= `", bench_tables.render(DOC, "x.json"))
+        doc = copy.deepcopy(DOC)
+        other = dict(ROW, variant="k=4", timing_shared_with="schlick")
+        doc["rows"].append(other)
+        self.assertEqual(bench_tables.problems(doc), [])
+        text = bench_tables.render(doc, "x.json")
+        self.assertIn("| SMOOTH | `k=4` | directional_point | 150 M (= `schlick`) |", text)
+        self.assertIn("A rate marked (= `v`) is the timing of variant `v`'s row", text)
+
+    def test_shared_timing_must_match_a_timed_row(self):
+        doc = copy.deepcopy(DOC)
+        doc["rows"].append(dict(ROW, variant="k=4", timing_shared_with="k=1"))
+        self.assertTrue(any("no such row" in p for p in bench_tables.problems(doc)))
+        doc = copy.deepcopy(DOC)
+        doc["rows"].append(dict(ROW, variant="k=4", evals_per_s=2e8, timing_shared_with="schlick"))
+        self.assertTrue(any("evals_per_s" in p for p in bench_tables.problems(doc)))
+        doc = copy.deepcopy(DOC)
+        doc["rows"].append(dict(ROW, variant="k=4", error_mean=2e-7, timing_shared_with="schlick"))
+        self.assertTrue(any("error_mean" in p for p in bench_tables.problems(doc)))
+        doc = copy.deepcopy(DOC)
+        doc["rows"].append(dict(ROW, variant="k=4", timing_shared_with="schlick"))
+        doc["rows"].append(dict(ROW, variant="k=9", timing_shared_with="k=4"))
+        self.assertTrue(any("reports another row's timing" in p
+                            for p in bench_tables.problems(doc)))
+
     def test_no_markers_is_a_skip(self):
         js = write(json.dumps(DOC))
         readme = write("# no markers\n", ".md")

@@ -79,6 +79,12 @@ struct ModelBenchCase {
   // the full run keeps the full sample.
   int quick_error_seeds = 0;
   std::function<uint32_t(Lights)> quick_error_queries;
+  // Optional: variants that run the same kernel work under a light set, as a key per (variant,
+  // light set) ("" = its own work): the knob they differ in does not reach the pass that set
+  // runs. bench_models --quick then times the first of them and reports its timing for the
+  // others, each only once its radiance is verified bit-identical on every query of the timed
+  // batch (bench_models.cpp Driver::SharedTiming); the full run times every row.
+  std::function<std::string(const BenchVariant &, Lights)> same_work;
 };
 
 // Registration (see GLINT_BENCH_CASE); returns true so it can initialise a static.

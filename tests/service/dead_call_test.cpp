@@ -50,16 +50,16 @@ double WaitForDepth(httplib::Client &http, double want, Stop &&stop) {
 
 TEST(DeadCall, CancelledQueuedCallLeavesTheQueueAtOnce) {
   glint::test::TempDir dir("glint_dead_call_test");
-  const int metrics_port = glint::test::FreeLoopbackPort();
-  ASSERT_GT(metrics_port, 0);
   std::string error;
   auto server = glint::test::Glintd::Start(
       GlintdPath(), dir, "dead_call",
       {"--workers", "1", "--max-pending", "8", "--slice-ms", "50", "--metrics-listen",
-       "127.0.0.1:" + std::to_string(metrics_port), "--model",
+       "127.0.0.1:0", "--model",
        "probe=" + std::string(GLINT_EXAMPLES_DIR) + "/materials/gold_aniso.json"},
       &error);
   ASSERT_NE(server, nullptr) << error;
+  const int metrics_port = server->MetricsPort();  // --metrics-listen 127.0.0.1:0
+  ASSERT_GT(metrics_port, 0) << server->Stderr();
   httplib::Client http("127.0.0.1", metrics_port);
   auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
   auto stub = v1::GlintService::NewStub(channel);

@@ -9,6 +9,9 @@
 #include <grpcpp/grpcpp.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <cstring>
@@ -579,11 +582,22 @@ TEST(GlintClient, WaitUntilServingSeesServingAndNotServing) {
 }
 
 TEST(GlintClient, WaitUntilServingGivesUpOnADeadAddress) {
-  int port = 0;
-  {
-    FakeServer server;  // learn a free port, then close it
-    port = std::stoi(server.address().substr(server.address().rfind(':') + 1));
-  }
+  // A loopback port bound and held but never listening: connections to it are refused for the
+  // whole test. (A port learnt from a server and then closed could be taken meanwhile by a
+  // server of another test running at the same time.)
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(fd, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof addr;
+  ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr *>(&addr), sizeof addr), 0);
+  ASSERT_EQ(getsockname(fd, reinterpret_cast<sockaddr *>(&addr), &len), 0);
+  struct Close {
+    int fd;
+    ~Close() { close(fd); }
+  } close_fd{fd};
+  const int port = ntohs(addr.sin_port);
   GlintClient client("127.0.0.1:" + std::to_string(port));
   std::string why;
   const auto start = std::chrono::steady_clock::now();

@@ -168,7 +168,9 @@ TEST(NginxFailover, KilledReplicaLosesNoShard) {
   options.retry.max_attempts = 8;
   GlintClient balanced("127.0.0.1:" + std::to_string(port), options);
   std::string why;
-  ASSERT_TRUE(balanced.WaitUntilServing(std::chrono::seconds(30), &why))
+  // A bound on a poll that ends when nginx answers (milliseconds when idle): 120 s so that a
+  // loaded machine starting nginx and its workers is not reported as a failure.
+  ASSERT_TRUE(balanced.WaitUntilServing(std::chrono::seconds(120), &why))
       << why << "\nnginx error log:\n"
       << ReadFile(dir.File("error.log")) << ReadFile(dir.File("nginx.stderr"));
 

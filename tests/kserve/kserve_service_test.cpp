@@ -765,8 +765,6 @@ TEST(KServeAdmission, NormalMapQueriesAreAdmittedByTheirFootprintsOnceDecoded) {
 // busy (the queue is full) while the lying one must be INVALID_ARGUMENT.
 TEST(KServeAdmission, AShapeThatLiesAboutItsDataIsRefusedBeforeTheQueue) {
   test::TempDir dir("kserve_lying_shape");
-  const int metrics_port = test::FreeLoopbackPort();
-  ASSERT_GT(metrics_port, 0);
   std::string error;
   auto server = test::Glintd::Start(
       GLINTD_PATH, dir, "glintd",
@@ -776,9 +774,11 @@ TEST(KServeAdmission, AShapeThatLiesAboutItsDataIsRefusedBeforeTheQueue) {
        "--model",
        "paint=" + kExamples + "/materials/paint_schlick.json," + kExamples + "/lights/studio.json",
        "--workers", "1", "--max-pending", "1", "--slice-ms", "50", "--metrics-listen",
-       "127.0.0.1:" + std::to_string(metrics_port)},
+       "127.0.0.1:0"},
       &error);
   ASSERT_NE(server, nullptr) << error;
+  const int metrics_port = server->MetricsPort();  // --metrics-listen 127.0.0.1:0
+  ASSERT_GT(metrics_port, 0) << server->Stderr();
   httplib::Client http("127.0.0.1", metrics_port);
   auto kserve = GRPCInferenceService::NewStub(
       grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials()));
@@ -823,8 +823,6 @@ TEST(KServeAdmission, AShapeThatLiesAboutItsDataIsRefusedBeforeTheQueue) {
 TEST(KServeShutdown, ModelInfersQueuedBeforeSigtermRunInTheGrace) {
   test::TempDir dir("kserve_shutdown");
   const NormalMapPreset nm = MakeNormalMapPreset(dir);
-  const int metrics_port = test::FreeLoopbackPort();
-  ASSERT_GT(metrics_port, 0);
   const std::string sparkle =
       kExamples + "/materials/sparkle_binomial.json," + kExamples + "/lights/rect_small.json";
   const std::string paint =
@@ -834,10 +832,11 @@ TEST(KServeShutdown, ModelInfersQueuedBeforeSigtermRunInTheGrace) {
       GLINTD_PATH, dir, "glintd",
       {"--model", "sparkle=" + sparkle, "--model", "paint=" + paint, "--normal-map", nm.map_file,
        "--model", "nm=" + nm.preset_file, "--workers", "1", "--max-pending", "8", "--slice-ms",
-       "50", "--shutdown-grace", "600", "--metrics-listen",
-       "127.0.0.1:" + std::to_string(metrics_port)},
+       "50", "--shutdown-grace", "600", "--metrics-listen", "127.0.0.1:0"},
       &error);
   ASSERT_NE(server, nullptr) << error;
+  const int metrics_port = server->MetricsPort();  // --metrics-listen 127.0.0.1:0
+  ASSERT_GT(metrics_port, 0) << server->Stderr();
   httplib::Client http("127.0.0.1", metrics_port);
   auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
   auto kserve = GRPCInferenceService::NewStub(channel);

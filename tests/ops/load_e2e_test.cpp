@@ -87,7 +87,9 @@ TEST(LoadEndToEnd, CsvHasOneAnsweredRowPerLevel) {
 // of reporting throughput; it gives up within its time bound.
 TEST(LoadEndToEnd, UnreachableServerFailsWithinTheBound) {
   TempDir dir("glint_load");
-  const int port = glint::test::FreeLoopbackPort();
+  const glint::test::RefusingLoopbackPort closed;  // held: no server can take it meanwhile
+  const int port = closed.port();
+  ASSERT_GT(port, 0);
   std::string out, err;
   EXPECT_EQ(RunGlint(dir,
                      {GLINT_CLI_PATH, "load", "--server", "127.0.0.1:" + std::to_string(port),
@@ -104,7 +106,9 @@ TEST(LoadEndToEnd, UnreachableServerFailsWithinTheBound) {
 // address is closed, so a tool that still ran the levels would fail with UNAVAILABLE instead.
 TEST(LoadEndToEnd, UnwritableCsvIsRefusedBeforeTheRun) {
   TempDir dir("glint_load");
-  const int port = glint::test::FreeLoopbackPort();
+  const glint::test::RefusingLoopbackPort closed;  // held: no server can take it meanwhile
+  const int port = closed.port();
+  ASSERT_GT(port, 0);
   const std::string csv = dir.File("no-such-dir") + "/load.csv";
   std::string out, err;
   EXPECT_EQ(RunGlint(dir,
@@ -123,7 +127,9 @@ TEST(LoadEndToEnd, UnwritableCsvIsRefusedBeforeTheRun) {
 // previous run (and left an empty file where there was none).
 TEST(LoadEndToEnd, FailedRunLeavesTheCsvAsItWas) {
   TempDir dir("glint_load");
-  const int port = glint::test::FreeLoopbackPort();
+  const glint::test::RefusingLoopbackPort closed;  // held: no server can take it meanwhile
+  const int port = closed.port();
+  ASSERT_GT(port, 0);
   const std::string old_csv = dir.File("old.csv"), new_csv = dir.File("new.csv");
   const std::string previous = "concurrency,ok\n1,42\n";
   std::ofstream(old_csv, std::ios::binary) << previous;

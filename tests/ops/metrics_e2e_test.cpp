@@ -112,14 +112,12 @@ glint::v1::EvaluateRequest SmoothProbes(uint32_t n) {
 
 TEST(MetricsEndToEnd, CountersMatchWhatWasSent) {
   TempDir dir("glint_metrics");
-  const int metrics_port = glint::test::FreeLoopbackPort();
-  ASSERT_GT(metrics_port, 0);
   std::string error;
-  auto server = Glintd::Start(
-      GLINTD_PATH, dir, "glintd",
-      {"--metrics-listen", "127.0.0.1:" + std::to_string(metrics_port), "--max-pending", "5"},
-      &error);
+  auto server = Glintd::Start(GLINTD_PATH, dir, "glintd",
+                              {"--metrics-listen", "127.0.0.1:0", "--max-pending", "5"}, &error);
   ASSERT_NE(server, nullptr) << error;
+  const int metrics_port = server->MetricsPort();  // --metrics-listen 127.0.0.1:0
+  ASSERT_GT(metrics_port, 0) << server->Stderr();
 
   httplib::Client http("127.0.0.1", metrics_port);
   auto scrape = [&] {
@@ -184,17 +182,17 @@ TEST(MetricsEndToEnd, CountersMatchWhatWasSent) {
 // compute_ms the replies carried (before, compute_ms and the histogram included the build).
 TEST(MetricsEndToEnd, WarmNoneBuildsNothingAndColdVariantsReportCompileApart) {
   TempDir dir("glint_metrics_cold");
-  const int metrics_port = glint::test::FreeLoopbackPort();
-  ASSERT_GT(metrics_port, 0);
   const std::string examples = GLINT_EXAMPLES_DIR;
   std::string error;
   auto server = Glintd::Start(
       GLINTD_PATH, dir, "glintd",
       {"--warm", "none", "--workers", "1", "--model",
        "paint=" + examples + "/materials/paint_schlick.json," + examples + "/lights/studio.json",
-       "--metrics-listen", "127.0.0.1:" + std::to_string(metrics_port)},
+       "--metrics-listen", "127.0.0.1:0"},
       &error);
   ASSERT_NE(server, nullptr) << error;
+  const int metrics_port = server->MetricsPort();  // --metrics-listen 127.0.0.1:0
+  ASSERT_GT(metrics_port, 0) << server->Stderr();
   httplib::Client http("127.0.0.1", metrics_port);
   auto scrape = [&] {
     auto res = http.Get("/metrics");
@@ -253,14 +251,12 @@ TEST(MetricsEndToEnd, WarmNoneBuildsNothingAndColdVariantsReportCompileApart) {
 // ~9 s). A Prometheus scrape times out after 10 s by default; this one gets 4 s.
 TEST(MetricsEndToEnd, StalledConnectionsDoNotStarveAScrape) {
   TempDir dir("glint_metrics_stall");
-  const int metrics_port = glint::test::FreeLoopbackPort();
-  ASSERT_GT(metrics_port, 0);
   std::string error;
-  auto server = Glintd::Start(
-      GLINTD_PATH, dir, "glintd",
-      {"--device", "host", "--metrics-listen", "127.0.0.1:" + std::to_string(metrics_port)},
-      &error);
+  auto server = Glintd::Start(GLINTD_PATH, dir, "glintd",
+                              {"--device", "host", "--metrics-listen", "127.0.0.1:0"}, &error);
   ASSERT_NE(server, nullptr) << error;
+  const int metrics_port = server->MetricsPort();  // --metrics-listen 127.0.0.1:0
+  ASSERT_GT(metrics_port, 0) << server->Stderr();
   std::vector<int> stalled;
   for (int k = 0; k < 12; ++k) {
     const int fd = socket(AF_INET, SOCK_STREAM, 0);

@@ -89,15 +89,14 @@ class OutsideClient : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new glint::test::TempDir("glint_outside_client_test");
-    metrics_port_ = glint::test::FreeLoopbackPort();
-    ASSERT_GT(metrics_port_, 0);
     std::string error;
-    server_ = glint::test::Glintd::Start(GlintdPath(), *dir_, "glintd",
-                                         {"--device", "host", "--metrics-listen",
-                                          "127.0.0.1:" + std::to_string(metrics_port_)},
-                                         &error)
-                  .release();
+    server_ =
+        glint::test::Glintd::Start(GlintdPath(), *dir_, "glintd",
+                                   {"--device", "host", "--metrics-listen", "127.0.0.1:0"}, &error)
+            .release();
     ASSERT_NE(server_, nullptr) << error;
+    metrics_port_ = server_->MetricsPort();  // --metrics-listen 127.0.0.1:0
+    ASSERT_GT(metrics_port_, 0) << server_->Stderr();
     channel_ = new std::shared_ptr<grpc::Channel>(
         grpc::CreateChannel(server_->address(), grpc::InsecureChannelCredentials()));
   }

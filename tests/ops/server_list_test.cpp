@@ -83,12 +83,11 @@ TEST(ServerListEndToEnd, OneBatchSpreadOverTwoServersEqualsOneServer) {
   std::vector<std::unique_ptr<Glintd>> servers;
   std::vector<int> metrics;
   for (const char *name : {"a", "b"}) {
-    metrics.push_back(glint::test::FreeLoopbackPort());
-    ASSERT_GT(metrics.back(), 0);
     servers.push_back(
-        Glintd::Start(GLINTD_PATH, dir, name,
-                      {"--metrics-listen", "127.0.0.1:" + std::to_string(metrics.back())}, &error));
+        Glintd::Start(GLINTD_PATH, dir, name, {"--metrics-listen", "127.0.0.1:0"}, &error));
     ASSERT_NE(servers.back(), nullptr) << error;
+    metrics.push_back(servers.back()->MetricsPort());  // --metrics-listen 127.0.0.1:0
+    ASSERT_GT(metrics.back(), 0) << servers.back()->Stderr();
   }
   glint::v1::EvaluateRequest request;
   auto *m = request.mutable_material();

@@ -74,6 +74,11 @@ def client(server_address):
     import glint
 
     with glint.Client(server_address) as c:
+        # The server is SERVING (it wrote its port file), but the calls of the library fail fast
+        # (no wait_for_ready): a first connection attempt that fails on a loaded machine would
+        # fail the first test's call with UNAVAILABLE. wait_until_serving retries until the
+        # channel is connected and the server answers, so the tests start on a ready channel.
+        c.wait_until_serving(timeout=SERVER_START_TIMEOUT_S)
         yield c
 
 

@@ -50,7 +50,10 @@ def test_replies_nobody_reads_are_bounded_by_max_undelivered(tmp_path):
             evaluate = channel.unary_unary("/glint.v1.GlintService/Evaluate",
                                            request_serializer=pb.EvaluateRequest.SerializeToString,
                                            response_deserializer=pb.EvaluateResponse.FromString)
-            evaluate(small, timeout=30)  # warm: first-call allocations are not the replies'
+            # Warm: first-call allocations are not the replies'. wait_for_ready: the server is
+            # SERVING, so a first connection attempt that fails on a loaded machine is retried
+            # within the deadline instead of failing the call with UNAVAILABLE at once.
+            evaluate(small, timeout=30, wait_for_ready=True)
             idle = _rss_mb(proc.pid)
             stuck = []
             for _ in range(STUCK):
@@ -59,19 +62,27 @@ def test_replies_nobody_reads_are_bounded_by_max_undelivered(tmp_path):
                                                             ("grpc.max_receive_message_length", 64 << 20)])
                 call = c.stream_stream("/glint.v1.GlintService/Evaluate")(iter([body]))
                 stuck.append((c, call))
-                time.sleep(0.4)  # evaluated (host path, ~0.1 s) and its reply offered
-            time.sleep(1.0)
-            peak = _rss_mb(proc.pid)
+                time.sleep(0.4)  # usually evaluated (host path, ~0.1 s) and its reply offered
 
-            # Over the budget: refused at once, naming the flag, with the pushback that makes
-            # clients retry (it can succeed once the readers read).
-            try:
-                evaluate(small, timeout=30)
-                refused = None
-            except grpc.RpcError as e:
-                refused = e
-            assert refused is not None, "a new call was admitted with 16 unread 7.2 MB replies held"
-            assert refused.code() == grpc.StatusCode.RESOURCE_EXHAUSTED
+            # Over the budget: refused, naming the flag, with the pushback that makes clients
+            # retry (it can succeed once the readers read). Five unread replies (36 MB) are over
+            # it; on a loaded machine the stuck calls may still be arriving or being evaluated,
+            # so a small call is sent until the server has held enough to refuse it (a server
+            # that never does fails at the deadline), rather than once after a guessed wait.
+            refused = None
+            deadline = time.monotonic() + 120
+            while refused is None and time.monotonic() < deadline:
+                try:
+                    evaluate(small, timeout=30)
+                    time.sleep(0.2)
+                except grpc.RpcError as e:
+                    if e.code() == grpc.StatusCode.RESOURCE_EXHAUSTED and "--max-undelivered-mb" not in e.details():
+                        time.sleep(0.2)  # --max-pending: a stuck call still being evaluated
+                        continue
+                    refused = e
+            peak = _rss_mb(proc.pid)
+            assert refused is not None, "new calls were admitted for 120 s with 16 unread 7.2 MB replies sent"
+            assert refused.code() == grpc.StatusCode.RESOURCE_EXHAUSTED, refused
             assert "--max-undelivered-mb 32" in refused.details(), refused.details()
             assert ("glint-retry-pushback-ms", "50") in (refused.trailing_metadata() or ())
 

@@ -5,7 +5,9 @@
 //  - Sample has the same cost admission as Evaluate (--max-query-cost, --max-request-cost).
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
+#include <httplib.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <string>
@@ -15,6 +17,7 @@
 #include "glint/v1/glint.grpc.pb.h"
 #include "glintd_process.h"
 #include "inference/grpc_service.grpc.pb.h"
+#include "queue_depth_gauge.h"
 #include "test_queries.h"
 
 namespace {
@@ -77,8 +80,13 @@ void SetDeadline(grpc::ClientContext *ctx, std::chrono::milliseconds ms) {
 // new Evaluate (it gets DEADLINE_EXCEEDED after waiting in the queue, not RESOURCE_EXHAUSTED
 // "server busy", which every new request got before: 1 running + 4 dead = 5 slots), and at the
 // end a live request queued behind the long one gets its result once the long one is
-// cancelled, bit-identical to the same request on the idle server. Timing: the only waits are
-// deadlines of 1-2 s and a cancel after 1 s, against a long request of minutes.
+// cancelled, bit-identical to the same request on the idle server.
+// No step assumes the server has done something by a guessed time: the queue-depth gauge of
+// /metrics (requests queued or running) shows the long request admitted, the four calls queued
+// behind it before they die, their slots freed after, and the live request queued before the
+// long one is cancelled. The deadline round starts with deadlines of 1.5 s and doubles them
+// (up to 4 times) while the four calls are not all queued before they expire, since a loaded
+// machine may take that long to admit them; a round where they never were would prove nothing.
 TEST(DeadQueuedCalls, GiveUpTheirPendingSlotsToLiveClients) {
   glint::test::TempDir dir("glint_admission_test");
   const std::string examples = GLINT_EXAMPLES_DIR;
@@ -86,65 +94,110 @@ TEST(DeadQueuedCalls, GiveUpTheirPendingSlotsToLiveClients) {
   auto server = glint::test::Glintd::Start(
       GlintdPath(), dir, "admission",
       {"--workers", "1", "--max-pending", "5", "--slice-ms", "50", "--batch-max-queries", "4096",
-       "--batch-delay-us", "1000", "--model", "probe=" + examples + "/materials/gold_aniso.json"},
+       "--batch-delay-us", "1000", "--metrics-listen", "127.0.0.1:0", "--model",
+       "probe=" + examples + "/materials/gold_aniso.json"},
       &error);
   ASSERT_NE(server, nullptr) << error;
+  const int metrics_port = server->MetricsPort();  // --metrics-listen 127.0.0.1:0
+  ASSERT_GT(metrics_port, 0) << server->Stderr();
+  httplib::Client http("127.0.0.1", metrics_port);
   auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
   auto stub = v1::GlintService::NewStub(channel);
   auto kserve = inference::GRPCInferenceService::NewStub(channel);
+  ASSERT_EQ(glint::test::QueueDepth(http), 0);
 
   grpc::ClientContext long_ctx;
   SetDeadline(&long_ctx, std::chrono::minutes(10));
   grpc::Status long_status;
+  std::atomic<bool> long_done{false};
   const v1::EvaluateRequest long_request = LongRequest();
   std::thread long_call([&] {
     v1::EvaluateResponse res;
     long_status = stub->Evaluate(&long_ctx, long_request, &res);
+    long_done = true;
   });
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // on the worker by now
+  // An ASSERT below returns early: the long call must not outlive its context and thread.
+  struct EndLongCall {
+    grpc::ClientContext &ctx;
+    std::thread &call;
+    ~EndLongCall() {
+      if (!call.joinable()) return;
+      ctx.TryCancel();
+      call.join();
+    }
+  } end_long_call{long_ctx, long_call};
+  const auto long_ended = [&] { return long_done.load(); };
+  // Admitted, so on the one worker (nothing else is queued).
+  ASSERT_EQ(glint::test::WaitForQueueDepth(http, 1, long_ended, std::chrono::seconds(120)), 1)
+      << long_status.error_message();
 
   const v1::EvaluateRequest small = Probes(64, 11);
   for (bool by_deadline : {true, false}) {
     SCOPED_TRACE(by_deadline ? "deadline passed" : "cancelled");
-    const auto wait = by_deadline ? std::chrono::milliseconds(1500) : std::chrono::minutes(2);
-    grpc::ClientContext c[4];
-    for (auto &ctx : c) SetDeadline(&ctx, wait);
-    grpc::Status st[4];
-    std::vector<std::thread> calls;
-    calls.emplace_back([&] {
-      v1::EvaluateResponse res;
-      st[0] = stub->Evaluate(&c[0], small, &res);
-    });
-    calls.emplace_back([&] {
-      v1::SampleResponse res;
-      st[1] = stub->Sample(&c[1], SmallSample(8, 4), &res);
-    });
-    calls.emplace_back([&] {
-      auto stream = stub->EvaluateStream(&c[2]);
-      v1::EvaluateChunk chunk;
-      chunk.set_chunk_index(0);
-      *chunk.mutable_request() = small;
-      stream->Write(chunk);
-      stream->WritesDone();
-      v1::EvaluateChunkResult result;
-      while (stream->Read(&result)) {
+    std::chrono::milliseconds wait =
+        by_deadline ? std::chrono::milliseconds(1500) : std::chrono::milliseconds(120000);
+    for (int attempt = 0;; ++attempt) {
+      grpc::ClientContext c[4];
+      for (auto &ctx : c) SetDeadline(&ctx, wait);
+      grpc::Status st[4];
+      std::atomic<int> answered{0};
+      std::vector<std::thread> calls;
+      calls.emplace_back([&] {
+        v1::EvaluateResponse res;
+        st[0] = stub->Evaluate(&c[0], small, &res);
+        ++answered;
+      });
+      calls.emplace_back([&] {
+        v1::SampleResponse res;
+        st[1] = stub->Sample(&c[1], SmallSample(8, 4), &res);
+        ++answered;
+      });
+      calls.emplace_back([&] {
+        auto stream = stub->EvaluateStream(&c[2]);
+        v1::EvaluateChunk chunk;
+        chunk.set_chunk_index(0);
+        *chunk.mutable_request() = small;
+        stream->Write(chunk);
+        stream->WritesDone();
+        v1::EvaluateChunkResult result;
+        while (stream->Read(&result)) {
+        }
+        st[2] = stream->Finish();
+        ++answered;
+      });
+      calls.emplace_back([&] {
+        inference::ModelInferResponse res;
+        st[3] = kserve->ModelInfer(&c[3], InferProbe(), &res);
+        ++answered;
+      });
+      // All four queued behind the long request (1 + 4 = --max-pending).
+      const double queued = glint::test::WaitForQueueDepth(
+          http, 5, [&] { return answered > 0 || long_done; }, std::chrono::seconds(120));
+      if (!by_deadline) {
+        EXPECT_EQ(queued, 5) << "the four calls were not all queued";
+        for (auto &ctx : c) ctx.TryCancel();
       }
-      st[2] = stream->Finish();
-    });
-    calls.emplace_back([&] {
-      inference::ModelInferResponse res;
-      st[3] = kserve->ModelInfer(&c[3], InferProbe(), &res);
-    });
-    if (!by_deadline) {
-      std::this_thread::sleep_for(std::chrono::seconds(1));
-      for (auto &ctx : c) ctx.TryCancel();
+      for (auto &t : calls) t.join();
+      EXPECT_FALSE(long_done) << "the long request ended early: " << long_status.error_message();
+      if (by_deadline && queued != 5 && attempt < 4) {
+        // Expired before all were admitted: inconclusive, so again with twice the deadline once
+        // the queue is back to the long request alone.
+        wait *= 2;
+        EXPECT_EQ(glint::test::WaitForQueueDepth(http, 1, long_ended, std::chrono::seconds(60)), 1);
+        continue;
+      }
+      EXPECT_EQ(queued, 5) << "the four calls were never all queued before their deadline";
+      const grpc::StatusCode dead =
+          by_deadline ? grpc::StatusCode::DEADLINE_EXCEEDED : grpc::StatusCode::CANCELLED;
+      const char *kind[4] = {"Evaluate", "Sample", "EvaluateStream", "ModelInfer"};
+      for (int i = 0; i < 4; ++i)
+        EXPECT_EQ(st[i].error_code(), dead) << kind[i] << ": " << st[i].error_message();
+      break;
     }
-    for (auto &t : calls) t.join();
-    const grpc::StatusCode dead =
-        by_deadline ? grpc::StatusCode::DEADLINE_EXCEEDED : grpc::StatusCode::CANCELLED;
-    const char *kind[4] = {"Evaluate", "Sample", "EvaluateStream", "ModelInfer"};
-    for (int i = 0; i < 4; ++i)
-      EXPECT_EQ(st[i].error_code(), dead) << kind[i] << ": " << st[i].error_message();
+    // The dead calls' slots are freed while the long request still runs (the client saw them
+    // end; the server's OnCancel may come a moment later).
+    EXPECT_EQ(glint::test::WaitForQueueDepth(http, 1, long_ended, std::chrono::seconds(60)), 1)
+        << "the dead calls kept their slots";
 
     // Admitted: it waits behind the long request until its own deadline passes.
     grpc::ClientContext ctx;
@@ -153,6 +206,7 @@ TEST(DeadQueuedCalls, GiveUpTheirPendingSlotsToLiveClients) {
     grpc::Status s = stub->Evaluate(&ctx, small, &res);
     EXPECT_EQ(s.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED)
         << "a new request while the dead calls' slots should be free: " << s.error_message();
+    EXPECT_EQ(glint::test::WaitForQueueDepth(http, 1, long_ended, std::chrono::seconds(60)), 1);
   }
 
   // A live request behind the long one: answered once the long one is cancelled.
@@ -160,8 +214,15 @@ TEST(DeadQueuedCalls, GiveUpTheirPendingSlotsToLiveClients) {
   SetDeadline(&live_ctx, std::chrono::minutes(5));
   v1::EvaluateResponse live;
   grpc::Status live_status;
-  std::thread live_call([&] { live_status = stub->Evaluate(&live_ctx, small, &live); });
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  std::atomic<bool> live_done{false};
+  std::thread live_call([&] {
+    live_status = stub->Evaluate(&live_ctx, small, &live);
+    live_done = true;
+  });
+  EXPECT_EQ(glint::test::WaitForQueueDepth(
+                http, 2, [&] { return live_done || long_done; }, std::chrono::seconds(120)),
+            2)
+      << "the live request was not queued behind the long one";
   long_ctx.TryCancel();
   long_call.join();
   live_call.join();

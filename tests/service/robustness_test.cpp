@@ -6,6 +6,7 @@
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
+#include <httplib.h>
 #include <signal.h>
 
 #include <atomic>
@@ -22,6 +23,7 @@
 #include "glint/v1/glint.grpc.pb.h"
 #include "glintd_process.h"
 #include "grpc/health/v1/health.grpc.pb.h"
+#include "queue_depth_gauge.h"
 #include "raw_call.h"
 #include "server/health_service.h"
 #include "test_queries.h"
@@ -418,31 +420,52 @@ TEST(Cancellation, CancelledOrExpiredWorkFreesTheWorkerWithinASlice) {
 TEST(Shutdown, SigtermDrainsWithinTheGraceBoundAndExitsZero) {
   glint::test::TempDir dir("glint_shutdown_test");
   std::string error;
-  auto server = glint::test::Glintd::Start(
-      GlintdPath(), dir, "drain", {"--workers", "1", "--max-pending", "4", "--shutdown-grace", "1"},
-      &error);
+  auto server =
+      glint::test::Glintd::Start(GlintdPath(), dir, "drain",
+                                 {"--workers", "1", "--max-pending", "4", "--shutdown-grace", "1",
+                                  "--metrics-listen", "127.0.0.1:0"},
+                                 &error);
   ASSERT_NE(server, nullptr) << error;
+  const int metrics_port = server->MetricsPort();  // --metrics-listen 127.0.0.1:0
+  ASSERT_GT(metrics_port, 0) << server->Stderr();
+  httplib::Client http("127.0.0.1", metrics_port);
   auto channel = grpc::CreateChannel(server->address(), grpc::InsecureChannelCredentials());
   auto stub = v1::GlintService::NewStub(channel);
   auto health = grpc::health::v1::Health::NewStub(channel);
+  {  // Compile the long request's kernel first: a compile is not sliced, and with a cold kernel
+     // cache it alone (1-8 s under load) would hold the worker past the bound checked below.
+    grpc::ClientContext ctx;
+    v1::EvaluateResponse res;
+    ASSERT_TRUE(stub->Evaluate(&ctx, LongRequest(1), &res).ok());
+  }
   grpc::Status long_status;
+  std::atomic<bool> long_done{false};
   std::thread long_call([&] {
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
     v1::EvaluateResponse res;
     long_status = stub->Evaluate(&ctx, LongRequest(600), &res);
+    long_done = true;
   });
-  std::this_thread::sleep_for(std::chrono::milliseconds(800));  // running by now
+  // Admitted (the queue-depth gauge counts it), so running on the one worker when the signal
+  // comes; a request not yet admitted would be refused as shutting down instead.
+  EXPECT_EQ(glint::test::WaitForQueueDepth(
+                http, 1, [&] { return long_done.load(); }, std::chrono::seconds(120)),
+            1)
+      << long_status.error_message();
   const auto signalled = Clock::now();
   server->Signal(SIGTERM);
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the signal is handled
-  {
-    grpc::ClientContext ctx;
-    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
-    grpc::health::v1::HealthCheckRequest req;
-    req.set_service("glint.v1.GlintService");
+  {  // NOT_SERVING once the signal is handled (polled: the handler runs when it is scheduled).
     HealthCheckResponse res;
-    grpc::Status s = health->Check(&ctx, req, &res);
+    grpc::Status s;
+    const auto give_up = Clock::now() + std::chrono::seconds(30);
+    do {
+      grpc::ClientContext ctx;
+      ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
+      grpc::health::v1::HealthCheckRequest req;
+      req.set_service("glint.v1.GlintService");
+      s = health->Check(&ctx, req, &res);
+    } while (s.ok() && res.status() == HealthCheckResponse::SERVING && Clock::now() < give_up);
     ASSERT_TRUE(s.ok()) << s.error_message();
     EXPECT_EQ(res.status(), HealthCheckResponse::NOT_SERVING);
   }
@@ -820,11 +843,15 @@ TEST(Batching, ConcurrentRequestsAreBitIdenticalToUnbatchedEachWithItsOwnRows) {
 TEST(MetadataAdmission, ClaimsRefuseEarlyAndALyingCountIsStillCaughtByTheBody) {
   glint::test::TempDir dir("glint_metadata_test");
   std::string error;
-  auto server = glint::test::Glintd::Start(GlintdPath(), dir, "metadata",
-                                           {"--workers", "1", "--max-pending", "1", "--max-batch",
-                                            "1000", "--max-message-mb", "16", "--slice-ms", "50"},
-                                           &error);
+  auto server = glint::test::Glintd::Start(
+      GlintdPath(), dir, "metadata",
+      {"--workers", "1", "--max-pending", "1", "--max-batch", "1000", "--max-message-mb", "16",
+       "--slice-ms", "50", "--metrics-listen", "127.0.0.1:0"},
+      &error);
   ASSERT_NE(server, nullptr) << error;
+  const int metrics_port = server->MetricsPort();  // --metrics-listen 127.0.0.1:0
+  ASSERT_GT(metrics_port, 0) << server->Stderr();
+  httplib::Client http("127.0.0.1", metrics_port);
   grpc::ChannelArguments args;
   args.SetMaxSendMessageSize(16 << 20);
   args.SetMaxReceiveMessageSize(16 << 20);
@@ -875,12 +902,19 @@ TEST(MetadataAdmission, ClaimsRefuseEarlyAndALyingCountIsStillCaughtByTheBody) {
   // Full (--max-pending 1, a long request running): a stream is refused on opening, its first
   // chunk (12 MB) never read.
   grpc::ClientContext long_ctx;
+  long_ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
+  std::atomic<bool> long_done{false};
+  grpc::Status long_status;
   std::thread long_call([&] {
     v1::EvaluateResponse res;
-    long_ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
-    stub->Evaluate(&long_ctx, LongRequest(600), &res);
+    long_status = stub->Evaluate(&long_ctx, LongRequest(600), &res);
+    long_done = true;
   });
-  std::this_thread::sleep_for(std::chrono::milliseconds(800));
+  // The long request holds the one slot (the queue-depth gauge counts it).
+  EXPECT_EQ(glint::test::WaitForQueueDepth(
+                http, 1, [&] { return long_done.load(); }, std::chrono::seconds(120)),
+            1)
+      << long_status.error_message();
   {
     big.mutable_queries()->Clear();
     const uint32_t m = 1000;  // --max-batch: a valid chunk, ~12 MB of lights-free padding below

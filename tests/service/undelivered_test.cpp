@@ -197,7 +197,7 @@ std::shared_ptr<grpc::Channel> *Undelivered::channel_ = nullptr;
 // 1 MiB budget: every new Evaluate, Sample and ModelInfer is then refused, naming the flag, with
 // the retry pushback; once the reader is gone its reply is released and all three are answered.
 TEST_F(Undelivered, UnreadSampleAndModelInferRepliesFillTheBudget) {
-  ASSERT_TRUE(AllAnsweredWithin(30)) << "the server does not answer small calls while idle";
+  ASSERT_TRUE(AllAnsweredWithin(120)) << "the server does not answer small calls while idle";
   struct Case {
     const char *what, *method;
     grpc::ByteBuffer request;
@@ -213,8 +213,10 @@ TEST_F(Undelivered, UnreadSampleAndModelInferRepliesFillTheBudget) {
     std::vector<Outcome> last;
     {
       UnreadCall unread(server_->address(), c.method, c.request);
-      // Answered on the host path in well under a second; 15 s covers a loaded machine.
-      const bool refused = AllRefusedWithin(15, &last);
+      // Answered on the host path in well under a second when idle. The poll ends as soon as
+      // the server refuses, so its bound only decides when a server that never counts the
+      // reply is reported: 120 s, not a guess at the loaded machine's speed (15 s was).
+      const bool refused = AllRefusedWithin(120, &last);
       EXPECT_TRUE(refused) << "an unread " << c.what << " reply was not counted: small calls "
                            << "were still admitted";
       for (const Outcome &o : last) {
@@ -223,7 +225,7 @@ TEST_F(Undelivered, UnreadSampleAndModelInferRepliesFillTheBudget) {
         EXPECT_TRUE(o.pushback) << c.what << ": no glint-retry-pushback-ms";
       }
     }
-    EXPECT_TRUE(AllAnsweredWithin(30)) << c.what << ": the reply was not released on cancel";
+    EXPECT_TRUE(AllAnsweredWithin(120)) << c.what << ": the reply was not released on cancel";
   }
   EXPECT_TRUE(server_->Alive());
 }

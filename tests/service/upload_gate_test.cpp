@@ -91,15 +91,14 @@ class UploadGate : public ::testing::Test {
  protected:
   void SetUp() override {
     std::string error;
-    const int metrics_port = glint::test::FreeLoopbackPort();
-    ASSERT_GT(metrics_port, 0);
     // 1 MiB files: the buffered-bytes bound is 2 MiB.
     server_ = glint::test::Glintd::Start(
         glint::test::GlintdUnderTest(GLINTD_PATH), dir_, "glintd",
-        {"--normal-map-max-upload-mb", "1", "--warm", "none", "--metrics-listen",
-         "127.0.0.1:" + std::to_string(metrics_port)},
+        {"--normal-map-max-upload-mb", "1", "--warm", "none", "--metrics-listen", "127.0.0.1:0"},
         &error);
     ASSERT_NE(server_, nullptr) << error;
+    const int metrics_port = server_->MetricsPort();  // --metrics-listen 127.0.0.1:0
+    ASSERT_GT(metrics_port, 0) << server_->Stderr();
     http_ = std::make_unique<httplib::Client>("127.0.0.1", metrics_port);
     stub_ = v1::GlintService::NewStub(
         grpc::CreateChannel(server_->address(), grpc::InsecureChannelCredentials()));

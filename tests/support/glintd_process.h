@@ -38,8 +38,13 @@ inline std::string GlintdUnderTest(const std::string &built) {
 }
 
 // How long glintd may take to compile and warm its kernels before it reports SERVING (PoCL
-// compiles on first use when the kernel cache is cold).
-inline constexpr auto kServerStartTimeout = std::chrono::seconds(240);
+// compiles on first use when the kernel cache is cold). Derived from what it must do: the
+// --warm common set costs ~35 s of CPU cold (warmup_test's measurement), so wall time is about
+// that times load/2 on the 2-core machine: ~350 s at load 20, where 240 s was too short.
+// 600 s, as tests/python/conftest.py and scripts/demo.sh wait; the ctest TIMEOUT of every test
+// that starts a warming glintd (900 s) leaves room for the test after it. A bound on a wait
+// for the port file, not a speed check: a warm start returns in about a second.
+inline constexpr auto kServerStartTimeout = std::chrono::seconds(600);
 
 inline std::string ReadFile(const std::string &path) {
   std::ifstream in(path, std::ios::binary);
@@ -108,6 +113,36 @@ inline int FreeLoopbackPort() {
   close(fd);
   return port;
 }
+
+// A loopback port bound and held but never listening, for tests of an unreachable server:
+// connections to it are refused for as long as this object lives, and no other process (a
+// glintd of a test running at the same time, listening on port 0) can take it meanwhile, as
+// it could a port from FreeLoopbackPort.
+class RefusingLoopbackPort {
+ public:
+  RefusingLoopbackPort() {
+    fd_ = socket(AF_INET, SOCK_STREAM, 0);
+    if (fd_ < 0) return;
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof addr;
+    if (bind(fd_, reinterpret_cast<sockaddr *>(&addr), sizeof addr) == 0 &&
+        getsockname(fd_, reinterpret_cast<sockaddr *>(&addr), &len) == 0) {
+      port_ = ntohs(addr.sin_port);
+    }
+  }
+  ~RefusingLoopbackPort() {
+    if (fd_ >= 0) close(fd_);
+  }
+  RefusingLoopbackPort(const RefusingLoopbackPort &) = delete;
+  RefusingLoopbackPort &operator=(const RefusingLoopbackPort &) = delete;
+  int port() const { return port_; }  // 0 if the bind failed
+
+ private:
+  int fd_ = -1;
+  int port_ = 0;
+};
 
 // One glintd process on a loopback port; stopped (SIGTERM, then SIGKILL) on destruction.
 class Glintd {
@@ -178,6 +213,22 @@ class Glintd {
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
+  }
+
+  // The port of /metrics of a glintd started with `--metrics-listen 127.0.0.1:0`: glintd binds a
+  // free port itself and prints "glintd: metrics on http://HOST:PORT/metrics" on stderr before it
+  // reports SERVING, so after Start (or WaitUntilServing) this reads it; 0 when absent. Better
+  // than a port picked by the test (FreeLoopbackPort) and bound by glintd later, which another
+  // test's server, started at the same time under ctest -j, can take in between.
+  int MetricsPort() const {
+    const std::string err = Stderr();
+    const std::string key = "glintd: metrics on http://";
+    const size_t at = err.find(key);
+    if (at == std::string::npos) return 0;
+    const size_t end = err.find("/metrics", at + key.size());
+    const size_t colon = err.rfind(':', end);
+    if (end == std::string::npos || colon == std::string::npos || colon < at) return 0;
+    return std::atoi(err.c_str() + colon + 1);
   }
 
   const std::string &address() const { return address_; }

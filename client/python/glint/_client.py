@@ -140,8 +140,11 @@ class Client:
                 # gRPC backs off up to 120 s between connection attempts by default; a client of
                 # a server that is starting wants to notice it within a second or so.
                 ("grpc.initial_reconnect_backoff_ms", 100),
-                ("grpc.min_reconnect_backoff_ms", 100),
                 ("grpc.max_reconnect_backoff_ms", 1000),
+                # Not grpc.min_reconnect_backoff_ms: gRPC core takes it as the minimum connect
+                # timeout (20 s by default); at 100 ms a connection slower than that to connect
+                # and handshake on a loaded machine failed with UNAVAILABLE "tcp handshaker
+                # shutdown" (the C++ client had the same; client/lib/glint_client.cpp).
             ],
         )
         self._stub = pb_grpc.GlintServiceStub(self._channel)

@@ -295,6 +295,67 @@ GLINT_FN real kemppinen_mass(real a, real b) {
 
 /* ------------------------------------------------------------- the footprint */
 
+/* log2(x) for a positive normal x (the MIP level lambda, once per query). fp32:
+ * not the device's log2, which PoCL calls out of line (~190 instructions, and
+ * every vector register spilled around the call: ~5% of the ONE_CELL
+ * directional + point kernel's time, perf). x = m 2^e with m in [sqrt(1/2),
+ * sqrt(2)) from the bits, then the atanh series
+ *   log2(m) = (2 / ln 2) (s + s^3 / 3 + s^5 / 5 + s^7 / 7 + s^9 / 9 + ...),
+ *   s = (m - 1) / (m + 1), |s| <= 3 - 2 sqrt 2 = 0.1716,
+ * truncated after s^9: error <= (2 / ln 2) s^11 / 11 / (1 - s^2) = 1.0e-9, far
+ * below the fp32 roundings (m - 1 is exact, s ~2 roundings, the series ~3,
+ * e + log2(m) one: <= 1.5e-7 + 1/2 ulp of the result; tested against long
+ * double, FastLog2.WithinItsBoundOfLongDouble). lambda only sets the MIP level
+ * and the tent weights, in which an error of 1e-6 moves S by < 1e-6 (the blend
+ * is continuous across integer levels). fp64 keeps the library's log2. */
+#if GLINT_USE_DOUBLE
+GLINT_FN real kemppinen_log2_pos(real x) {
+  return log2(x);
+}
+#else
+#if defined(__OPENCL_VERSION__) && GLINT_LANES == 16
+#define KEMP_FLOAT_BITS(x) as_uint16(x)
+#define KEMP_BITS_FLOAT(u) as_float16(u)
+#elif defined(__OPENCL_VERSION__) && GLINT_LANES == 8
+#define KEMP_FLOAT_BITS(x) as_uint8(x)
+#define KEMP_BITS_FLOAT(u) as_float8(u)
+#elif defined(__OPENCL_VERSION__)
+#define KEMP_FLOAT_BITS(x) as_uint(x)
+#define KEMP_BITS_FLOAT(u) as_float(u)
+#else
+/* The builtin, not std::memcpy (these headers may be included inside a namespace). */
+GLINT_FN uint kemppinen_float_bits(float f) {
+  uint u;
+  __builtin_memcpy(&u, &f, sizeof u);
+  return u;
+}
+GLINT_FN float kemppinen_bits_float(uint u) {
+  float f;
+  __builtin_memcpy(&f, &u, sizeof f);
+  return f;
+}
+#define KEMP_FLOAT_BITS(x) kemppinen_float_bits(x)
+#define KEMP_BITS_FLOAT(u) kemppinen_bits_float(u)
+#endif
+GLINT_FN real kemppinen_log2_pos(real x) {
+  kemp_uint b = KEMP_FLOAT_BITS(x);
+  /* k = e + 127: the biased exponent of x scaled by 2^(1/2) (0x3f800000 - 0x3f3504f3 moves
+   * the split from 1 to sqrt(1/2) = 0x3f3504f3), unsigned, as x > 0 is normal. */
+  kemp_uint k = (b + (0x3f800000u - 0x3f3504f3u)) >> 23;
+  /* m = x 2^-e: the same mantissa under the exponent 127 + (b's exponent - k). */
+  real m = KEMP_BITS_FLOAT(b - (k << 23) + 0x3f800000u);
+  real e = KEMP_TO_REAL(k) - GLINT_R(127.0);
+  real t = (m - GLINT_R(1.0)) / (m + GLINT_R(1.0));
+  real t2 = t * t;
+  /* 2 / ln 2 times 1, 1/3, 1/5, 1/7, 1/9. */
+  real p = GLINT_R(2.8853900817779268) +
+           t2 * (GLINT_R(0.96179669392597560) +
+                 t2 * (GLINT_R(0.57707801635558536) +
+                       t2 * (GLINT_R(0.41219858311113240) + t2 * GLINT_R(0.32059889797532520))));
+  return e + t * p;
+}
+#endif
+
 /* What one query needs whatever the half-vector: the pixel filter in the
  * stretched uv space x_s = A_star uv and the MIP levels. */
 typedef struct {
@@ -349,7 +410,8 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
   fp.eps = eps;
   /* Level: finer level's cells (2^floor(lambda) / sqrt(K_P)) >= 4 sigma_max. */
   real sigma_max = sqrt(lmax + eps);
-  real lambda = log2(fmax(GLINT_R(8.0) * sigma_max * sqrt(p.density), GLINT_R(1e-30)));
+  real lambda =
+      kemppinen_log2_pos(fmax(GLINT_R(8.0) * sigma_max * sqrt(p.density), GLINT_R(1e-30)));
   fp.lambda = clamp(lambda, GLINT_R(0.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL));
   fp.seed_key = rng_absorb(rng_absorb(0x4b323555u, seed_lo), seed_hi);
   return fp;

@@ -61,7 +61,8 @@ GLINT_FN real3 kemppinen_shade(EvalSpec spec, KernelInputs in, QueryInputs q, re
   KemppinenParams p = kemppinen_params_unpack(in.params);
   ShadingPoint sp = shading_point(spec, q);
   KemppinenFootprint fp = kemppinen_footprint(p, u, v, footprint, in.seed_lo, in.seed_hi);
-  KemppinenQueryLevels levels = kemppinen_query_levels(p, fp);
+  KemppinenQueryLevels levels;
+  kemppinen_query_levels_into(p, fp, &levels); /* in place: no copy of ~2 KB per block */
   if (spec.probe) {
     real3 wi = shading_to_local(spec, sp, r3_normalize(q.wi));
     return kemppinen_reflect_at(m, &p, &levels, wi, sp.wo,

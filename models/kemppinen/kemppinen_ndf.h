@@ -652,33 +652,41 @@ typedef struct {
   real outside;
 } KemppinenLevelQuery;
 
-GLINT_FN KemppinenLevelQuery kemppinen_level_query(KemppinenParams p, KemppinenFootprint fp,
-                                                   real level) {
-  KemppinenLevelQuery q;
-  q.s = kemppinen_spatial(p, fp, level);
-  q.level = level;
+/* Written in place: on the device this struct is 17 vectors (1088 bytes), and assigning a
+ * returned one made PoCL copy it with an out-of-line memcpy (vzeroupper and every vector
+ * register spilled around the call), once or twice per query (perf). */
+GLINT_FN void kemppinen_level_query_into(KemppinenParams p, KemppinenFootprint fp, real level,
+                                         GLINT_PRIVATE KemppinenLevelQuery *q) {
+  q->s = kemppinen_spatial(p, fp, level);
+  q->level = level;
   if (p.one_cell) {
     /* GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL: the cell holding the query, the
      * same facet (the same hash) as that cell of the 2x2 block. */
-    q.s.bs_x = floor(q.s.ts_x);
-    q.s.bs_y = floor(q.s.ts_y);
-    q.key[0] = kemppinen_spatial_key(fp.seed_key, level, q.s.bs_x, q.s.bs_y);
-    q.key[1] = q.key[0];
-    q.key[2] = q.key[0];
-    q.key[3] = q.key[0];
-    q.outside = kemppinen_outside_width(fp, q.s.res_s, q.s.ts_x, q.s.ts_y, q.s.bs_x, q.s.bs_y,
-                                        GLINT_R(1.0), 1);
-    return q;
+    q->s.bs_x = floor(q->s.ts_x);
+    q->s.bs_y = floor(q->s.ts_y);
+    q->key[0] = kemppinen_spatial_key(fp.seed_key, level, q->s.bs_x, q->s.bs_y);
+    q->key[1] = q->key[0];
+    q->key[2] = q->key[0];
+    q->key[3] = q->key[0];
+    q->outside = kemppinen_outside_width(fp, q->s.res_s, q->s.ts_x, q->s.ts_y, q->s.bs_x, q->s.bs_y,
+                                         GLINT_R(1.0), 1);
+    return;
   }
   /* kemppinen_spatial_key of the 2x2 block: 7 absorbs instead of 12. */
   kemp_uint lk = kemppinen_level_key(fp.seed_key, level);
-  kemp_uint col0 = kemppinen_absorb(lk, kemppinen_cell_key(q.s.bs_x));
-  kemp_uint col1 = kemppinen_absorb(lk, kemppinen_cell_key(q.s.bs_x + GLINT_R(1.0)));
+  kemp_uint col0 = kemppinen_absorb(lk, kemppinen_cell_key(q->s.bs_x));
+  kemp_uint col1 = kemppinen_absorb(lk, kemppinen_cell_key(q->s.bs_x + GLINT_R(1.0)));
   for (int j = 0; j < 4; ++j)
-    q.key[j] =
-        kemppinen_absorb((j & 1) ? col1 : col0, kemppinen_cell_key(q.s.bs_y + (real)(j >> 1)));
-  q.outside = kemppinen_outside_width(fp, q.s.res_s, q.s.ts_x, q.s.ts_y, q.s.bs_x, q.s.bs_y,
-                                      GLINT_R(2.0), p.one_level);
+    q->key[j] =
+        kemppinen_absorb((j & 1) ? col1 : col0, kemppinen_cell_key(q->s.bs_y + (real)(j >> 1)));
+  q->outside = kemppinen_outside_width(fp, q->s.res_s, q->s.ts_x, q->s.ts_y, q->s.bs_x, q->s.bs_y,
+                                       GLINT_R(2.0), p.one_level);
+}
+
+GLINT_FN KemppinenLevelQuery kemppinen_level_query(KemppinenParams p, KemppinenFootprint fp,
+                                                   real level) {
+  KemppinenLevelQuery q;
+  kemppinen_level_query_into(p, fp, level, &q);
   return q;
 }
 
@@ -941,8 +949,9 @@ typedef struct {
   int n;
 } KemppinenQueryLevels;
 
-GLINT_FN KemppinenQueryLevels kemppinen_query_levels(KemppinenParams p, KemppinenFootprint fp) {
-  KemppinenQueryLevels L;
+/* In place, as kemppinen_level_query_into (2 x 1088 bytes on the device). */
+GLINT_FN void kemppinen_query_levels_into(KemppinenParams p, KemppinenFootprint fp,
+                                          GLINT_PRIVATE KemppinenQueryLevels *L) {
   real lf = floor(fp.lambda);
   real w1 = fp.lambda - lf;
   if (p.one_level) {
@@ -962,19 +971,25 @@ GLINT_FN KemppinenQueryLevels kemppinen_query_levels(KemppinenParams p, Kemppine
         rng_real_key(fp.v));
     real t = KEMP_TO_REAL(kemppinen_mix(key) >> 8) * GLINT_R(5.9604644775390625e-8);
     real level = glint_select(lf, lf + GLINT_R(1.0), t < w1);
-    L.w[0] = GLINT_R(1.0);
-    L.w[1] = GLINT_R(0.0);
-    L.n = 1;
-    L.l[0] = kemppinen_level_query(p, fp, fmin(level, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)));
-    L.l[1] = L.l[0];
-    return L;
+    L->w[0] = GLINT_R(1.0);
+    L->w[1] = GLINT_R(0.0);
+    L->n = 1;
+    /* l[1] is not set: only l[lv < n] is read (as in the two-level path when n = 1). */
+    kemppinen_level_query_into(p, fp, fmin(level, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)), &L->l[0]);
+    return;
   }
-  L.w[0] = GLINT_R(1.0) - w1;
-  L.w[1] = w1;
-  L.n = glint_any(w1 > GLINT_R(0.0)) ? 2 : 1;
+  L->w[0] = GLINT_R(1.0) - w1;
+  L->w[1] = w1;
+  L->n = glint_any(w1 > GLINT_R(0.0)) ? 2 : 1;
   GLINT_KEMPPINEN_NOUNROLL
-  for (int lv = 0; lv < L.n; ++lv)
-    L.l[lv] = kemppinen_level_query(p, fp, fmin(lf + (real)lv, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)));
+  for (int lv = 0; lv < L->n; ++lv)
+    kemppinen_level_query_into(p, fp, fmin(lf + (real)lv, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)),
+                               &L->l[lv]);
+}
+
+GLINT_FN KemppinenQueryLevels kemppinen_query_levels(KemppinenParams p, KemppinenFootprint fp) {
+  KemppinenQueryLevels L;
+  kemppinen_query_levels_into(p, fp, &L);
   return L;
 }
 

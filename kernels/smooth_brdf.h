@@ -30,11 +30,20 @@ GLINT_FN SmoothMaterial smooth_material_unpack(const GLINT_GLOBAL float *packed,
   return m;
 }
 
-/* f(wi, wo) * cos(theta_i): the radiance reflected towards wo under unit
- * irradiance arriving from wi (the "BRDF probe" of the wire contract).
- * Directions are unit vectors in the local frame. Returns 0 when either is at
- * or below the horizon: a one-sided reflector has no transmission lobe. */
-GLINT_FN real3 smooth_reflect_cos(SmoothMaterial m, real3 wi, real3 wo) {
+/* smooth_reflect_cos with its unit half-vector h and D(h), for callers that
+ * reuse them (the glint models' D_star = D S: models/kemppinen/kemppinen_eval.h
+ * would otherwise normalise h and evaluate D a second time per light). In
+ * lanes where `fc` is 0 because a direction is at or below the horizon, h is
+ * wi + wo unnormalised (finite) and D its value; callers drop those lanes.
+ * Directions are unit vectors in the local frame (see smooth_reflect_cos). */
+typedef struct {
+  real3 fc; /* f(wi, wo) cos(theta_i), RGB */
+  real3 h;
+  real D;
+} SmoothReflect;
+
+GLINT_FN SmoothReflect smooth_reflect_cos_parts(SmoothMaterial m, real3 wi, real3 wo) {
+  SmoothReflect r;
   real3 h = r3_add(wi, wo);
   real h_len = r3_length(h);
   /* Branch-free: every lane computes, dead ones (either direction at or below
@@ -44,13 +53,29 @@ GLINT_FN real3 smooth_reflect_cos(SmoothMaterial m, real3 wi, real3 wo) {
   /* No lane live: skip the rest (host: the early return). On the device this
    * pays off for coherent batches, e.g. +30-50% for a lit sphere where a light
    * is behind whole blocks, and costs ~10% on random queries (measured). */
-  if (!glint_any(!dead)) return zero;
+  if (!glint_any(!dead)) {
+    r.fc = zero;
+    r.h = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0));
+    r.D = GLINT_R(0.0);
+    return r;
+  }
   h = r3_scale(h, GLINT_R(1.0) / glint_select(h_len, GLINT_R(1.0), dead)); /* 1 division, not 3 */
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
   /* V cos_i in one piece: V alone overflows fp32 at cosines ~1e-36 (see ndf.h). */
   real V_cos_i = smith_visibility_cos_i(m.ndf, wo, wi, m.alpha_x, m.alpha_y);
   real3 F = fresnel_eval(m.fresnel, r3_dot(wo, h));
-  return r3_select(r3_scale(F, D * V_cos_i), zero, dead);
+  r.fc = r3_select(r3_scale(F, D * V_cos_i), zero, dead);
+  r.h = h;
+  r.D = D;
+  return r;
+}
+
+/* f(wi, wo) * cos(theta_i): the radiance reflected towards wo under unit
+ * irradiance arriving from wi (the "BRDF probe" of the wire contract).
+ * Directions are unit vectors in the local frame. Returns 0 when either is at
+ * or below the horizon: a one-sided reflector has no transmission lobe. */
+GLINT_FN real3 smooth_reflect_cos(SmoothMaterial m, real3 wi, real3 wo) {
+  return smooth_reflect_cos_parts(m, wi, wo).fc;
 }
 
 #endif /* GLINT_SMOOTH_BRDF_H */

@@ -27,17 +27,16 @@ GLINT_FN real3 kemppinen_reflect_at(SmoothMaterial m, const GLINT_PRIVATE Kemppi
                                     const GLINT_PRIVATE KemppinenQueryLevels *levels, real3 wi,
                                     real3 wo, real3 radiance) {
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-  real3 fc = smooth_reflect_cos(m, wi, wo);
+  /* The smooth term's unit h and D(h) serve the glint factor too (they were computed a
+   * second time per light; the same operations, so the same bits in every live lane). */
+  SmoothReflect sr = smooth_reflect_cos_parts(m, wi, wo);
+  real3 fc = sr.fc;
   real3 ls = r3_mul(fc, radiance);
   glint_mask live = ls.x + ls.y + ls.z > GLINT_R(0.0);
   if (!glint_any(live)) return zero; /* host: the early return; device: whole blocks */
-  /* Dead lanes (wi = -wo: h = 0) compute on a safe h and are dropped. */
-  real3 hv = r3_add(wi, wo);
-  real hl = r3_length(hv);
-  /* One reciprocal, not three divisions (smooth_reflect_cos normalises h the same way). */
-  real3 h = r3_scale(hv, GLINT_R(1.0) / glint_select(GLINT_R(1.0), hl, hl > GLINT_R(0.0)));
-  real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
-  real3 s = kemppinen_glint_factor_at(p, levels, m.ndf, h, m.alpha_x, m.alpha_y, D);
+  /* Dead lanes (a direction below the horizon, wi = -wo) compute on sr's finite h and are
+   * dropped. */
+  real3 s = kemppinen_glint_factor_at(p, levels, m.ndf, sr.h, m.alpha_x, m.alpha_y, sr.D);
   /* (f cos D_star / D) radiance: the radiance last, so that a light whose smooth term overflows
    * to +Inf (fp32: 3e38 W/m^2 on a sharp lobe) meets the glint factor's exact zeros as 0, not
    * as Inf * 0 = NaN (found by the stability sweep); an Inf that remains saturates at store. */
@@ -62,7 +61,8 @@ GLINT_FN real3 kemppinen_shade(EvalSpec spec, KernelInputs in, QueryInputs q, re
   KemppinenParams p = kemppinen_params_unpack(in.params);
   ShadingPoint sp = shading_point(spec, q);
   KemppinenFootprint fp = kemppinen_footprint(p, u, v, footprint, in.seed_lo, in.seed_hi);
-  KemppinenQueryLevels levels = kemppinen_query_levels(p, fp);
+  KemppinenQueryLevels levels;
+  kemppinen_query_levels_into(p, fp, &levels); /* in place: no copy of ~2 KB per block */
   if (spec.probe) {
     real3 wi = shading_to_local(spec, sp, r3_normalize(q.wi));
     return kemppinen_reflect_at(m, &p, &levels, wi, sp.wo,

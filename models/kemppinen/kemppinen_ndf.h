@@ -295,6 +295,67 @@ GLINT_FN real kemppinen_mass(real a, real b) {
 
 /* ------------------------------------------------------------- the footprint */
 
+/* log2(x) for a positive normal x (the MIP level lambda, once per query). fp32:
+ * not the device's log2, which PoCL calls out of line (~190 instructions, and
+ * every vector register spilled around the call: ~5% of the ONE_CELL
+ * directional + point kernel's time, perf). x = m 2^e with m in [sqrt(1/2),
+ * sqrt(2)) from the bits, then the atanh series
+ *   log2(m) = (2 / ln 2) (s + s^3 / 3 + s^5 / 5 + s^7 / 7 + s^9 / 9 + ...),
+ *   s = (m - 1) / (m + 1), |s| <= 3 - 2 sqrt 2 = 0.1716,
+ * truncated after s^9: error <= (2 / ln 2) s^11 / 11 / (1 - s^2) = 1.0e-9, far
+ * below the fp32 roundings (m - 1 is exact, s ~2 roundings, the series ~3,
+ * e + log2(m) one: <= 1.5e-7 + 1/2 ulp of the result; tested against long
+ * double, FastLog2.WithinItsBoundOfLongDouble). lambda only sets the MIP level
+ * and the tent weights, in which an error of 1e-6 moves S by < 1e-6 (the blend
+ * is continuous across integer levels). fp64 keeps the library's log2. */
+#if GLINT_USE_DOUBLE
+GLINT_FN real kemppinen_log2_pos(real x) {
+  return log2(x);
+}
+#else
+#if defined(__OPENCL_VERSION__) && GLINT_LANES == 16
+#define KEMP_FLOAT_BITS(x) as_uint16(x)
+#define KEMP_BITS_FLOAT(u) as_float16(u)
+#elif defined(__OPENCL_VERSION__) && GLINT_LANES == 8
+#define KEMP_FLOAT_BITS(x) as_uint8(x)
+#define KEMP_BITS_FLOAT(u) as_float8(u)
+#elif defined(__OPENCL_VERSION__)
+#define KEMP_FLOAT_BITS(x) as_uint(x)
+#define KEMP_BITS_FLOAT(u) as_float(u)
+#else
+/* The builtin, not std::memcpy (these headers may be included inside a namespace). */
+GLINT_FN uint kemppinen_float_bits(float f) {
+  uint u;
+  __builtin_memcpy(&u, &f, sizeof u);
+  return u;
+}
+GLINT_FN float kemppinen_bits_float(uint u) {
+  float f;
+  __builtin_memcpy(&f, &u, sizeof f);
+  return f;
+}
+#define KEMP_FLOAT_BITS(x) kemppinen_float_bits(x)
+#define KEMP_BITS_FLOAT(u) kemppinen_bits_float(u)
+#endif
+GLINT_FN real kemppinen_log2_pos(real x) {
+  kemp_uint b = KEMP_FLOAT_BITS(x);
+  /* k = e + 127: the biased exponent of x scaled by 2^(1/2) (0x3f800000 - 0x3f3504f3 moves
+   * the split from 1 to sqrt(1/2) = 0x3f3504f3), unsigned, as x > 0 is normal. */
+  kemp_uint k = (b + (0x3f800000u - 0x3f3504f3u)) >> 23;
+  /* m = x 2^-e: the same mantissa under the exponent 127 + (b's exponent - k). */
+  real m = KEMP_BITS_FLOAT(b - (k << 23) + 0x3f800000u);
+  real e = KEMP_TO_REAL(k) - GLINT_R(127.0);
+  real t = (m - GLINT_R(1.0)) / (m + GLINT_R(1.0));
+  real t2 = t * t;
+  /* 2 / ln 2 times 1, 1/3, 1/5, 1/7, 1/9. */
+  real p = GLINT_R(2.8853900817779268) +
+           t2 * (GLINT_R(0.96179669392597560) +
+                 t2 * (GLINT_R(0.57707801635558536) +
+                       t2 * (GLINT_R(0.41219858311113240) + t2 * GLINT_R(0.32059889797532520))));
+  return e + t * p;
+}
+#endif
+
 /* What one query needs whatever the half-vector: the pixel filter in the
  * stretched uv space x_s = A_star uv and the MIP levels. */
 typedef struct {
@@ -349,7 +410,8 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
   fp.eps = eps;
   /* Level: finer level's cells (2^floor(lambda) / sqrt(K_P)) >= 4 sigma_max. */
   real sigma_max = sqrt(lmax + eps);
-  real lambda = log2(fmax(GLINT_R(8.0) * sigma_max * sqrt(p.density), GLINT_R(1e-30)));
+  real lambda =
+      kemppinen_log2_pos(fmax(GLINT_R(8.0) * sigma_max * sqrt(p.density), GLINT_R(1e-30)));
   fp.lambda = clamp(lambda, GLINT_R(0.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL));
   fp.seed_key = rng_absorb(rng_absorb(0x4b323555u, seed_lo), seed_hi);
   return fp;
@@ -590,33 +652,41 @@ typedef struct {
   real outside;
 } KemppinenLevelQuery;
 
-GLINT_FN KemppinenLevelQuery kemppinen_level_query(KemppinenParams p, KemppinenFootprint fp,
-                                                   real level) {
-  KemppinenLevelQuery q;
-  q.s = kemppinen_spatial(p, fp, level);
-  q.level = level;
+/* Written in place: on the device this struct is 17 vectors (1088 bytes), and assigning a
+ * returned one made PoCL copy it with an out-of-line memcpy (vzeroupper and every vector
+ * register spilled around the call), once or twice per query (perf). */
+GLINT_FN void kemppinen_level_query_into(KemppinenParams p, KemppinenFootprint fp, real level,
+                                         GLINT_PRIVATE KemppinenLevelQuery *q) {
+  q->s = kemppinen_spatial(p, fp, level);
+  q->level = level;
   if (p.one_cell) {
     /* GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL: the cell holding the query, the
      * same facet (the same hash) as that cell of the 2x2 block. */
-    q.s.bs_x = floor(q.s.ts_x);
-    q.s.bs_y = floor(q.s.ts_y);
-    q.key[0] = kemppinen_spatial_key(fp.seed_key, level, q.s.bs_x, q.s.bs_y);
-    q.key[1] = q.key[0];
-    q.key[2] = q.key[0];
-    q.key[3] = q.key[0];
-    q.outside = kemppinen_outside_width(fp, q.s.res_s, q.s.ts_x, q.s.ts_y, q.s.bs_x, q.s.bs_y,
-                                        GLINT_R(1.0), 1);
-    return q;
+    q->s.bs_x = floor(q->s.ts_x);
+    q->s.bs_y = floor(q->s.ts_y);
+    q->key[0] = kemppinen_spatial_key(fp.seed_key, level, q->s.bs_x, q->s.bs_y);
+    q->key[1] = q->key[0];
+    q->key[2] = q->key[0];
+    q->key[3] = q->key[0];
+    q->outside = kemppinen_outside_width(fp, q->s.res_s, q->s.ts_x, q->s.ts_y, q->s.bs_x, q->s.bs_y,
+                                         GLINT_R(1.0), 1);
+    return;
   }
   /* kemppinen_spatial_key of the 2x2 block: 7 absorbs instead of 12. */
   kemp_uint lk = kemppinen_level_key(fp.seed_key, level);
-  kemp_uint col0 = kemppinen_absorb(lk, kemppinen_cell_key(q.s.bs_x));
-  kemp_uint col1 = kemppinen_absorb(lk, kemppinen_cell_key(q.s.bs_x + GLINT_R(1.0)));
+  kemp_uint col0 = kemppinen_absorb(lk, kemppinen_cell_key(q->s.bs_x));
+  kemp_uint col1 = kemppinen_absorb(lk, kemppinen_cell_key(q->s.bs_x + GLINT_R(1.0)));
   for (int j = 0; j < 4; ++j)
-    q.key[j] =
-        kemppinen_absorb((j & 1) ? col1 : col0, kemppinen_cell_key(q.s.bs_y + (real)(j >> 1)));
-  q.outside = kemppinen_outside_width(fp, q.s.res_s, q.s.ts_x, q.s.ts_y, q.s.bs_x, q.s.bs_y,
-                                      GLINT_R(2.0), p.one_level);
+    q->key[j] =
+        kemppinen_absorb((j & 1) ? col1 : col0, kemppinen_cell_key(q->s.bs_y + (real)(j >> 1)));
+  q->outside = kemppinen_outside_width(fp, q->s.res_s, q->s.ts_x, q->s.ts_y, q->s.bs_x, q->s.bs_y,
+                                       GLINT_R(2.0), p.one_level);
+}
+
+GLINT_FN KemppinenLevelQuery kemppinen_level_query(KemppinenParams p, KemppinenFootprint fp,
+                                                   real level) {
+  KemppinenLevelQuery q;
+  kemppinen_level_query_into(p, fp, level, &q);
   return q;
 }
 
@@ -879,8 +949,9 @@ typedef struct {
   int n;
 } KemppinenQueryLevels;
 
-GLINT_FN KemppinenQueryLevels kemppinen_query_levels(KemppinenParams p, KemppinenFootprint fp) {
-  KemppinenQueryLevels L;
+/* In place, as kemppinen_level_query_into (2 x 1088 bytes on the device). */
+GLINT_FN void kemppinen_query_levels_into(KemppinenParams p, KemppinenFootprint fp,
+                                          GLINT_PRIVATE KemppinenQueryLevels *L) {
   real lf = floor(fp.lambda);
   real w1 = fp.lambda - lf;
   if (p.one_level) {
@@ -900,19 +971,25 @@ GLINT_FN KemppinenQueryLevels kemppinen_query_levels(KemppinenParams p, Kemppine
         rng_real_key(fp.v));
     real t = KEMP_TO_REAL(kemppinen_mix(key) >> 8) * GLINT_R(5.9604644775390625e-8);
     real level = glint_select(lf, lf + GLINT_R(1.0), t < w1);
-    L.w[0] = GLINT_R(1.0);
-    L.w[1] = GLINT_R(0.0);
-    L.n = 1;
-    L.l[0] = kemppinen_level_query(p, fp, fmin(level, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)));
-    L.l[1] = L.l[0];
-    return L;
+    L->w[0] = GLINT_R(1.0);
+    L->w[1] = GLINT_R(0.0);
+    L->n = 1;
+    /* l[1] is not set: only l[lv < n] is read (as in the two-level path when n = 1). */
+    kemppinen_level_query_into(p, fp, fmin(level, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)), &L->l[0]);
+    return;
   }
-  L.w[0] = GLINT_R(1.0) - w1;
-  L.w[1] = w1;
-  L.n = glint_any(w1 > GLINT_R(0.0)) ? 2 : 1;
+  L->w[0] = GLINT_R(1.0) - w1;
+  L->w[1] = w1;
+  L->n = glint_any(w1 > GLINT_R(0.0)) ? 2 : 1;
   GLINT_KEMPPINEN_NOUNROLL
-  for (int lv = 0; lv < L.n; ++lv)
-    L.l[lv] = kemppinen_level_query(p, fp, fmin(lf + (real)lv, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)));
+  for (int lv = 0; lv < L->n; ++lv)
+    kemppinen_level_query_into(p, fp, fmin(lf + (real)lv, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)),
+                               &L->l[lv]);
+}
+
+GLINT_FN KemppinenQueryLevels kemppinen_query_levels(KemppinenParams p, KemppinenFootprint fp) {
+  KemppinenQueryLevels L;
+  kemppinen_query_levels_into(p, fp, &L);
   return L;
 }
 
@@ -941,16 +1018,21 @@ GLINT_FN KemppinenLobe kemppinen_lobe_of_h(const GLINT_PRIVATE KemppinenParams *
     /* kemppinen_to_disk's GGX branch (K25 3.2.1, Eq. 6-7). */
     real hz = fmax(h.z, GLINT_R(0.0));
     real3 s = make_real3(h.x * ay, h.y * ax, hz * ax * ay);
-    real len = fmax(r3_length(s), GLINT_R(1e-30));
-    real nz = s.z / len;
-    real k = GLINT_R(0.5) / (len * sqrt(GLINT_R(1.0) + nz));
+    /* The floor only keeps a dead h = 0 finite: a unit h has len >= ax ay >= 1e-8 (alpha in
+     * [1e-4, 1], validation). */
+    real len = fmax(r3_length(s), GLINT_R(1e-15));
+    /* Lambert's 1 / (2 len sqrt(1 + nz)), nz = s.z / len, as 1 / (2 sqrt(len (len + s.z))):
+     * one division instead of two (s.z >= 0, nothing cancels; len (len + s.z) >= 1e-30 is a
+     * normal float). fp32: ~4 roundings on k instead of ~5 (tested against long double,
+     * DiskMap.PointPassLobeMatchesThePaperFormulas). */
+    real k = GLINT_R(0.5) / sqrt(len * (len + s.z));
     l.x = GLINT_R(0.5) + s.x * k;
     l.y = GLINT_R(0.5) + s.y * k;
     /* 1 / sigma = len^(3/2) sqrt(8) / (alpha_star ax ay): no division on the
      * chain after len (the last quotient is uniform). kemppinen_angular's
      * floor sigma >= 1e-12 becomes 1 / sigma <= 1e12; alpha_star ax ay >=
      * 1e-13 (validation), so the uniform factor is finite (and +inf only
-     * gives the floor's 1e12, as sigma would); len >= 1e-30 > 0. */
+     * gives the floor's 1e12, as sigma would); len >= 1e-15 > 0. */
     real c = GLINT_R(2.8284271247461900976) / (p->micro * ax * ay); /* uniform */
     real inv_s = fmin(len * sqrt(len) * c, GLINT_R(1e12));
     l.inv_sx = inv_s * p->aniso;

@@ -170,6 +170,44 @@ TEST(DiskMap, PointPassLobeMatchesThePaperFormulas) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// The level's log2 (kemppinen_log2_pos; fp32: exponent bits and the atanh series to s^9) against
+// long double. Its error analysis: series truncation <= (2 / ln 2) s^11 / 11 / (1 - s^2) = 1.0e-9
+// at |s| <= 3 - 2 sqrt 2; fp32 roundings: m - 1 exact (Sterbenz), s within 2 u, s^2 5 u, the
+// Horner sum (terms after the first < 3% of it) ~2 u with its rounded coefficients, s p within
+// 5 u, |s p| <= 0.5, so <= 2.5 u = 1.5e-7 absolute (u = 2^-24); then e + s p rounds once,
+// <= 1/2 ulp of the result. Inputs: every binade of the level's argument's range [1e-30, 1e30]
+// (log-uniform, plus each power of two, its neighbours and the split points sqrt(2) 2^e, where
+// the exponent/mantissa decomposition changes). fp64 is the library's log2.
+TEST(FastLog2, WithinItsBoundOfLongDouble) {
+  const double u = 5.9604644775390625e-8;
+  std::vector<float> xs;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> lx(std::log(1e-30), std::log(1e30));
+  for (int i = 0; i < 200000; ++i) xs.push_back(float(std::exp(lx(rng))));
+  for (int e = -99; e <= 99; ++e)
+    for (double base : {1.0, std::sqrt(2.0)}) {
+      float x = float(std::ldexp(base, e));
+      xs.push_back(x);
+      xs.push_back(std::nextafter(x, 0.0f));
+      xs.push_back(std::nextafter(x, 1e38f));
+    }
+  for (int i = 0; i <= 100000; ++i) xs.push_back(float(0.5 + 2.5 * i / 100000.0));
+  double worst = 0, worst_ulps = 0;
+  for (float x : xs) {
+    double got = k32::kemppinen_log2_pos(x);
+    long double ref = std::log2((long double)x);
+    double err = std::fabs(double((long double)got - ref));
+    double half_ulp = 0.5 * std::fabs(double(std::nextafter(float(got), 1e38f) - float(got)));
+    ASSERT_LE(err, 2.5 * u + 1e-9 + half_ulp) << "x = " << x << " got " << got;
+    worst = std::max(worst, err);
+    worst_ulps = std::max(worst_ulps, err / (2 * half_ulp));
+    EXPECT_EQ(k64::kemppinen_log2_pos(double(x)), std::log2(double(x)));
+  }
+  std::printf("fast log2 (fp32) vs long double over %zu inputs: max abs error %.3g, %.2f ulp\n",
+              xs.size(), worst, worst_ulps);
+}
+
+// ---------------------------------------------------------------------------------------------
 // Gaussian rectangle masses (the erf of Eq. 10): Abramowitz & Stegun 7.1.26 for erfc, arranged
 // so tails do not cancel. First the approximation against libm over [0, 12] (its published
 // bound: absolute error <= 1.5e-7), then the masses against composite Simpson quadrature of the

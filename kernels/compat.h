@@ -130,7 +130,6 @@ using std::logb;
 using std::pow;
 using std::sin;
 using std::sqrt;
-using std::tan;
 
 typedef unsigned int uint;
 

@@ -39,18 +39,35 @@ bool HasLights(const KServeModel &model) {
 KServeServiceImpl::KServeServiceImpl(GlintServiceImpl *glint, std::vector<KServeModel> models)
     : glint_(glint), models_(std::move(models)), stats_(models_.size()) {}
 
+namespace {
+// The kernel variant a preset's ModelInfer requests use (queries without a world frame).
+KernelSpec PresetSpec(const KServeModel &model) {
+  glint::v1::QueryBatch one;  // the spec depends on which arrays are present, not values
+  one.set_count(1);
+  for (float v : {0.0f, 0.0f, 1.0f}) one.add_wo(v);
+  if (!HasLights(model))
+    for (float v : {0.0f, 0.0f, 1.0f}) one.add_wi(v);
+  return MakeEvalPlan(model.settings, one).spec;
+}
+}  // namespace
+
 std::vector<KernelSpec> KServeServiceImpl::WarmSpecs() const {
   std::vector<KernelSpec> specs;
   for (const KServeModel &model : models_) {
-    glint::v1::QueryBatch one;  // the spec depends on which arrays are present, not values
-    one.set_count(1);
-    for (float v : {0.0f, 0.0f, 1.0f}) one.add_wo(v);
-    if (!HasLights(model))
-      for (float v : {0.0f, 0.0f, 1.0f}) one.add_wi(v);
-    const KernelSpec spec = MakeEvalPlan(model.settings, one).spec;
+    const KernelSpec spec = PresetSpec(model);
     if (std::find(specs.begin(), specs.end(), spec) == specs.end()) specs.push_back(spec);
   }
   return specs;
+}
+
+std::string KServeServiceImpl::PresetsUsing(const KernelSpec &spec) const {
+  std::string names;
+  for (const KServeModel &model : models_) {
+    if (!(PresetSpec(model) == spec)) continue;
+    names += names.empty() ? "--model preset " : ", ";
+    names += "'" + model.name + "' (" + model.source + ")";
+  }
+  return names;
 }
 
 const KServeModel *KServeServiceImpl::Find(const std::string &name, const std::string &version,

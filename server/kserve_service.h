@@ -37,6 +37,9 @@ class KServeServiceImpl final : public inference::GRPCInferenceService::Callback
   // glintd warms them with the models' own (server/warmup.h) unless --warm none, so that a
   // model's first ModelInfer does not pay for PoCL's compile.
   std::vector<KernelSpec> WarmSpecs() const;
+  // The presets whose requests use `spec`, for the warm-up's failure message: "--model preset
+  // 'NAME' (FILE[,LIGHTS]), ..." in registration order, "" when none does.
+  std::string PresetsUsing(const KernelSpec &spec) const;
 
   const std::vector<KServeModel> &models() const { return models_; }
 

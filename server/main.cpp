@@ -384,7 +384,11 @@ int main(int argc, char **argv) {
       for (const glint::KernelSpec &spec : kserve.WarmSpecs())
         if (std::find(warm_specs.begin(), warm_specs.end(), spec) == warm_specs.end())
           warm_specs.push_back(spec);
-    if (glint::Status s = glint::WarmKernels(engine.get(), warm_specs, engine->workers());
+    // Each variant's --model presets, so that a failure names the preset and its file.
+    std::vector<std::string> users;
+    for (const glint::KernelSpec &spec : warm_specs) users.push_back(kserve.PresetsUsing(spec));
+    if (glint::Status s =
+            glint::WarmKernels(engine.get(), warm_specs, engine->workers(), nullptr, &users);
         !s.ok()) {
       std::fprintf(stderr, "glintd: %s\n", s.message().c_str());
       scheduler.Release();  // the held requests run (and fail or finish) so Shutdown can end

@@ -61,8 +61,18 @@ std::vector<KernelSpec> WarmSpecsFor(WarmMode mode, bool fp64_available) {
   return specs;
 }
 
+namespace {
+// "warm-up of SPEC (for USERS): MESSAGE".
+Status WarmFailure(const std::vector<KernelSpec> &specs, const std::vector<std::string> *users,
+                   size_t i, const Status &s) {
+  std::string who;
+  if (users && i < users->size() && !(*users)[i].empty()) who = " (for " + (*users)[i] + ")";
+  return Status::Internal("warm-up of " + specs[i].Describe() + who + ": " + s.message());
+}
+}  // namespace
+
 Status WarmKernels(DeviceEngine *engine, const std::vector<KernelSpec> &specs, int threads,
-                   std::vector<WarmTiming> *timings) {
+                   std::vector<WarmTiming> *timings, const std::vector<std::string> *users) {
   const int n_threads = std::max(1, std::min({threads, engine->workers(), int(specs.size())}));
   std::vector<WarmTiming> timed(specs.size());
   std::vector<int> ran_on(specs.size(), -1);
@@ -78,8 +88,7 @@ Status WarmKernels(DeviceEngine *engine, const std::vector<KernelSpec> &specs, i
       ran_on[i] = worker;
       if (!s.ok()) {
         std::lock_guard<std::mutex> lock(error_mutex);
-        if (first_error.ok())
-          first_error = Status::Internal("warm-up of " + specs[i].Describe() + ": " + s.message());
+        if (first_error.ok()) first_error = WarmFailure(specs, users, i, s);
         next = specs.size();  // stop the others early
       }
     }
@@ -97,8 +106,7 @@ Status WarmKernels(DeviceEngine *engine, const std::vector<KernelSpec> &specs, i
     for (int w = 0; w < engine->workers(); ++w) {
       if (w == ran_on[i]) continue;
       Status s = engine->Warm(specs[i], w);
-      if (!s.ok())
-        return Status::Internal("warm-up of " + specs[i].Describe() + ": " + s.message());
+      if (!s.ok()) return WarmFailure(specs, users, i, s);
     }
   if (timings) *timings = std::move(timed);
   return Status::Ok();

@@ -39,9 +39,13 @@ struct WarmTiming {
 
 // Warms `specs`: min(threads, engine->workers()) threads each take the next spec and run it on
 // their own queue (their cold compiles take turns inside PoCL, see above), then every spec runs
-// once on the other queues. Returns the first failure, naming the spec; `timings` (if not null)
-// gets each spec's first run (a cold one includes waiting for the other thread's compile).
+// once on the other queues. Returns the first failure, naming the spec and, when `users` (if not
+// null) has a non-empty entry for it, who needs it: glintd passes the --model presets of each
+// spec (KServeServiceImpl::PresetsUsing), so that a preset whose kernel fails names its file.
+// `timings` (if not null) gets each spec's first run (a cold one includes waiting for the other
+// thread's compile).
 Status WarmKernels(DeviceEngine *engine, const std::vector<KernelSpec> &specs, int threads,
-                   std::vector<WarmTiming> *timings = nullptr);
+                   std::vector<WarmTiming> *timings = nullptr,
+                   const std::vector<std::string> *users = nullptr);
 
 }  // namespace glint

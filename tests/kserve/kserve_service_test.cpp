@@ -3,6 +3,8 @@
 // result is glint.v1 Evaluate of the same queries and settings on the same server: the two
 // must agree bit for bit, typed contents or raw bytes alike. (tests/kserve/tritonclient_test.py
 // does the same with Triton's own Python client.)
+#include "server/kserve_service.h"
+
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
@@ -692,6 +694,31 @@ TEST(KServeAdmission, AnAbandonedModelInferStopsAtTheNextSlice) {
       << "the abandoned ModelInfer ran to its end";
   EXPECT_EQ(after.fail().count(), before.fail().count() + 1);
   EXPECT_TRUE(server->Alive());
+}
+
+// glintd's warm-up names the --model presets of a variant whose warm-up fails
+// (tests/service/warmup_test.cpp AFailureNamesWhoNeedsTheVariant): PresetsUsing lists every
+// preset whose ModelInfer requests use the variant, with its file(s), and none for a variant no
+// preset uses. Two presets of one material share a variant (lights change it only by kind).
+TEST(KServeStartup, PresetsUsingNamesEachPresetAndItsFiles) {
+  const std::string paint = kExamples + "/materials/paint_schlick.json";
+  const std::string studio = kExamples + "/lights/studio.json";
+  const std::string sparkle = kExamples + "/materials/sparkle_binomial.json";
+  const std::string rect = kExamples + "/lights/rect_small.json";
+  std::vector<KServeModel> models(3);
+  ASSERT_TRUE(LoadModelFlag("paint=" + paint + "," + studio, &models[0]).ok());
+  ASSERT_TRUE(LoadModelFlag("paint2=" + paint + "," + studio, &models[1]).ok());
+  ASSERT_TRUE(LoadModelFlag("sparkle=" + sparkle + "," + rect, &models[2]).ok());
+  const KServeServiceImpl kserve(nullptr, models);
+  const std::vector<KernelSpec> specs = kserve.WarmSpecs();
+  ASSERT_EQ(specs.size(), 2u);
+  EXPECT_EQ(kserve.PresetsUsing(specs[0]), "--model preset 'paint' (" + paint + "," + studio +
+                                               "), 'paint2' (" + paint + "," + studio + ")");
+  EXPECT_EQ(kserve.PresetsUsing(specs[1]),
+            "--model preset 'sparkle' (" + sparkle + "," + rect + ")");
+  KernelSpec other = specs[0];
+  other.fp64 = !other.fp64;
+  EXPECT_EQ(kserve.PresetsUsing(other), "");
 }
 
 TEST(KServeStartup, ABadPresetStopsGlintdNamingTheFile) {

@@ -178,8 +178,9 @@ TEST(MetricsEndToEnd, CountersMatchWhatWasSent) {
 // presets and logged "0 kernels warm"), and says so. Then a request of a variant its worker has
 // not built reports the build apart from its compute: compile_ms > 0 exactly when the program
 // cache counters show a build (or disk load) during that request, 0 for the next request of the
-// same variant; glint_compile_seconds observes the builds and glint_compute_seconds the
-// compute_ms the replies carried (before, compute_ms and the histogram included the build).
+// same variant, on unary Evaluate and per chunk of an EvaluateStream; glint_compile_seconds
+// observes the builds and glint_compute_seconds the compute_ms the replies carried (before,
+// compute_ms and the histogram included the build).
 TEST(MetricsEndToEnd, WarmNoneBuildsNothingAndColdVariantsReportCompileApart) {
   TempDir dir("glint_metrics_cold");
   const std::string examples = GLINT_EXAMPLES_DIR;
@@ -238,11 +239,55 @@ TEST(MetricsEndToEnd, WarmNoneBuildsNothingAndColdVariantsReportCompileApart) {
     compute_sum += stats.compute_ms() / 1e3;
   }
   EXPECT_EQ(cold, 2);  // GGX's first request and Beckmann's; not GGX's second
+
+  // The same on EvaluateStream, each chunk's result carrying its own stats: chunk 0 brings a
+  // variant not built yet (a dielectric), chunk 1 only queries of it (no build, compile_ms 0),
+  // chunk 2 new settings of another unbuilt variant (a conductor). One chunk at a time, so that
+  // each result can be held against the program-cache counters.
+  glint::v1::EvaluateRequest dielectric = SmoothProbes(30);
+  dielectric.mutable_material()->mutable_dielectric()->set_ior(1.5f);
+  glint::v1::EvaluateRequest queries_only;
+  *queries_only.mutable_queries() = SmoothProbes(20).queries();
+  glint::v1::EvaluateRequest conductor = SmoothProbes(10);
+  for (int c = 0; c < 3; ++c) {
+    conductor.mutable_material()->mutable_conductor()->add_eta(0.2f);
+    conductor.mutable_material()->mutable_conductor()->add_k(3.0f);
+  }
+  {
+    grpc::ClientContext ctx;
+    auto stream = stub->EvaluateStream(&ctx);
+    const glint::v1::EvaluateRequest *chunks[3] = {&dielectric, &queries_only, &conductor};
+    const bool builds_expected[3] = {true, false, true};
+    for (uint64_t k = 0; k < 3; ++k) {
+      SCOPED_TRACE("stream chunk " + std::to_string(k));
+      glint::v1::EvaluateChunk chunk;
+      chunk.set_chunk_index(k);
+      *chunk.mutable_request() = *chunks[k];
+      ASSERT_TRUE(stream->Write(chunk));
+      glint::v1::EvaluateChunkResult result;
+      ASSERT_TRUE(stream->Read(&result));
+      ASSERT_EQ(result.chunk_index(), k);
+      const glint::v1::EvaluateStats &stats = result.result().stats();
+      const double now = builds(scrape());
+      const bool built = now > before;
+      before = now;
+      EXPECT_EQ(built, builds_expected[k]);
+      EXPECT_EQ(stats.compile_ms() > 0, built)
+          << "compile_ms " << stats.compile_ms() << " with " << (built ? "a" : "no") << " build";
+      EXPECT_GE(stats.compute_ms(), 0);
+      compile_sum += stats.compile_ms() / 1e3;
+      compute_sum += stats.compute_ms() / 1e3;
+    }
+    ASSERT_TRUE(stream->WritesDone());
+    const grpc::Status st = stream->Finish();
+    ASSERT_TRUE(st.ok()) << st.error_message();
+  }
+
   const auto after = scrape();
-  EXPECT_EQ(Get(after, "glint_compile_seconds_count{model=\"SMOOTH\"}"), 2);
+  EXPECT_EQ(Get(after, "glint_compile_seconds_count{model=\"SMOOTH\"}"), 4);
   EXPECT_DOUBLE_EQ(Get(after, "glint_compile_seconds_sum{model=\"SMOOTH\"}"), compile_sum);
   ExpectHistogram(after, "glint_compile_seconds", "model=\"SMOOTH\"");
-  EXPECT_EQ(Get(after, "glint_compute_seconds_count{model=\"SMOOTH\"}"), 3);
+  EXPECT_EQ(Get(after, "glint_compute_seconds_count{model=\"SMOOTH\"}"), 6);
   EXPECT_DOUBLE_EQ(Get(after, "glint_compute_seconds_sum{model=\"SMOOTH\"}"), compute_sum);
 }
 

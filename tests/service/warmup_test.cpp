@@ -217,9 +217,9 @@ std::set<std::string> WorkGroupFunctions(const std::string &pocl_cache) {
 // grid_width_specialization_limit = USHRT_MAX). The device engine launches 2D grids whose
 // dimensions stay below that (server/launch_grid.h), so the one-query warm-up compiles the work-
 // group function every request of the variant uses: a request of 2^20 queries (65536 work-items
-// of the 16-lane smooth kernel, 2 grid rows: 65408 + 128) compiles nothing more. Its result is bit-identical
-// to the same queries evaluated in chunks of one grid row or less (the work-item index
-// kernels/work_item.h computes from the 2D id).
+// of the 16-lane smooth kernel, 2 grid rows: 65408 + 128) compiles nothing more. Its result is
+// bit-identical to the same queries evaluated in chunks of one grid row or less (the work-item
+// index kernels/work_item.h computes from the 2D id).
 TEST(WarmUp, LargeRequestAfterWarmUpCompilesNoWorkGroupFunction) {
   // A fresh cache, so every work-group function this test needs is compiled here and seen.
   const std::string dir =
@@ -264,6 +264,38 @@ TEST(WarmUp, LargeRequestAfterWarmUpCompilesNoWorkGroupFunction) {
   }
   engine.reset();
   std::filesystem::remove_all(dir);
+}
+
+// A variant whose warm-up fails stops glintd with a message naming the variant and, when glintd
+// says who needs it (the --model presets, KServeServiceImpl::PresetsUsing), those too: a preset's
+// failure used to name only the variant, not which --model file asked for it. The failing
+// variant here is a model id no model has (Warm refuses it before any build); the variant before
+// it warms normally and names nobody.
+TEST(WarmUp, AFailureNamesWhoNeedsTheVariant) {
+  DeviceEngineOptions o;
+  o.cache_dir = CacheDir();
+  o.workers = 1;
+  std::unique_ptr<DeviceEngine> engine;
+  ASSERT_TRUE(DeviceEngine::Create(o, &engine).ok());
+  const EvaluateRequest good = SmoothRequest(Shape::kProbe, v1::GGX, false, 1);
+  KernelSpec bad = MakeEvalPlan(good, good.queries()).spec;
+  bad.model = 999;
+  const std::vector<KernelSpec> specs = {MakeEvalPlan(good, good.queries()).spec, bad};
+  const std::string who = "--model preset 'paint' (dir/paint.json,dir/studio.json)";
+  const std::vector<std::string> users = {"", who};
+  const Status named = WarmKernels(engine.get(), specs, 1, nullptr, &users);
+  ASSERT_FALSE(named.ok());
+  EXPECT_EQ(named.message().rfind("warm-up of " + bad.Describe() + " (for " + who + "): ", 0), 0u)
+      << named.message();
+  EXPECT_NE(named.message().find("no model with id 999"), std::string::npos) << named.message();
+  // Without users (or an empty entry) the message is the variant's alone, as before.
+  const std::vector<std::string> nobody = {""};
+  for (const std::vector<std::string> *none :
+       {&nobody, (const std::vector<std::string> *)nullptr}) {
+    const Status s = WarmKernels(engine.get(), {bad}, 1, nullptr, none);
+    ASSERT_FALSE(s.ok());
+    EXPECT_EQ(s.message().rfind("warm-up of " + bad.Describe() + ": ", 0), 0u) << s.message();
+  }
 }
 
 // glintd refuses a --warm value it does not know, naming the flag and the choices.

@@ -162,7 +162,12 @@ Status DeviceEngine::Create(const DeviceEngineOptions &options,
                                    std::to_string(kPoclSmallGridLimit - 1));
   std::unique_ptr<DeviceEngine> engine(new DeviceEngine());
   engine->options_ = options;
+  // The SIGBUS guard before the first OpenCL call and in front again after it: LLVM, inside PoCL,
+  // installs its handlers while the devices are enumerated, saving the guard as what it displaced
+  // (server/shm_guard.cpp KeepSigbusGuardFirst).
+  KeepSigbusGuardFirst();
   Status s = ClRuntime::Create(options.device, options.cache_dir, &engine->runtime_);
+  KeepSigbusGuardFirst();
   if (!s.ok()) return s;
   for (const Model *model : Models())
     for (const ModelPass &pass : model->passes)
@@ -336,8 +341,9 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const QueryView 
                            ltc_tables_[plan.spec.ndf == GLINT_NDF_BECKMANN ? 1 : 0].get(),
                            model_table, out_rgb, &args);
   if (!s.ok()) return s;
-  // Every pass's kernel first: building one may have LLVM install its SIGBUS handler over the
-  // guard of the shared-memory regions the kernels may read in place (server/shm_guard.h).
+  // Every pass's kernel before any runs: a build may have LLVM install its SIGBUS handler over the
+  // guard of the shared-memory regions the kernels may read in place; the guard goes back in
+  // front before they run (one system call; server/shm_guard.h).
   std::vector<cl_kernel> kernels(passes.size());
   for (size_t k = 0; k < passes.size(); ++k) {
     s = KernelFor(queue, *passes[k], plan.spec, &kernels[k]);

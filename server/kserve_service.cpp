@@ -62,12 +62,14 @@ std::vector<KernelSpec> KServeServiceImpl::WarmSpecs() const {
 
 std::string KServeServiceImpl::PresetsUsing(const KernelSpec &spec) const {
   std::string names;
+  int count = 0;
   for (const KServeModel &model : models_) {
     if (!(PresetSpec(model) == spec)) continue;
-    names += names.empty() ? "--model preset " : ", ";
+    names += count++ == 0 ? "" : ", ";
     names += "'" + model.name + "' (" + model.source + ")";
   }
-  return names;
+  if (count == 0) return "";
+  return (count == 1 ? "--model preset " : "--model presets ") + names;
 }
 
 const KServeModel *KServeServiceImpl::Find(const std::string &name, const std::string &version,

@@ -24,7 +24,6 @@ struct Watch {
   std::atomic<std::atomic<bool> *> lost{nullptr};
 };
 Watch g_watch[kWatchSlots];
-std::atomic<int> g_watched{0};  // slots in use
 
 // Replaces the watched mapping holding `addr` by anonymous memory; false when none holds it.
 // mmap is a plain system call here (not on POSIX's async-signal-safe list, but it takes no
@@ -49,31 +48,43 @@ void OnSigbus(int, siginfo_t *info, void *) {
   if (sigjmp_buf *landing = t_landing) siglongjmp(*landing, 1);
   // A watched mapping: retry the access on the zero pages.
   if (info && Rescue(reinterpret_cast<uintptr_t>(info->si_addr))) return;
-  // Not ours: the default action (core) when the access is retried. The handler we displaced is
-  // not called: LLVM's (below) restores the handler it displaced, which may be this one, and the
-  // retried fault would come back here for ever.
+  // Not ours: the default action (core) when the access is retried. A handler installed before
+  // ours is deliberately not called: LLVM's (below) puts back the action it displaced, which is
+  // ours when it registered after us, and the retried fault would come back here for ever.
   signal(SIGBUS, SIG_DFL);
 }
 
-// Installs OnSigbus unless it is the SIGBUS handler already. Other code installs its own over
-// ours: LLVM, which PoCL links, registers a SIGBUS handler (SA_RESETHAND, to delete its temporary
-// files) the first time it writes one, e.g. while glint enumerates the OpenCL devices. Its handler
-// resets the action to the default as it is entered and only then puts ours back, so when two of
-// PoCL's threads fault on a truncated region at once, the second one met the default action and
-// the process died (shm_view_test in CI: "Bus error", about 1 run in 100). Callers re-check just
-// before memory that may fault is touched (WatchMapping, GuardedCopy, KeepSigbusGuardFirst).
-void InstallFirst() {
-  static std::mutex mutex;
-  std::lock_guard<std::mutex> lock(mutex);
+bool IsInstalled() {
   struct sigaction current {};
   sigaction(SIGBUS, nullptr, &current);
-  if ((current.sa_flags & SA_SIGINFO) && current.sa_sigaction == OnSigbus) return;
+  return (current.sa_flags & SA_SIGINFO) && current.sa_sigaction == OnSigbus;
+}
+
+}  // namespace
+
+// Other code installs its own SIGBUS handler over ours: LLVM, which PoCL links, registers one
+// (SA_RESETHAND, to delete its temporary files; also for SIGHUP, SIGINT, SIGTERM, ...) the first
+// time it writes a file, which PoCL does while glint enumerates the OpenCL devices and when it
+// compiles. SA_RESETHAND resets the action to the default as the handler is entered, and LLVM's
+// puts back what it displaced only then, so when two of PoCL's threads faulted on a truncated
+// region at once, the second met the default action and the process died (shm_view_test in CI:
+// "Bus error", 1 run in ~60 when LLVM registered after the guard). The device engine therefore
+// installs the guard before its first OpenCL call (LLVM then saves the guard as what it displaced,
+// and restores it when one of its handlers runs, e.g. on SIGHUP) and puts it back in front after
+// enumerating devices and before its kernels run; WatchMapping and GuardedCopy check too.
+void KeepSigbusGuardFirst() {
+  if (IsInstalled()) return;  // the common case: one system call, no lock
+  static std::mutex mutex;
+  std::lock_guard<std::mutex> lock(mutex);
+  if (IsInstalled()) return;
   struct sigaction action {};
   action.sa_sigaction = OnSigbus;
   action.sa_flags = SA_SIGINFO | SA_NODEFER;
   sigemptyset(&action.sa_mask);
   sigaction(SIGBUS, &action, nullptr);
 }
+
+namespace {
 
 // Kept out of line so that nothing GuardedCopy holds in registers lives across sigsetjmp.
 __attribute__((noinline)) void Copy(void *dst, const void *src, size_t bytes) {
@@ -83,7 +94,7 @@ __attribute__((noinline)) void Copy(void *dst, const void *src, size_t bytes) {
 }  // namespace
 
 int WatchMapping(void *begin, size_t bytes, std::atomic<bool> *lost) {
-  InstallFirst();
+  KeepSigbusGuardFirst();
   static std::mutex mutex;  // between watchers; the handler needs none
   std::lock_guard<std::mutex> lock(mutex);
   for (int i = 0; i < kWatchSlots; ++i) {
@@ -92,7 +103,6 @@ int WatchMapping(void *begin, size_t bytes, std::atomic<bool> *lost) {
     w.end.store(reinterpret_cast<uintptr_t>(begin) + bytes, std::memory_order_relaxed);
     w.lost.store(lost, std::memory_order_relaxed);
     w.begin.store(reinterpret_cast<uintptr_t>(begin), std::memory_order_release);
-    g_watched.fetch_add(1, std::memory_order_relaxed);
     return i;
   }
   return -1;
@@ -100,16 +110,11 @@ int WatchMapping(void *begin, size_t bytes, std::atomic<bool> *lost) {
 
 void UnwatchMapping(int handle) {
   if (handle < 0 || handle >= kWatchSlots) return;
-  if (g_watch[handle].begin.exchange(0, std::memory_order_release) != 0)
-    g_watched.fetch_sub(1, std::memory_order_relaxed);
-}
-
-void KeepSigbusGuardFirst() {
-  if (g_watched.load(std::memory_order_relaxed) > 0) InstallFirst();
+  g_watch[handle].begin.store(0, std::memory_order_release);
 }
 
 bool GuardedCopy(void *dst, const void *src, size_t bytes) {
-  InstallFirst();
+  KeepSigbusGuardFirst();
   sigjmp_buf landing;
   // savemask 1: the jump restores the signal mask, so the next SIGBUS is delivered again.
   if (sigsetjmp(landing, 1) != 0) {

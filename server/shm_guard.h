@@ -2,7 +2,8 @@
 // page of a MAP_SHARED mapping beyond the object's current end raises SIGBUS, which would kill
 // glintd. GuardedCopy catches that fault on the copying thread (a SIGBUS handler that jumps back
 // when, and only when, the faulting thread is inside a GuardedCopy) and reports it as false; any
-// other SIGBUS takes the default action (the process dumps core, as without the handler).
+// other SIGBUS takes the default action (the process dumps core, as without the handler; a
+// handler installed before this one is deliberately not called, shm_guard.cpp says why).
 //
 // Mappings that other threads read and write without a copy (the device engine's kernels on a
 // region, server/shm_io.cpp) are watched instead (WatchMapping): a SIGBUS inside a watched
@@ -28,10 +29,10 @@ constexpr int kWatchSlots = 1024;
 int WatchMapping(void *begin, size_t bytes, std::atomic<bool> *lost);
 void UnwatchMapping(int handle);
 
-// Puts the handler back in front when other code installed a SIGBUS handler over it (LLVM does,
-// inside PoCL, the first time it compiles; shm_guard.cpp InstallFirst says why that kills) and a
-// mapping is watched. Call it after anything that may have compiled and before kernels touch
-// watched memory; a no-op costing one atomic load while nothing is watched.
+// Installs the handler, or puts it back in front when other code installed a SIGBUS handler over
+// it (LLVM does, inside PoCL; shm_guard.cpp says why that kills). The device engine calls it before
+// its first OpenCL call, after enumerating devices and before its kernels run; one system call
+// when the handler is in front already.
 void KeepSigbusGuardFirst();
 
 }  // namespace glint

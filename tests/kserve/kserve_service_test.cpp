@@ -712,7 +712,7 @@ TEST(KServeStartup, PresetsUsingNamesEachPresetAndItsFiles) {
   const KServeServiceImpl kserve(nullptr, models);
   const std::vector<KernelSpec> specs = kserve.WarmSpecs();
   ASSERT_EQ(specs.size(), 2u);
-  EXPECT_EQ(kserve.PresetsUsing(specs[0]), "--model preset 'paint' (" + paint + "," + studio +
+  EXPECT_EQ(kserve.PresetsUsing(specs[0]), "--model presets 'paint' (" + paint + "," + studio +
                                                "), 'paint2' (" + paint + "," + studio + ")");
   EXPECT_EQ(kserve.PresetsUsing(specs[1]),
             "--model preset 'sparkle' (" + sparkle + "," + rect + ")");

@@ -76,8 +76,11 @@ def test_replies_nobody_reads_are_bounded_by_max_undelivered(tmp_path):
                     evaluate(small, timeout=30)
                     time.sleep(0.2)
                 except grpc.RpcError as e:
-                    if e.code() == grpc.StatusCode.RESOURCE_EXHAUSTED and "--max-undelivered-mb" not in e.details():
-                        time.sleep(0.2)  # --max-pending: a stuck call still being evaluated
+                    transient = e.code() == grpc.StatusCode.UNAVAILABLE or (
+                        e.code() == grpc.StatusCode.RESOURCE_EXHAUSTED
+                        and "--max-undelivered-mb" not in (e.details() or ""))
+                    if transient:  # --max-pending (a stuck call still evaluated) or a reconnect
+                        time.sleep(0.2)
                         continue
                     refused = e
             peak = _rss_mb(proc.pid)

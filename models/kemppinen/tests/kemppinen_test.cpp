@@ -193,6 +193,8 @@ TEST(FastLog2, WithinItsBoundOfLongDouble) {
     }
   for (int i = 0; i <= 100000; ++i) xs.push_back(float(0.5 + 2.5 * i / 100000.0));
   double worst = 0, worst_ulps = 0;
+  size_t fp64_mismatches = 0;
+  float first_fp64_mismatch = 0;
   for (float x : xs) {
     double got = k32::kemppinen_log2_pos(x);
     long double ref = std::log2((long double)x);
@@ -201,8 +203,11 @@ TEST(FastLog2, WithinItsBoundOfLongDouble) {
     ASSERT_LE(err, 2.5 * u + 1e-9 + half_ulp) << "x = " << x << " got " << got;
     worst = std::max(worst, err);
     worst_ulps = std::max(worst_ulps, err / (2 * half_ulp));
-    EXPECT_EQ(k64::kemppinen_log2_pos(double(x)), std::log2(double(x)));
+    if (k64::kemppinen_log2_pos(double(x)) != std::log2(double(x)) && fp64_mismatches++ == 0)
+      first_fp64_mismatch = x;
   }
+  EXPECT_EQ(fp64_mismatches, 0u) << "fp64 differs from std::log2, first at x = "
+                                 << first_fp64_mismatch;
   std::printf("fast log2 (fp32) vs long double over %zu inputs: max abs error %.3g, %.2f ulp\n",
               xs.size(), worst, worst_ulps);
 }

@@ -267,7 +267,7 @@ GLINT_FN real kemppinen_erfc_abs(real x) {
  * `ymax` (callers that zero erfc beyond a cut clamp there, so that four of
  * them multiply without overflow: kemppinen_erfc4_with). */
 GLINT_FN real kemppinen_erfc_cheap_denominator(real x, real ymax) {
-  real y = fmin(fabs(x) * GLINT_R(0.70710678118654752440), ymax);
+  real y = glint_fmin_nn(fabs(x) * GLINT_R(0.70710678118654752440), ymax);
   real d = GLINT_R(1.0) +
            y * (GLINT_R(0.278393) +
                 y * (GLINT_R(0.230389) + y * (GLINT_R(0.000972) + y * GLINT_R(0.078108))));
@@ -386,10 +386,10 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
    * footprint (the level saturates at GLINT_KEMPPINEN_MAX_LEVEL long before),
    * and Sigma_s stays finite in fp32 (<= ~1e16) for any finite input. */
   real f = p.filter;
-  real j00 = f * a * clamp(footprint[0], GLINT_R(-1e6), GLINT_R(1e6));
-  real j10 = f * clamp(footprint[1], GLINT_R(-1e6), GLINT_R(1e6)) * p.inv_aniso;
-  real j01 = f * a * clamp(footprint[2], GLINT_R(-1e6), GLINT_R(1e6));
-  real j11 = f * clamp(footprint[3], GLINT_R(-1e6), GLINT_R(1e6)) * p.inv_aniso;
+  real j00 = f * a * glint_clamp_nn(footprint[0], GLINT_R(-1e6), GLINT_R(1e6));
+  real j10 = f * glint_clamp_nn(footprint[1], GLINT_R(-1e6), GLINT_R(1e6)) * p.inv_aniso;
+  real j01 = f * a * glint_clamp_nn(footprint[2], GLINT_R(-1e6), GLINT_R(1e6));
+  real j11 = f * glint_clamp_nn(footprint[3], GLINT_R(-1e6), GLINT_R(1e6)) * p.inv_aniso;
   /* Eq. 5 / Algorithm 1 line 11: Sigma_s = f^2 J J^T. */
   real sxx = j00 * j00 + j01 * j01;
   real syy = j10 * j10 + j11 * j11;
@@ -411,8 +411,8 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
   /* Level: finer level's cells (2^floor(lambda) / sqrt(K_P)) >= 4 sigma_max. */
   real sigma_max = sqrt(lmax + eps);
   real lambda =
-      kemppinen_log2_pos(fmax(GLINT_R(8.0) * sigma_max * sqrt(p.density), GLINT_R(1e-30)));
-  fp.lambda = clamp(lambda, GLINT_R(0.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL));
+      kemppinen_log2_pos(glint_fmax_nn(GLINT_R(8.0) * sigma_max * sqrt(p.density), GLINT_R(1e-30)));
+  fp.lambda = glint_clamp_nn(lambda, GLINT_R(0.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL));
   fp.seed_key = rng_absorb(rng_absorb(0x4b323555u, seed_lo), seed_hi);
   return fp;
 }
@@ -420,15 +420,15 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
 /* A cell index (an integer-valued real, possibly huge at uv = 1e7) as a hash
  * key, wrapped to [0, 2^24): the pattern repeats every 2^24 cells. */
 GLINT_FN kemp_uint kemppinen_cell_key(real c) {
-  real w = c - GLINT_R(16777216.0) * floor(c * GLINT_R(5.9604644775390625e-8));
-  return KEMP_TO_UINT(clamp(w, GLINT_R(0.0), GLINT_R(16777215.0)));
+  real w = c - GLINT_R(16777216.0) * glint_floor(c * GLINT_R(5.9604644775390625e-8));
+  return KEMP_TO_UINT(glint_clamp_nn(w, GLINT_R(0.0), GLINT_R(16777215.0)));
 }
 
 /* K25 Eq. 8: GLINT_R(r, w) = smoothstep(max(0, r - eps), min(1, r + eps), w). */
 GLINT_FN real kemppinen_roulette(real r, real w) {
-  real e0 = fmax(GLINT_R(0.0), r - GLINT_R(GLINT_KEMPPINEN_ROULETTE_EPS));
-  real e1 = fmin(GLINT_R(1.0), r + GLINT_R(GLINT_KEMPPINEN_ROULETTE_EPS));
-  real t = clamp((w - e0) / (e1 - e0), GLINT_R(0.0), GLINT_R(1.0));
+  real e0 = glint_fmax_nn(r - GLINT_R(GLINT_KEMPPINEN_ROULETTE_EPS), GLINT_R(0.0));
+  real e1 = glint_fmin_nn(r + GLINT_R(GLINT_KEMPPINEN_ROULETTE_EPS), GLINT_R(1.0));
+  real t = glint_clamp_nn((w - e0) / (e1 - e0), GLINT_R(0.0), GLINT_R(1.0));
   return t * t * (GLINT_R(3.0) - GLINT_R(2.0) * t);
 }
 
@@ -524,7 +524,7 @@ GLINT_FN KemppinenSpatial kemppinen_spatial(KemppinenParams p, KemppinenFootprin
    * lane on the device); the same value as the former floor(exp2(l) + 1/2). */
   s.res_a =
       KEMP_TO_REAL(((kemp_uint)1u)
-                   << KEMP_TO_UINT(clamp(level, GLINT_R(0.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL))));
+                   << KEMP_TO_UINT(glint_clamp_nn(level, GLINT_R(0.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL))));
   s.inv_res_a = GLINT_R(1.0) / s.res_a; /* exact: a power of two */
   /* sqrt(K_P) / 2^l as a product by the exact 2^-l: the same bits as the
    * quotient (both round sqrt(K_P) 2^-l once), without a division. */
@@ -532,8 +532,8 @@ GLINT_FN KemppinenSpatial kemppinen_spatial(KemppinenParams p, KemppinenFootprin
   s.ts_x = fp.xs * s.res_s;
   s.ts_y = fp.ys * s.res_s;
   /* 2x2 spatial cells around the nearest cell vertex. */
-  s.bs_x = floor(s.ts_x - GLINT_R(0.5));
-  s.bs_y = floor(s.ts_y - GLINT_R(0.5));
+  s.bs_x = glint_floor(s.ts_x - GLINT_R(0.5));
+  s.bs_y = glint_floor(s.ts_y - GLINT_R(0.5));
   /* det of Sigma_s in cells^2, each factor scaled before multiplying: at
    * density 1e30 det Sigma_s itself underflows float (eps^2 ~ 1e-72). */
   real r2 = s.res_s * s.res_s;
@@ -596,10 +596,10 @@ GLINT_FN KemppinenErfc4 kemppinen_erfc4_with(real a, real b, real c, real d, int
      * far beyond it exp(-y^2) is subnormal in fp32, which costs a microcode
      * assist per instruction on x86 (kemppinen_lobe_cut). Lanes inside: the
      * same bits. */
-    e.a = glint_select(zero, kemppinen_erfc_abs(fmin(fabs(a), cut)), na);
-    e.b = glint_select(zero, kemppinen_erfc_abs(fmin(fabs(b), cut)), nb);
-    e.c = glint_select(zero, kemppinen_erfc_abs(fmin(fabs(c), cut)), nc);
-    e.d = glint_select(zero, kemppinen_erfc_abs(fmin(fabs(d), cut)), nd);
+    e.a = glint_select(zero, kemppinen_erfc_abs(glint_fmin_nn(fabs(a), cut)), na);
+    e.b = glint_select(zero, kemppinen_erfc_abs(glint_fmin_nn(fabs(b), cut)), nb);
+    e.c = glint_select(zero, kemppinen_erfc_abs(glint_fmin_nn(fabs(c), cut)), nc);
+    e.d = glint_select(zero, kemppinen_erfc_abs(glint_fmin_nn(fabs(d), cut)), nd);
   }
   return e;
 }
@@ -662,8 +662,8 @@ GLINT_FN void kemppinen_level_query_into(KemppinenParams p, KemppinenFootprint f
   if (p.one_cell) {
     /* GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL: the cell holding the query, the
      * same facet (the same hash) as that cell of the 2x2 block. */
-    q->s.bs_x = floor(q->s.ts_x);
-    q->s.bs_y = floor(q->s.ts_y);
+    q->s.bs_x = glint_floor(q->s.ts_x);
+    q->s.bs_y = glint_floor(q->s.ts_y);
     q->key[0] = kemppinen_spatial_key(fp.seed_key, level, q->s.bs_x, q->s.bs_y);
     q->key[1] = q->key[0];
     q->key[2] = q->key[0];
@@ -698,8 +698,8 @@ GLINT_FN KemppinenLevelQuery kemppinen_level_query(KemppinenParams p, KemppinenF
  * a block larger than the grid is the whole grid). First cell; the end is
  * min(first + n, res_a). */
 GLINT_FN real kemppinen_angular_first(real ta, real n, real res_a) {
-  real hi = fmax(res_a - n, GLINT_R(0.0));
-  return clamp(floor(ta - GLINT_R(0.5) * (n - GLINT_R(1.0))), GLINT_R(0.0), hi);
+  real hi = glint_fmax_nn(res_a - n, GLINT_R(0.0));
+  return glint_clamp_nn(glint_floor(ta - GLINT_R(0.5) * (n - GLINT_R(1.0))), GLINT_R(0.0), hi);
 }
 
 /* The spatial 2x2 block and the angular n x n block of level l, in cells
@@ -765,7 +765,7 @@ GLINT_FN real kemppinen_facet_lobe_at(real inv_res_a, real ta_x, real ta_y, real
   real e = GLINT_R(0.5) * (ux * ux + uy * uy) + (qxx * dx * dx + qxy * dx * dy + qyy * dy * dy);
   /* Beyond e_lim (kemppinen_lobe_cut) the lobe is 0: the exp's argument is
    * clamped there, so neither exp(-e) nor its product with norm is subnormal. */
-  return glint_select(exp(-fmin(e, e_lim)) * norm, GLINT_R(0.0), outside | (e > e_lim));
+  return glint_select(exp(-glint_fmin_nn(e, e_lim)) * norm, GLINT_R(0.0), outside | (e > e_lim));
 }
 
 /* The exponent beyond which a facet's lobe exp(-e) norm is taken as 0:
@@ -780,7 +780,7 @@ GLINT_FN real kemppinen_facet_lobe_at(real inv_res_a, real ta_x, real ta_y, real
  * is ~1; a dropped term changes it by < 1e-34 relative to the facet's own
  * weight). */
 GLINT_FN real kemppinen_lobe_cut(real norm) {
-  return fmin(GLINT_R(80.0), (logb(norm) + GLINT_R(125.0)) * GLINT_R(0.69314718055994530942));
+  return glint_fmin_nn((logb(norm) + GLINT_R(125.0)) * GLINT_R(0.69314718055994530942), GLINT_R(80.0));
 }
 
 GLINT_FN real kemppinen_facet_lobe(KemppinenBlocks b, real cx, real cy, real ix, real iy,
@@ -819,7 +819,7 @@ GLINT_FN real kemppinen_compensation_with(real ta_x, real ta_y, real ba_x, real 
   real xout = kemppinen_mass_e(x0, x1, es.a, eb.a) + kemppinen_mass_e(x2, x3, eb.b, es.b);
   real yout = kemppinen_mass_e(y0, y1, es.c, eb.c) + kemppinen_mass_e(y2, y3, eb.d, es.d);
   real square_minus_block = xsq * yout + yb * xout; /* = P_a(square) - P_a(B) */
-  return fmax(square_minus_block + outside * xb * yb, GLINT_R(0.0));
+  return glint_fmax_nn(square_minus_block + outside * xb * yb, GLINT_R(0.0));
 }
 
 GLINT_FN real kemppinen_compensation_at(real ta_x, real ta_y, real ba_x, real ba_y, real ea_x,
@@ -837,7 +837,7 @@ GLINT_FN real kemppinen_compensation_at(real ta_x, real ta_y, real ba_x, real ba
  * instructions). */
 GLINT_FN real3 kemppinen_facet_color_of(const GLINT_PRIVATE KemppinenParams *p, KemppinenFacet g) {
   real3 c = make_real3((real)p->colors[0], (real)p->colors[1], (real)p->colors[2]);
-  real idx = floor(g.pick * (real)p->n_colors);
+  real idx = glint_floor(g.pick * (real)p->n_colors);
   for (int k = 1; k < p->n_colors; ++k) {
     real3 ck =
         make_real3((real)p->colors[3 * k], (real)p->colors[3 * k + 1], (real)p->colors[3 * k + 2]);
@@ -882,7 +882,7 @@ GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
   real ta_x = a.x * res_a, ta_y = a.y * res_a;
   real ba_x = kemppinen_angular_first(ta_x, nr, res_a);
   real ba_y = kemppinen_angular_first(ta_y, nr, res_a);
-  real ea_x = fmin(ba_x + nr, res_a), ea_y = fmin(ba_y + nr, res_a);
+  real ea_x = glint_fmin_nn(ba_x + nr, res_a), ea_y = glint_fmin_nn(ba_y + nr, res_a);
   /* 1 / sigma_a and the angular norm in cells: exact rescalings by 2^-l. */
   real inv_sax = a.inv_sx * inv_res_a, inv_say = a.inv_sy * inv_res_a;
   real norm = q->s.norm_s * (a.norm * (inv_res_a * inv_res_a));
@@ -952,7 +952,7 @@ typedef struct {
 /* In place, as kemppinen_level_query_into (2 x 1088 bytes on the device). */
 GLINT_FN void kemppinen_query_levels_into(KemppinenParams p, KemppinenFootprint fp,
                                           GLINT_PRIVATE KemppinenQueryLevels *L) {
-  real lf = floor(fp.lambda);
+  real lf = glint_floor(fp.lambda);
   real w1 = fp.lambda - lf;
   if (p.one_level) {
     /* GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL / ONE_CELL (not in K25): one
@@ -975,7 +975,7 @@ GLINT_FN void kemppinen_query_levels_into(KemppinenParams p, KemppinenFootprint 
     L->w[1] = GLINT_R(0.0);
     L->n = 1;
     /* l[1] is not set: only l[lv < n] is read (as in the two-level path when n = 1). */
-    kemppinen_level_query_into(p, fp, fmin(level, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)), &L->l[0]);
+    kemppinen_level_query_into(p, fp, glint_fmin_nn(level, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)), &L->l[0]);
     return;
   }
   L->w[0] = GLINT_R(1.0) - w1;
@@ -983,7 +983,7 @@ GLINT_FN void kemppinen_query_levels_into(KemppinenParams p, KemppinenFootprint 
   L->n = glint_any(w1 > GLINT_R(0.0)) ? 2 : 1;
   GLINT_KEMPPINEN_NOUNROLL
   for (int lv = 0; lv < L->n; ++lv)
-    kemppinen_level_query_into(p, fp, fmin(lf + (real)lv, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)),
+    kemppinen_level_query_into(p, fp, glint_fmin_nn(lf + (real)lv, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)),
                                &L->l[lv]);
 }
 
@@ -1013,14 +1013,14 @@ GLINT_FN KemppinenLobe kemppinen_lobe_of_h(const GLINT_PRIVATE KemppinenParams *
     DiskPoint d = kemppinen_to_disk(ndf, h, ax, ay, D);
     l.x = d.x;
     l.y = d.y;
-    sd = sqrt(fmax(d.jac, GLINT_R(0.0)));
+    sd = sqrt(glint_fmax_nn(d.jac, GLINT_R(0.0)));
   } else {
     /* kemppinen_to_disk's GGX branch (K25 3.2.1, Eq. 6-7). */
-    real hz = fmax(h.z, GLINT_R(0.0));
+    real hz = glint_fmax_nn(h.z, GLINT_R(0.0));
     real3 s = make_real3(h.x * ay, h.y * ax, hz * ax * ay);
     /* The floor only keeps a dead h = 0 finite: a unit h has len >= ax ay >= 1e-8 (alpha in
      * [1e-4, 1], validation). */
-    real len = fmax(r3_length(s), GLINT_R(1e-15));
+    real len = glint_fmax_nn(r3_length(s), GLINT_R(1e-15));
     /* Lambert's 1 / (2 len sqrt(1 + nz)), nz = s.z / len, as 1 / (2 sqrt(len (len + s.z))):
      * one division instead of two (s.z >= 0, nothing cancels; len (len + s.z) >= 1e-30 is a
      * normal float). fp32: ~4 roundings on k instead of ~5 (tested against long double,
@@ -1034,14 +1034,14 @@ GLINT_FN KemppinenLobe kemppinen_lobe_of_h(const GLINT_PRIVATE KemppinenParams *
      * 1e-13 (validation), so the uniform factor is finite (and +inf only
      * gives the floor's 1e12, as sigma would); len >= 1e-15 > 0. */
     real c = GLINT_R(2.8284271247461900976) / (p->micro * ax * ay); /* uniform */
-    real inv_s = fmin(len * sqrt(len) * c, GLINT_R(1e12));
+    real inv_s = glint_fmin_nn(len * sqrt(len) * c, GLINT_R(1e12));
     l.inv_sx = inv_s * p->aniso;
     l.inv_sy = inv_s * p->inv_aniso;
     l.norm = l.inv_sx * l.inv_sy * GLINT_R(0.15915494309189533577);
     return l;
   }
   /* kemppinen_angular's floor: sigma >= 1e-12, so a dead half-vector stays finite. */
-  real inv_s = GLINT_R(1.0) / fmax(p->micro * sd, GLINT_R(1e-12));
+  real inv_s = GLINT_R(1.0) / glint_fmax_nn(p->micro * sd, GLINT_R(1e-12));
   l.inv_sx = inv_s * p->aniso;
   l.inv_sy = inv_s * p->inv_aniso;
   l.norm = l.inv_sx * l.inv_sy * GLINT_R(0.15915494309189533577);

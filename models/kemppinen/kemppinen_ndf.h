@@ -796,8 +796,18 @@ GLINT_FN real kemppinen_facet_lobe_at(real inv_res_a, real ta_x, real ta_y, real
  * is ~1; a dropped term changes it by < 1e-34 relative to the facet's own
  * weight). */
 GLINT_FN real kemppinen_lobe_cut(real norm) {
-  return glint_fmin_nn((logb(norm) + GLINT_R(125.0)) * GLINT_R(0.69314718055994530942),
-                       GLINT_R(80.0));
+#if GLINT_USE_DOUBLE
+  real lb = logb(norm);
+#else
+  /* fp32: logb(norm) from the exponent field, (bits >> 23) - 127 (norm > 0: sign bit clear),
+   * 3 instructions instead of PoCL's logb (~12 per light and level: vgetexpps and the special
+   * cases). The same value for every normal norm. Otherwise the cut is the same as with logb:
+   * a zero or subnormal norm gives -127 (logb: -inf or its exponent < -126), so e_lim < 0 <= e
+   * and the facet is 0 either way; +inf or NaN give 128, so e_lim = 80, as logb's +inf or NaN
+   * does through glint_fmin_nn. */
+  real lb = KEMP_TO_REAL(KEMP_FLOAT_BITS(norm) >> 23) - GLINT_R(127.0);
+#endif
+  return glint_fmin_nn((lb + GLINT_R(125.0)) * GLINT_R(0.69314718055994530942), GLINT_R(80.0));
 }
 
 GLINT_FN real kemppinen_facet_lobe(KemppinenBlocks b, real cx, real cy, real ix, real iy,

@@ -896,6 +896,67 @@ GLINT_FN KemppinenLobe kemppinen_lobe(KemppinenAngular a) {
   return l;
 }
 
+/* What level l needs of one lobe (one light's half-vector): x_a in cells, the n x n angular
+ * block [ba, ea), 1 / sigma_a in cells, both Gaussians' norm and the lobe cut. */
+typedef struct {
+  real ta_x, ta_y, ba_x, ba_y, ea_x, ea_y;
+  real inv_sax, inv_say, norm, e_lim;
+} KemppinenLevelLobe;
+
+GLINT_FN KemppinenLevelLobe kemppinen_level_lobe(const GLINT_PRIVATE KemppinenParams *p,
+                                                 const GLINT_PRIVATE KemppinenLevelQuery *q,
+                                                 KemppinenLobe a) {
+  KemppinenLevelLobe o;
+  real res_a = q->s.res_a, inv_res_a = q->s.inv_res_a;
+  real nr = (real)p->n_side;
+  o.ta_x = a.x * res_a;
+  o.ta_y = a.y * res_a;
+  o.ba_x = kemppinen_angular_first(o.ta_x, nr, res_a);
+  o.ba_y = kemppinen_angular_first(o.ta_y, nr, res_a);
+  o.ea_x = glint_fmin_nn(o.ba_x + nr, res_a);
+  o.ea_y = glint_fmin_nn(o.ba_y + nr, res_a);
+  /* 1 / sigma_a and the angular norm in cells: exact rescalings by 2^-l. */
+  o.inv_sax = a.inv_sx * inv_res_a;
+  o.inv_say = a.inv_sy * inv_res_a;
+  o.norm = q->s.norm_s * (a.norm * (inv_res_a * inv_res_a));
+  o.e_lim = kemppinen_lobe_cut(o.norm);
+  return o;
+}
+
+/* One explicit facet of the lobe (Algorithm 1 lines 13-18): its roulette-weighted lobe in its
+ * colour, 0 past the grid's end. (dxc, dyc): the query in cells of spatial cell j; `column`:
+ * that cell's key absorbed with the column ix. */
+GLINT_FN real3 kemppinen_level_facet(const GLINT_PRIVATE KemppinenParams *p,
+                                     const GLINT_PRIVATE KemppinenLevelQuery *q,
+                                     const GLINT_PRIVATE KemppinenLevelLobe *o, real dxc, real dyc,
+                                     kemp_uint column, real ix, real iy, real w) {
+  /* Cells past the grid's end (res_a < n at the coarsest levels) drop. */
+  glint_mask valid = (ix < o->ea_x) & (iy < o->ea_y);
+  KemppinenFacet g = kemppinen_facet_in_column(column, iy);
+  /* One level (w = 1): R(r, 1) = 1 for every r, no roulette. */
+  real keep = GLINT_R(1.0);
+  if (!p->one_level) keep = kemppinen_roulette(g.r, w); /* uniform: a branch, not a select */
+  /* No branch on the roulette: with 16 lanes some lane almost always
+   * keeps the facet, and the branch cost 10% (measured at k = 1, 4). */
+  real lobe =
+      kemppinen_facet_lobe_at(q->s.inv_res_a, o->ta_x, o->ta_y, o->inv_sax, o->inv_say, dxc, dyc,
+                              q->s.qxx, q->s.qxy, q->s.qyy, o->norm, o->e_lim, ix, iy, g);
+  real wt = glint_select(GLINT_R(0.0), keep * lobe, valid & (keep > GLINT_R(0.0)));
+  /* K25 3.3.6: the facet's colour from its cell's hash. */
+  return r3_scale(kemppinen_facet_color_of(p, g), wt);
+}
+
+/* The lobe's compensation (line 20) in the mean colour (each colour has probability 1/n),
+ * times the level's weight w. */
+GLINT_FN real3 kemppinen_level_compensation(const GLINT_PRIVATE KemppinenParams *p,
+                                            const GLINT_PRIVATE KemppinenLevelQuery *q,
+                                            const GLINT_PRIVATE KemppinenLevelLobe *o, real w) {
+  real c =
+      kemppinen_compensation_with(o->ta_x, o->ta_y, o->ba_x, o->ba_y, o->ea_x, o->ea_y, q->s.res_a,
+                                  o->inv_sax, o->inv_say, q->outside, p->one_level);
+  return r3_scale(p->mean_color, w * c);
+}
+
 /* Level l's part of S with MIP weight w: roulette-weighted explicit facets
  * (Algorithm 1 lines 13-18) plus w C (line 20). The loops have uniform trip
  * counts (4 spatial x n x n angular cells); a facet is skipped only when the
@@ -903,17 +964,8 @@ GLINT_FN KemppinenLobe kemppinen_lobe(KemppinenAngular a) {
 GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
                                   const GLINT_PRIVATE KemppinenLevelQuery *q, KemppinenLobe a,
                                   real w) {
-  real res_a = q->s.res_a, inv_res_a = q->s.inv_res_a;
+  KemppinenLevelLobe o = kemppinen_level_lobe(p, q, a);
   int n = p->n_side;
-  real nr = (real)n;
-  real ta_x = a.x * res_a, ta_y = a.y * res_a;
-  real ba_x = kemppinen_angular_first(ta_x, nr, res_a);
-  real ba_y = kemppinen_angular_first(ta_y, nr, res_a);
-  real ea_x = glint_fmin_nn(ba_x + nr, res_a), ea_y = glint_fmin_nn(ba_y + nr, res_a);
-  /* 1 / sigma_a and the angular norm in cells: exact rescalings by 2^-l. */
-  real inv_sax = a.inv_sx * inv_res_a, inv_say = a.inv_sy * inv_res_a;
-  real norm = q->s.norm_s * (a.norm * (inv_res_a * inv_res_a));
-  real e_lim = kemppinen_lobe_cut(norm);
   real3 sum = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   int n_cells = p->one_cell ? 1 : 4;
   for (int j = 0; j < n_cells; ++j) {
@@ -923,31 +975,52 @@ GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
      * same hashes: kemppinen_facet = kemppinen_facet_in_column o
      * kemppinen_column_key); the summation order is unchanged. */
     kemp_uint column[4];
-    for (int mx = 0; mx < n; ++mx) column[mx] = kemppinen_column_key(q->key[j], ba_x + (real)mx);
+    for (int mx = 0; mx < n; ++mx) column[mx] = kemppinen_column_key(q->key[j], o.ba_x + (real)mx);
     for (int my = 0; my < n; ++my) {
-      real iy = ba_y + (real)my;
+      real iy = o.ba_y + (real)my;
+      for (int mx = 0; mx < n; ++mx)
+        sum = r3_add(
+            sum, kemppinen_level_facet(p, q, &o, dxc, dyc, column[mx], o.ba_x + (real)mx, iy, w));
+    }
+  }
+  return r3_add(sum, kemppinen_level_compensation(p, q, &o, w));
+}
+
+/* kemppinen_level_at for two lobes (two lights of the query) in one pass over the cells: per
+ * lobe the same operations in the same order as kemppinen_level_at, so the same bits, but the
+ * two lights' hash chains, exps and erfc are independent work in one loop body, which the CPU
+ * overlaps (one light at a time was a chain of dependent long-latency steps: the hash's
+ * multiplies, the exp, the divisions). */
+GLINT_FN void kemppinen_level_at2(const GLINT_PRIVATE KemppinenParams *p,
+                                  const GLINT_PRIVATE KemppinenLevelQuery *q, KemppinenLobe a,
+                                  KemppinenLobe b, real w, GLINT_PRIVATE real3 *sa,
+                                  GLINT_PRIVATE real3 *sb) {
+  KemppinenLevelLobe oa = kemppinen_level_lobe(p, q, a);
+  KemppinenLevelLobe ob = kemppinen_level_lobe(p, q, b);
+  int n = p->n_side;
+  real3 suma = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  real3 sumb = suma;
+  int n_cells = p->one_cell ? 1 : 4;
+  for (int j = 0; j < n_cells; ++j) {
+    real dxc = q->s.ts_x - (q->s.bs_x + (real)(j & 1));
+    real dyc = q->s.ts_y - (q->s.bs_y + (real)(j >> 1));
+    kemp_uint cola[4], colb[4];
+    for (int mx = 0; mx < n; ++mx) {
+      cola[mx] = kemppinen_column_key(q->key[j], oa.ba_x + (real)mx);
+      colb[mx] = kemppinen_column_key(q->key[j], ob.ba_x + (real)mx);
+    }
+    for (int my = 0; my < n; ++my) {
+      real iya = oa.ba_y + (real)my, iyb = ob.ba_y + (real)my;
       for (int mx = 0; mx < n; ++mx) {
-        real ix = ba_x + (real)mx;
-        /* Cells past the grid's end (res_a < n at the coarsest levels) drop. */
-        glint_mask valid = (ix < ea_x) & (iy < ea_y);
-        KemppinenFacet g = kemppinen_facet_in_column(column[mx], iy);
-        /* One level (w = 1): R(r, 1) = 1 for every r, no roulette. */
-        real keep = GLINT_R(1.0);
-        if (!p->one_level) keep = kemppinen_roulette(g.r, w); /* uniform: a branch, not a select */
-        /* No branch on the roulette: with 16 lanes some lane almost always
-         * keeps the facet, and the branch cost 10% (measured at k = 1, 4). */
-        real lobe = kemppinen_facet_lobe_at(inv_res_a, ta_x, ta_y, inv_sax, inv_say, dxc, dyc,
-                                            q->s.qxx, q->s.qxy, q->s.qyy, norm, e_lim, ix, iy, g);
-        real wt = glint_select(GLINT_R(0.0), keep * lobe, valid & (keep > GLINT_R(0.0)));
-        /* K25 3.3.6: the facet's colour from its cell's hash. */
-        sum = r3_add(sum, r3_scale(kemppinen_facet_color_of(p, g), wt));
+        suma = r3_add(
+            suma, kemppinen_level_facet(p, q, &oa, dxc, dyc, cola[mx], oa.ba_x + (real)mx, iya, w));
+        sumb = r3_add(
+            sumb, kemppinen_level_facet(p, q, &ob, dxc, dyc, colb[mx], ob.ba_x + (real)mx, iyb, w));
       }
     }
   }
-  /* The compensation in the mean colour (each colour has probability 1/n). */
-  real c = kemppinen_compensation_with(ta_x, ta_y, ba_x, ba_y, ea_x, ea_y, res_a, inv_sax, inv_say,
-                                       q->outside, p->one_level);
-  return r3_add(sum, r3_scale(p->mean_color, w * c));
+  *sa = r3_add(suma, kemppinen_level_compensation(p, q, &oa, w));
+  *sb = r3_add(sumb, kemppinen_level_compensation(p, q, &ob, w));
 }
 
 /* The same for one level of a footprint and angular query (the tests' entry). */
@@ -1086,6 +1159,28 @@ GLINT_FN real3 kemppinen_glint_factor_at(const GLINT_PRIVATE KemppinenParams *p,
   GLINT_KEMPPINEN_NOUNROLL
   for (int lv = 0; lv < L->n; ++lv) s = r3_add(s, kemppinen_level_at(p, &L->l[lv], a, L->w[lv]));
   return s;
+}
+
+/* kemppinen_glint_factor_at for two half-vectors (two lights of the query), the levels'
+ * facets and compensations of both in one pass (kemppinen_level_at2): the same bits as two
+ * calls. */
+GLINT_FN void kemppinen_glint_factor_at2(const GLINT_PRIVATE KemppinenParams *p,
+                                         const GLINT_PRIVATE KemppinenQueryLevels *L, int ndf,
+                                         real3 ha, real3 hb, real ax, real ay, real Da, real Db,
+                                         GLINT_PRIVATE real3 *sa, GLINT_PRIVATE real3 *sb) {
+  KemppinenLobe a = kemppinen_lobe_of_h(p, ndf, ha, ax, ay, Da);
+  KemppinenLobe b = kemppinen_lobe_of_h(p, ndf, hb, ax, ay, Db);
+  real3 za = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  real3 zb = za;
+  GLINT_KEMPPINEN_NOUNROLL
+  for (int lv = 0; lv < L->n; ++lv) {
+    real3 la, lb;
+    kemppinen_level_at2(p, &L->l[lv], a, b, L->w[lv], &la, &lb);
+    za = r3_add(za, la);
+    zb = r3_add(zb, lb);
+  }
+  *sa = za;
+  *sb = zb;
 }
 
 /* The same from the footprint (one half-vector; the tests' entry). */

@@ -43,6 +43,33 @@ GLINT_FN real3 kemppinen_reflect_at(SmoothMaterial m, const GLINT_PRIVATE Kemppi
   return r3_select(zero, r3_mul(r3_mul(fc, s), radiance), live);
 }
 
+/* kemppinen_reflect_at for two lights (wi_a, radiance_a) and (wi_b, radiance_b) of the query,
+ * the two glint factors in one pass (kemppinen_glint_factor_at2): the same bits as two calls of
+ * kemppinen_reflect_at, returned separately so the caller sums them in the same order. A light
+ * that no lane sees (a block behind it) takes kemppinen_reflect_at's early return. */
+GLINT_FN void kemppinen_reflect_at2(SmoothMaterial m, const GLINT_PRIVATE KemppinenParams *p,
+                                    const GLINT_PRIVATE KemppinenQueryLevels *levels, real3 wi_a,
+                                    real3 wi_b, real3 wo, real3 radiance_a, real3 radiance_b,
+                                    GLINT_PRIVATE real3 *out_a, GLINT_PRIVATE real3 *out_b) {
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  SmoothReflect ra = smooth_reflect_cos_parts(m, wi_a, wo);
+  SmoothReflect rb = smooth_reflect_cos_parts(m, wi_b, wo);
+  real3 lsa = r3_mul(ra.fc, radiance_a), lsb = r3_mul(rb.fc, radiance_b);
+  glint_mask live_a = lsa.x + lsa.y + lsa.z > GLINT_R(0.0);
+  glint_mask live_b = lsb.x + lsb.y + lsb.z > GLINT_R(0.0);
+  int any_a = glint_any(live_a), any_b = glint_any(live_b);
+  if (!(any_a && any_b)) {
+    *out_a = any_a ? kemppinen_reflect_at(m, p, levels, wi_a, wo, radiance_a) : zero;
+    *out_b = any_b ? kemppinen_reflect_at(m, p, levels, wi_b, wo, radiance_b) : zero;
+    return;
+  }
+  real3 sa, sb;
+  kemppinen_glint_factor_at2(p, levels, m.ndf, ra.h, rb.h, m.alpha_x, m.alpha_y, ra.D, rb.D, &sa,
+                             &sb);
+  *out_a = r3_select(zero, r3_mul(r3_mul(ra.fc, sa), radiance_a), live_a);
+  *out_b = r3_select(zero, r3_mul(r3_mul(rb.fc, sb), radiance_b), live_b);
+}
+
 /* The same from the footprint (one light; the sampler's weight). */
 GLINT_FN real3 kemppinen_reflect(SmoothMaterial m, KemppinenParams p, KemppinenFootprint fp,
                                  real3 wi, real3 wo, real3 radiance) {
@@ -70,7 +97,16 @@ GLINT_FN real3 kemppinen_shade(EvalSpec spec, KernelInputs in, QueryInputs q, re
   }
   real3 radiance = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   uint n_lights = punctual_light_count(spec, in);
-  for (uint l = 0; l < n_lights; ++l) {
+  uint l = 0;
+  /* Lights in pairs (kemppinen_reflect_at2: the same bits, summed in the same order). */
+  for (; l + 2u <= n_lights; l += 2u) {
+    PunctualLight a = punctual_light(spec, in, sp, l);
+    PunctualLight b = punctual_light(spec, in, sp, l + 1u);
+    real3 ra, rb;
+    kemppinen_reflect_at2(m, &p, &levels, a.wi, b.wi, sp.wo, a.irradiance, b.irradiance, &ra, &rb);
+    radiance = r3_add(r3_add(radiance, ra), rb);
+  }
+  for (; l < n_lights; ++l) {
     PunctualLight light = punctual_light(spec, in, sp, l);
     radiance =
         r3_add(radiance, kemppinen_reflect_at(m, &p, &levels, light.wi, sp.wo, light.irradiance));

@@ -137,10 +137,18 @@ GLINT_FN KemppinenParams kemppinen_params_unpack(const GLINT_GLOBAL float *packe
   int n = (int)packed[GLINT_KEMPPINEN_N_COLORS];
   n = n > GLINT_KEMPPINEN_MAX_COLORS ? GLINT_KEMPPINEN_MAX_COLORS : n;
   p.n_colors = n >= 1 ? n : 1;
+  /* Once per work-item on the device (per block of 16 queries): only the n_colors triples
+   * that are read, summed per channel in the same order as before; the unused entries are 0.
+   * The former loop over all 24 floats with i % 3 ran as scalar code with a branch per float,
+   * ~2% of the ONE_CELL kernel's time (perf annotate). */
+  for (int i = 0; i < 3 * GLINT_KEMPPINEN_MAX_COLORS; ++i) p.colors[i] = 0.0f;
   float sum[3] = {0.0f, 0.0f, 0.0f};
-  for (int i = 0; i < 3 * GLINT_KEMPPINEN_MAX_COLORS; ++i) {
-    p.colors[i] = n >= 1 ? packed[GLINT_KEMPPINEN_COLORS + i] : 1.0f;
-    if (i < 3 * p.n_colors) sum[i % 3] += p.colors[i];
+  for (int j = 0; j < p.n_colors; ++j) {
+    for (int c = 0; c < 3; ++c) {
+      float v = n >= 1 ? packed[GLINT_KEMPPINEN_COLORS + 3 * j + c] : 1.0f;
+      p.colors[3 * j + c] = v;
+      sum[c] += v;
+    }
   }
   real inv_n = GLINT_R(1.0) / (real)p.n_colors;
   p.mean_color = make_real3((real)sum[0] * inv_n, (real)sum[1] * inv_n, (real)sum[2] * inv_n);
@@ -267,7 +275,7 @@ GLINT_FN real kemppinen_erfc_abs(real x) {
  * `ymax` (callers that zero erfc beyond a cut clamp there, so that four of
  * them multiply without overflow: kemppinen_erfc4_with). */
 GLINT_FN real kemppinen_erfc_cheap_denominator(real x, real ymax) {
-  real y = fmin(fabs(x) * GLINT_R(0.70710678118654752440), ymax);
+  real y = glint_fmin_nn(fabs(x) * GLINT_R(0.70710678118654752440), ymax);
   real d = GLINT_R(1.0) +
            y * (GLINT_R(0.278393) +
                 y * (GLINT_R(0.230389) + y * (GLINT_R(0.000972) + y * GLINT_R(0.078108))));
@@ -386,10 +394,10 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
    * footprint (the level saturates at GLINT_KEMPPINEN_MAX_LEVEL long before),
    * and Sigma_s stays finite in fp32 (<= ~1e16) for any finite input. */
   real f = p.filter;
-  real j00 = f * a * clamp(footprint[0], GLINT_R(-1e6), GLINT_R(1e6));
-  real j10 = f * clamp(footprint[1], GLINT_R(-1e6), GLINT_R(1e6)) * p.inv_aniso;
-  real j01 = f * a * clamp(footprint[2], GLINT_R(-1e6), GLINT_R(1e6));
-  real j11 = f * clamp(footprint[3], GLINT_R(-1e6), GLINT_R(1e6)) * p.inv_aniso;
+  real j00 = f * a * glint_clamp_nn(footprint[0], GLINT_R(-1e6), GLINT_R(1e6));
+  real j10 = f * glint_clamp_nn(footprint[1], GLINT_R(-1e6), GLINT_R(1e6)) * p.inv_aniso;
+  real j01 = f * a * glint_clamp_nn(footprint[2], GLINT_R(-1e6), GLINT_R(1e6));
+  real j11 = f * glint_clamp_nn(footprint[3], GLINT_R(-1e6), GLINT_R(1e6)) * p.inv_aniso;
   /* Eq. 5 / Algorithm 1 line 11: Sigma_s = f^2 J J^T. */
   real sxx = j00 * j00 + j01 * j01;
   real syy = j10 * j10 + j11 * j11;
@@ -411,8 +419,8 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
   /* Level: finer level's cells (2^floor(lambda) / sqrt(K_P)) >= 4 sigma_max. */
   real sigma_max = sqrt(lmax + eps);
   real lambda =
-      kemppinen_log2_pos(fmax(GLINT_R(8.0) * sigma_max * sqrt(p.density), GLINT_R(1e-30)));
-  fp.lambda = clamp(lambda, GLINT_R(0.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL));
+      kemppinen_log2_pos(glint_fmax_nn(GLINT_R(8.0) * sigma_max * sqrt(p.density), GLINT_R(1e-30)));
+  fp.lambda = glint_clamp_nn(lambda, GLINT_R(0.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL));
   fp.seed_key = rng_absorb(rng_absorb(0x4b323555u, seed_lo), seed_hi);
   return fp;
 }
@@ -420,15 +428,15 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
 /* A cell index (an integer-valued real, possibly huge at uv = 1e7) as a hash
  * key, wrapped to [0, 2^24): the pattern repeats every 2^24 cells. */
 GLINT_FN kemp_uint kemppinen_cell_key(real c) {
-  real w = c - GLINT_R(16777216.0) * floor(c * GLINT_R(5.9604644775390625e-8));
-  return KEMP_TO_UINT(clamp(w, GLINT_R(0.0), GLINT_R(16777215.0)));
+  real w = c - GLINT_R(16777216.0) * glint_floor(c * GLINT_R(5.9604644775390625e-8));
+  return KEMP_TO_UINT(glint_clamp_nn(w, GLINT_R(0.0), GLINT_R(16777215.0)));
 }
 
 /* K25 Eq. 8: GLINT_R(r, w) = smoothstep(max(0, r - eps), min(1, r + eps), w). */
 GLINT_FN real kemppinen_roulette(real r, real w) {
-  real e0 = fmax(GLINT_R(0.0), r - GLINT_R(GLINT_KEMPPINEN_ROULETTE_EPS));
-  real e1 = fmin(GLINT_R(1.0), r + GLINT_R(GLINT_KEMPPINEN_ROULETTE_EPS));
-  real t = clamp((w - e0) / (e1 - e0), GLINT_R(0.0), GLINT_R(1.0));
+  real e0 = glint_fmax_nn(r - GLINT_R(GLINT_KEMPPINEN_ROULETTE_EPS), GLINT_R(0.0));
+  real e1 = glint_fmin_nn(r + GLINT_R(GLINT_KEMPPINEN_ROULETTE_EPS), GLINT_R(1.0));
+  real t = glint_clamp_nn((w - e0) / (e1 - e0), GLINT_R(0.0), GLINT_R(1.0));
   return t * t * (GLINT_R(3.0) - GLINT_R(2.0) * t);
 }
 
@@ -522,18 +530,26 @@ GLINT_FN KemppinenSpatial kemppinen_spatial(KemppinenParams p, KemppinenFootprin
   /* Algorithm 1 lines 9-10 (with res = sqrt(K_P)). */
   /* 2^l exactly (l integer in [0, 24]) by a shift, not exp2 (a polynomial per
    * lane on the device); the same value as the former floor(exp2(l) + 1/2). */
-  s.res_a =
-      KEMP_TO_REAL(((kemp_uint)1u)
-                   << KEMP_TO_UINT(clamp(level, GLINT_R(0.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL))));
+  kemp_uint l =
+      KEMP_TO_UINT(glint_clamp_nn(level, GLINT_R(0.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)));
+#if GLINT_USE_DOUBLE
+  s.res_a = KEMP_TO_REAL(((kemp_uint)1u) << l);
   s.inv_res_a = GLINT_R(1.0) / s.res_a; /* exact: a power of two */
+#else
+  /* fp32: 2^l and 2^-l written as exponent fields (biased 127 + l and 127 - l, both normal
+   * for l in [0, 24]): the same exact values without a conversion and a division per lane
+   * (the division's latency stalled the query's set-up, perf annotate). */
+  s.res_a = KEMP_BITS_FLOAT((l + 127u) << 23);
+  s.inv_res_a = KEMP_BITS_FLOAT((127u - l) << 23);
+#endif
   /* sqrt(K_P) / 2^l as a product by the exact 2^-l: the same bits as the
    * quotient (both round sqrt(K_P) 2^-l once), without a division. */
   s.res_s = sqrt(p.density) * s.inv_res_a;
   s.ts_x = fp.xs * s.res_s;
   s.ts_y = fp.ys * s.res_s;
   /* 2x2 spatial cells around the nearest cell vertex. */
-  s.bs_x = floor(s.ts_x - GLINT_R(0.5));
-  s.bs_y = floor(s.ts_y - GLINT_R(0.5));
+  s.bs_x = glint_floor(s.ts_x - GLINT_R(0.5));
+  s.bs_y = glint_floor(s.ts_y - GLINT_R(0.5));
   /* det of Sigma_s in cells^2, each factor scaled before multiplying: at
    * density 1e30 det Sigma_s itself underflows float (eps^2 ~ 1e-72). */
   real r2 = s.res_s * s.res_s;
@@ -596,10 +612,10 @@ GLINT_FN KemppinenErfc4 kemppinen_erfc4_with(real a, real b, real c, real d, int
      * far beyond it exp(-y^2) is subnormal in fp32, which costs a microcode
      * assist per instruction on x86 (kemppinen_lobe_cut). Lanes inside: the
      * same bits. */
-    e.a = glint_select(zero, kemppinen_erfc_abs(fmin(fabs(a), cut)), na);
-    e.b = glint_select(zero, kemppinen_erfc_abs(fmin(fabs(b), cut)), nb);
-    e.c = glint_select(zero, kemppinen_erfc_abs(fmin(fabs(c), cut)), nc);
-    e.d = glint_select(zero, kemppinen_erfc_abs(fmin(fabs(d), cut)), nd);
+    e.a = glint_select(zero, kemppinen_erfc_abs(glint_fmin_nn(fabs(a), cut)), na);
+    e.b = glint_select(zero, kemppinen_erfc_abs(glint_fmin_nn(fabs(b), cut)), nb);
+    e.c = glint_select(zero, kemppinen_erfc_abs(glint_fmin_nn(fabs(c), cut)), nc);
+    e.d = glint_select(zero, kemppinen_erfc_abs(glint_fmin_nn(fabs(d), cut)), nd);
   }
   return e;
 }
@@ -662,8 +678,8 @@ GLINT_FN void kemppinen_level_query_into(KemppinenParams p, KemppinenFootprint f
   if (p.one_cell) {
     /* GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL: the cell holding the query, the
      * same facet (the same hash) as that cell of the 2x2 block. */
-    q->s.bs_x = floor(q->s.ts_x);
-    q->s.bs_y = floor(q->s.ts_y);
+    q->s.bs_x = glint_floor(q->s.ts_x);
+    q->s.bs_y = glint_floor(q->s.ts_y);
     q->key[0] = kemppinen_spatial_key(fp.seed_key, level, q->s.bs_x, q->s.bs_y);
     q->key[1] = q->key[0];
     q->key[2] = q->key[0];
@@ -698,8 +714,8 @@ GLINT_FN KemppinenLevelQuery kemppinen_level_query(KemppinenParams p, KemppinenF
  * a block larger than the grid is the whole grid). First cell; the end is
  * min(first + n, res_a). */
 GLINT_FN real kemppinen_angular_first(real ta, real n, real res_a) {
-  real hi = fmax(res_a - n, GLINT_R(0.0));
-  return clamp(floor(ta - GLINT_R(0.5) * (n - GLINT_R(1.0))), GLINT_R(0.0), hi);
+  real hi = glint_fmax_nn(res_a - n, GLINT_R(0.0));
+  return glint_clamp_nn(glint_floor(ta - GLINT_R(0.5) * (n - GLINT_R(1.0))), GLINT_R(0.0), hi);
 }
 
 /* The spatial 2x2 block and the angular n x n block of level l, in cells
@@ -765,7 +781,7 @@ GLINT_FN real kemppinen_facet_lobe_at(real inv_res_a, real ta_x, real ta_y, real
   real e = GLINT_R(0.5) * (ux * ux + uy * uy) + (qxx * dx * dx + qxy * dx * dy + qyy * dy * dy);
   /* Beyond e_lim (kemppinen_lobe_cut) the lobe is 0: the exp's argument is
    * clamped there, so neither exp(-e) nor its product with norm is subnormal. */
-  return glint_select(exp(-fmin(e, e_lim)) * norm, GLINT_R(0.0), outside | (e > e_lim));
+  return glint_select(exp(-glint_fmin_nn(e, e_lim)) * norm, GLINT_R(0.0), outside | (e > e_lim));
 }
 
 /* The exponent beyond which a facet's lobe exp(-e) norm is taken as 0:
@@ -780,7 +796,18 @@ GLINT_FN real kemppinen_facet_lobe_at(real inv_res_a, real ta_x, real ta_y, real
  * is ~1; a dropped term changes it by < 1e-34 relative to the facet's own
  * weight). */
 GLINT_FN real kemppinen_lobe_cut(real norm) {
-  return fmin(GLINT_R(80.0), (logb(norm) + GLINT_R(125.0)) * GLINT_R(0.69314718055994530942));
+#if GLINT_USE_DOUBLE
+  real lb = logb(norm);
+#else
+  /* fp32: logb(norm) from the exponent field, (bits >> 23) - 127 (norm > 0: sign bit clear),
+   * 3 instructions instead of PoCL's logb (~12 per light and level: vgetexpps and the special
+   * cases). The same value for every normal norm. Otherwise the cut is the same as with logb:
+   * a zero or subnormal norm gives -127 (logb: -inf or its exponent < -126), so e_lim < 0 <= e
+   * and the facet is 0 either way; +inf or NaN give 128, so e_lim = 80, as logb's +inf or NaN
+   * does through glint_fmin_nn. */
+  real lb = KEMP_TO_REAL(KEMP_FLOAT_BITS(norm) >> 23) - GLINT_R(127.0);
+#endif
+  return glint_fmin_nn((lb + GLINT_R(125.0)) * GLINT_R(0.69314718055994530942), GLINT_R(80.0));
 }
 
 GLINT_FN real kemppinen_facet_lobe(KemppinenBlocks b, real cx, real cy, real ix, real iy,
@@ -819,7 +846,7 @@ GLINT_FN real kemppinen_compensation_with(real ta_x, real ta_y, real ba_x, real 
   real xout = kemppinen_mass_e(x0, x1, es.a, eb.a) + kemppinen_mass_e(x2, x3, eb.b, es.b);
   real yout = kemppinen_mass_e(y0, y1, es.c, eb.c) + kemppinen_mass_e(y2, y3, eb.d, es.d);
   real square_minus_block = xsq * yout + yb * xout; /* = P_a(square) - P_a(B) */
-  return fmax(square_minus_block + outside * xb * yb, GLINT_R(0.0));
+  return glint_fmax_nn(square_minus_block + outside * xb * yb, GLINT_R(0.0));
 }
 
 GLINT_FN real kemppinen_compensation_at(real ta_x, real ta_y, real ba_x, real ba_y, real ea_x,
@@ -837,7 +864,7 @@ GLINT_FN real kemppinen_compensation_at(real ta_x, real ta_y, real ba_x, real ba
  * instructions). */
 GLINT_FN real3 kemppinen_facet_color_of(const GLINT_PRIVATE KemppinenParams *p, KemppinenFacet g) {
   real3 c = make_real3((real)p->colors[0], (real)p->colors[1], (real)p->colors[2]);
-  real idx = floor(g.pick * (real)p->n_colors);
+  real idx = glint_floor(g.pick * (real)p->n_colors);
   for (int k = 1; k < p->n_colors; ++k) {
     real3 ck =
         make_real3((real)p->colors[3 * k], (real)p->colors[3 * k + 1], (real)p->colors[3 * k + 2]);
@@ -869,6 +896,67 @@ GLINT_FN KemppinenLobe kemppinen_lobe(KemppinenAngular a) {
   return l;
 }
 
+/* What level l needs of one lobe (one light's half-vector): x_a in cells, the n x n angular
+ * block [ba, ea), 1 / sigma_a in cells, both Gaussians' norm and the lobe cut. */
+typedef struct {
+  real ta_x, ta_y, ba_x, ba_y, ea_x, ea_y;
+  real inv_sax, inv_say, norm, e_lim;
+} KemppinenLevelLobe;
+
+GLINT_FN KemppinenLevelLobe kemppinen_level_lobe(const GLINT_PRIVATE KemppinenParams *p,
+                                                 const GLINT_PRIVATE KemppinenLevelQuery *q,
+                                                 KemppinenLobe a) {
+  KemppinenLevelLobe o;
+  real res_a = q->s.res_a, inv_res_a = q->s.inv_res_a;
+  real nr = (real)p->n_side;
+  o.ta_x = a.x * res_a;
+  o.ta_y = a.y * res_a;
+  o.ba_x = kemppinen_angular_first(o.ta_x, nr, res_a);
+  o.ba_y = kemppinen_angular_first(o.ta_y, nr, res_a);
+  o.ea_x = glint_fmin_nn(o.ba_x + nr, res_a);
+  o.ea_y = glint_fmin_nn(o.ba_y + nr, res_a);
+  /* 1 / sigma_a and the angular norm in cells: exact rescalings by 2^-l. */
+  o.inv_sax = a.inv_sx * inv_res_a;
+  o.inv_say = a.inv_sy * inv_res_a;
+  o.norm = q->s.norm_s * (a.norm * (inv_res_a * inv_res_a));
+  o.e_lim = kemppinen_lobe_cut(o.norm);
+  return o;
+}
+
+/* One explicit facet of the lobe (Algorithm 1 lines 13-18): its roulette-weighted lobe in its
+ * colour, 0 past the grid's end. (dxc, dyc): the query in cells of spatial cell j; `column`:
+ * that cell's key absorbed with the column ix. */
+GLINT_FN real3 kemppinen_level_facet(const GLINT_PRIVATE KemppinenParams *p,
+                                     const GLINT_PRIVATE KemppinenLevelQuery *q,
+                                     const GLINT_PRIVATE KemppinenLevelLobe *o, real dxc, real dyc,
+                                     kemp_uint column, real ix, real iy, real w) {
+  /* Cells past the grid's end (res_a < n at the coarsest levels) drop. */
+  glint_mask valid = (ix < o->ea_x) & (iy < o->ea_y);
+  KemppinenFacet g = kemppinen_facet_in_column(column, iy);
+  /* One level (w = 1): R(r, 1) = 1 for every r, no roulette. */
+  real keep = GLINT_R(1.0);
+  if (!p->one_level) keep = kemppinen_roulette(g.r, w); /* uniform: a branch, not a select */
+  /* No branch on the roulette: with 16 lanes some lane almost always
+   * keeps the facet, and the branch cost 10% (measured at k = 1, 4). */
+  real lobe =
+      kemppinen_facet_lobe_at(q->s.inv_res_a, o->ta_x, o->ta_y, o->inv_sax, o->inv_say, dxc, dyc,
+                              q->s.qxx, q->s.qxy, q->s.qyy, o->norm, o->e_lim, ix, iy, g);
+  real wt = glint_select(GLINT_R(0.0), keep * lobe, valid & (keep > GLINT_R(0.0)));
+  /* K25 3.3.6: the facet's colour from its cell's hash. */
+  return r3_scale(kemppinen_facet_color_of(p, g), wt);
+}
+
+/* The lobe's compensation (line 20) in the mean colour (each colour has probability 1/n),
+ * times the level's weight w. */
+GLINT_FN real3 kemppinen_level_compensation(const GLINT_PRIVATE KemppinenParams *p,
+                                            const GLINT_PRIVATE KemppinenLevelQuery *q,
+                                            const GLINT_PRIVATE KemppinenLevelLobe *o, real w) {
+  real c =
+      kemppinen_compensation_with(o->ta_x, o->ta_y, o->ba_x, o->ba_y, o->ea_x, o->ea_y, q->s.res_a,
+                                  o->inv_sax, o->inv_say, q->outside, p->one_level);
+  return r3_scale(p->mean_color, w * c);
+}
+
 /* Level l's part of S with MIP weight w: roulette-weighted explicit facets
  * (Algorithm 1 lines 13-18) plus w C (line 20). The loops have uniform trip
  * counts (4 spatial x n x n angular cells); a facet is skipped only when the
@@ -876,17 +964,8 @@ GLINT_FN KemppinenLobe kemppinen_lobe(KemppinenAngular a) {
 GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
                                   const GLINT_PRIVATE KemppinenLevelQuery *q, KemppinenLobe a,
                                   real w) {
-  real res_a = q->s.res_a, inv_res_a = q->s.inv_res_a;
+  KemppinenLevelLobe o = kemppinen_level_lobe(p, q, a);
   int n = p->n_side;
-  real nr = (real)n;
-  real ta_x = a.x * res_a, ta_y = a.y * res_a;
-  real ba_x = kemppinen_angular_first(ta_x, nr, res_a);
-  real ba_y = kemppinen_angular_first(ta_y, nr, res_a);
-  real ea_x = fmin(ba_x + nr, res_a), ea_y = fmin(ba_y + nr, res_a);
-  /* 1 / sigma_a and the angular norm in cells: exact rescalings by 2^-l. */
-  real inv_sax = a.inv_sx * inv_res_a, inv_say = a.inv_sy * inv_res_a;
-  real norm = q->s.norm_s * (a.norm * (inv_res_a * inv_res_a));
-  real e_lim = kemppinen_lobe_cut(norm);
   real3 sum = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   int n_cells = p->one_cell ? 1 : 4;
   for (int j = 0; j < n_cells; ++j) {
@@ -896,31 +975,52 @@ GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
      * same hashes: kemppinen_facet = kemppinen_facet_in_column o
      * kemppinen_column_key); the summation order is unchanged. */
     kemp_uint column[4];
-    for (int mx = 0; mx < n; ++mx) column[mx] = kemppinen_column_key(q->key[j], ba_x + (real)mx);
+    for (int mx = 0; mx < n; ++mx) column[mx] = kemppinen_column_key(q->key[j], o.ba_x + (real)mx);
     for (int my = 0; my < n; ++my) {
-      real iy = ba_y + (real)my;
+      real iy = o.ba_y + (real)my;
+      for (int mx = 0; mx < n; ++mx)
+        sum = r3_add(
+            sum, kemppinen_level_facet(p, q, &o, dxc, dyc, column[mx], o.ba_x + (real)mx, iy, w));
+    }
+  }
+  return r3_add(sum, kemppinen_level_compensation(p, q, &o, w));
+}
+
+/* kemppinen_level_at for two lobes (two lights of the query) in one pass over the cells: per
+ * lobe the same operations in the same order as kemppinen_level_at, so the same bits, but the
+ * two lights' hash chains, exps and erfc are independent work in one loop body, which the CPU
+ * overlaps (one light at a time was a chain of dependent long-latency steps: the hash's
+ * multiplies, the exp, the divisions). */
+GLINT_FN void kemppinen_level_at2(const GLINT_PRIVATE KemppinenParams *p,
+                                  const GLINT_PRIVATE KemppinenLevelQuery *q, KemppinenLobe a,
+                                  KemppinenLobe b, real w, GLINT_PRIVATE real3 *sa,
+                                  GLINT_PRIVATE real3 *sb) {
+  KemppinenLevelLobe oa = kemppinen_level_lobe(p, q, a);
+  KemppinenLevelLobe ob = kemppinen_level_lobe(p, q, b);
+  int n = p->n_side;
+  real3 suma = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  real3 sumb = suma;
+  int n_cells = p->one_cell ? 1 : 4;
+  for (int j = 0; j < n_cells; ++j) {
+    real dxc = q->s.ts_x - (q->s.bs_x + (real)(j & 1));
+    real dyc = q->s.ts_y - (q->s.bs_y + (real)(j >> 1));
+    kemp_uint cola[4], colb[4];
+    for (int mx = 0; mx < n; ++mx) {
+      cola[mx] = kemppinen_column_key(q->key[j], oa.ba_x + (real)mx);
+      colb[mx] = kemppinen_column_key(q->key[j], ob.ba_x + (real)mx);
+    }
+    for (int my = 0; my < n; ++my) {
+      real iya = oa.ba_y + (real)my, iyb = ob.ba_y + (real)my;
       for (int mx = 0; mx < n; ++mx) {
-        real ix = ba_x + (real)mx;
-        /* Cells past the grid's end (res_a < n at the coarsest levels) drop. */
-        glint_mask valid = (ix < ea_x) & (iy < ea_y);
-        KemppinenFacet g = kemppinen_facet_in_column(column[mx], iy);
-        /* One level (w = 1): R(r, 1) = 1 for every r, no roulette. */
-        real keep = GLINT_R(1.0);
-        if (!p->one_level) keep = kemppinen_roulette(g.r, w); /* uniform: a branch, not a select */
-        /* No branch on the roulette: with 16 lanes some lane almost always
-         * keeps the facet, and the branch cost 10% (measured at k = 1, 4). */
-        real lobe = kemppinen_facet_lobe_at(inv_res_a, ta_x, ta_y, inv_sax, inv_say, dxc, dyc,
-                                            q->s.qxx, q->s.qxy, q->s.qyy, norm, e_lim, ix, iy, g);
-        real wt = glint_select(GLINT_R(0.0), keep * lobe, valid & (keep > GLINT_R(0.0)));
-        /* K25 3.3.6: the facet's colour from its cell's hash. */
-        sum = r3_add(sum, r3_scale(kemppinen_facet_color_of(p, g), wt));
+        suma = r3_add(
+            suma, kemppinen_level_facet(p, q, &oa, dxc, dyc, cola[mx], oa.ba_x + (real)mx, iya, w));
+        sumb = r3_add(
+            sumb, kemppinen_level_facet(p, q, &ob, dxc, dyc, colb[mx], ob.ba_x + (real)mx, iyb, w));
       }
     }
   }
-  /* The compensation in the mean colour (each colour has probability 1/n). */
-  real c = kemppinen_compensation_with(ta_x, ta_y, ba_x, ba_y, ea_x, ea_y, res_a, inv_sax, inv_say,
-                                       q->outside, p->one_level);
-  return r3_add(sum, r3_scale(p->mean_color, w * c));
+  *sa = r3_add(suma, kemppinen_level_compensation(p, q, &oa, w));
+  *sb = r3_add(sumb, kemppinen_level_compensation(p, q, &ob, w));
 }
 
 /* The same for one level of a footprint and angular query (the tests' entry). */
@@ -952,7 +1052,7 @@ typedef struct {
 /* In place, as kemppinen_level_query_into (2 x 1088 bytes on the device). */
 GLINT_FN void kemppinen_query_levels_into(KemppinenParams p, KemppinenFootprint fp,
                                           GLINT_PRIVATE KemppinenQueryLevels *L) {
-  real lf = floor(fp.lambda);
+  real lf = glint_floor(fp.lambda);
   real w1 = fp.lambda - lf;
   if (p.one_level) {
     /* GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL / ONE_CELL (not in K25): one
@@ -975,7 +1075,8 @@ GLINT_FN void kemppinen_query_levels_into(KemppinenParams p, KemppinenFootprint 
     L->w[1] = GLINT_R(0.0);
     L->n = 1;
     /* l[1] is not set: only l[lv < n] is read (as in the two-level path when n = 1). */
-    kemppinen_level_query_into(p, fp, fmin(level, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)), &L->l[0]);
+    kemppinen_level_query_into(p, fp, glint_fmin_nn(level, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)),
+                               &L->l[0]);
     return;
   }
   L->w[0] = GLINT_R(1.0) - w1;
@@ -983,8 +1084,8 @@ GLINT_FN void kemppinen_query_levels_into(KemppinenParams p, KemppinenFootprint 
   L->n = glint_any(w1 > GLINT_R(0.0)) ? 2 : 1;
   GLINT_KEMPPINEN_NOUNROLL
   for (int lv = 0; lv < L->n; ++lv)
-    kemppinen_level_query_into(p, fp, fmin(lf + (real)lv, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)),
-                               &L->l[lv]);
+    kemppinen_level_query_into(
+        p, fp, glint_fmin_nn(lf + (real)lv, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)), &L->l[lv]);
 }
 
 GLINT_FN KemppinenQueryLevels kemppinen_query_levels(KemppinenParams p, KemppinenFootprint fp) {
@@ -1013,14 +1114,14 @@ GLINT_FN KemppinenLobe kemppinen_lobe_of_h(const GLINT_PRIVATE KemppinenParams *
     DiskPoint d = kemppinen_to_disk(ndf, h, ax, ay, D);
     l.x = d.x;
     l.y = d.y;
-    sd = sqrt(fmax(d.jac, GLINT_R(0.0)));
+    sd = sqrt(glint_fmax_nn(d.jac, GLINT_R(0.0)));
   } else {
     /* kemppinen_to_disk's GGX branch (K25 3.2.1, Eq. 6-7). */
-    real hz = fmax(h.z, GLINT_R(0.0));
+    real hz = glint_fmax_nn(h.z, GLINT_R(0.0));
     real3 s = make_real3(h.x * ay, h.y * ax, hz * ax * ay);
     /* The floor only keeps a dead h = 0 finite: a unit h has len >= ax ay >= 1e-8 (alpha in
      * [1e-4, 1], validation). */
-    real len = fmax(r3_length(s), GLINT_R(1e-15));
+    real len = glint_fmax_nn(r3_length(s), GLINT_R(1e-15));
     /* Lambert's 1 / (2 len sqrt(1 + nz)), nz = s.z / len, as 1 / (2 sqrt(len (len + s.z))):
      * one division instead of two (s.z >= 0, nothing cancels; len (len + s.z) >= 1e-30 is a
      * normal float). fp32: ~4 roundings on k instead of ~5 (tested against long double,
@@ -1034,14 +1135,14 @@ GLINT_FN KemppinenLobe kemppinen_lobe_of_h(const GLINT_PRIVATE KemppinenParams *
      * 1e-13 (validation), so the uniform factor is finite (and +inf only
      * gives the floor's 1e12, as sigma would); len >= 1e-15 > 0. */
     real c = GLINT_R(2.8284271247461900976) / (p->micro * ax * ay); /* uniform */
-    real inv_s = fmin(len * sqrt(len) * c, GLINT_R(1e12));
+    real inv_s = glint_fmin_nn(len * sqrt(len) * c, GLINT_R(1e12));
     l.inv_sx = inv_s * p->aniso;
     l.inv_sy = inv_s * p->inv_aniso;
     l.norm = l.inv_sx * l.inv_sy * GLINT_R(0.15915494309189533577);
     return l;
   }
   /* kemppinen_angular's floor: sigma >= 1e-12, so a dead half-vector stays finite. */
-  real inv_s = GLINT_R(1.0) / fmax(p->micro * sd, GLINT_R(1e-12));
+  real inv_s = GLINT_R(1.0) / glint_fmax_nn(p->micro * sd, GLINT_R(1e-12));
   l.inv_sx = inv_s * p->aniso;
   l.inv_sy = inv_s * p->inv_aniso;
   l.norm = l.inv_sx * l.inv_sy * GLINT_R(0.15915494309189533577);
@@ -1058,6 +1159,28 @@ GLINT_FN real3 kemppinen_glint_factor_at(const GLINT_PRIVATE KemppinenParams *p,
   GLINT_KEMPPINEN_NOUNROLL
   for (int lv = 0; lv < L->n; ++lv) s = r3_add(s, kemppinen_level_at(p, &L->l[lv], a, L->w[lv]));
   return s;
+}
+
+/* kemppinen_glint_factor_at for two half-vectors (two lights of the query), the levels'
+ * facets and compensations of both in one pass (kemppinen_level_at2): the same bits as two
+ * calls. */
+GLINT_FN void kemppinen_glint_factor_at2(const GLINT_PRIVATE KemppinenParams *p,
+                                         const GLINT_PRIVATE KemppinenQueryLevels *L, int ndf,
+                                         real3 ha, real3 hb, real ax, real ay, real Da, real Db,
+                                         GLINT_PRIVATE real3 *sa, GLINT_PRIVATE real3 *sb) {
+  KemppinenLobe a = kemppinen_lobe_of_h(p, ndf, ha, ax, ay, Da);
+  KemppinenLobe b = kemppinen_lobe_of_h(p, ndf, hb, ax, ay, Db);
+  real3 za = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  real3 zb = za;
+  GLINT_KEMPPINEN_NOUNROLL
+  for (int lv = 0; lv < L->n; ++lv) {
+    real3 la, lb;
+    kemppinen_level_at2(p, &L->l[lv], a, b, L->w[lv], &la, &lb);
+    za = r3_add(za, la);
+    zb = r3_add(zb, lb);
+  }
+  *sa = za;
+  *sb = zb;
 }
 
 /* The same from the footprint (one half-vector; the tests' entry). */

@@ -122,13 +122,13 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
    * bounds that skip the cells beyond R and the integrals of lobes and
    * blocks far from its edges (kemppinen_image_lines.h). */
   KemppinenULines lines = kemppinen_image_lines(R, a.sx, a.sy);
-  real lf = floor(fp.lambda);
+  real lf = glint_floor(fp.lambda);
   real w1 = fp.lambda - lf;
   for (int lv = 0; lv < 2; ++lv) {
     real w = lv == 0 ? GLINT_R(1.0) - w1 : w1;
     if (!(w > GLINT_R(0.0))) continue;
     real level = fmin(lf + (real)lv, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL));
-    real res_a = floor(exp2(level) + GLINT_R(0.5));
+    real res_a = glint_floor(exp2(level) + GLINT_R(0.5));
     /* Cells per axis covering R's bounding box (+1: it straddles a border). */
     real cover = (real)ceil(fmax(bw, bh) * res_a) + GLINT_R(1.0);
     KemppinenParams pb = p;

@@ -122,8 +122,8 @@ GLINT_FN real kemppinen_glint_pdf_level(SmoothMaterial m, KemppinenParams p, Kem
                                         real level, real wl, real x, real y) {
   if (!(wl > GLINT_R(0.0))) return GLINT_R(0.0);
   KemppinenBlocks b = kemppinen_sample_blocks(p, fp, level);
-  real ix = clamp(floor(x * b.res_a), GLINT_R(0.0), b.res_a - GLINT_R(1.0));
-  real iy = clamp(floor(y * b.res_a), GLINT_R(0.0), b.res_a - GLINT_R(1.0));
+  real ix = clamp(glint_floor(x * b.res_a), GLINT_R(0.0), b.res_a - GLINT_R(1.0));
+  real iy = clamp(glint_floor(y * b.res_a), GLINT_R(0.0), b.res_a - GLINT_R(1.0));
   real W = GLINT_R(0.0), lobes = GLINT_R(0.0);
   for (int j = 0; j < 4; ++j) {
     KemppinenSampleFacet f = kemppinen_sample_facet(m, p, fp, b, level, wl, j, ix, iy);
@@ -145,7 +145,7 @@ GLINT_FN real kemppinen_glint_pdf(SmoothMaterial m, KemppinenParams p, Kemppinen
   if (!(h.z > GLINT_R(0.0)) || !(woh > GLINT_R(0.0))) return GLINT_R(0.0);
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
   DiskPoint d = kemppinen_to_disk(m.ndf, h, m.alpha_x, m.alpha_y, D);
-  real lf = floor(fp.lambda), w1 = fp.lambda - lf;
+  real lf = glint_floor(fp.lambda), w1 = fp.lambda - lf;
   real pu =
       kemppinen_glint_pdf_level(m, p, fp, lf, GLINT_R(1.0) - w1, d.x, d.y) +
       kemppinen_glint_pdf_level(
@@ -158,14 +158,14 @@ GLINT_FN real3 kemppinen_glint_half_vector(SmoothMaterial m, KemppinenParams p,
                                            KemppinenFootprint fp, uint key) {
   real3 none = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   /* 1. The level (Alg. 2 lines 4-6). */
-  real lf = floor(fp.lambda), w1 = fp.lambda - lf;
+  real lf = glint_floor(fp.lambda), w1 = fp.lambda - lf;
   int upper = sample_u(key, 2u) < w1;
   real level = upper ? fmin(lf + GLINT_R(1.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)) : lf;
   real wl = upper ? w1 : GLINT_R(1.0) - w1;
   KemppinenBlocks b = kemppinen_sample_blocks(p, fp, level);
   /* 2. The angular cell. */
-  real ix = fmin(floor(sample_u(key, 3u) * b.res_a), b.res_a - GLINT_R(1.0));
-  real iy = fmin(floor(sample_u(key, 4u) * b.res_a), b.res_a - GLINT_R(1.0));
+  real ix = fmin(glint_floor(sample_u(key, 3u) * b.res_a), b.res_a - GLINT_R(1.0));
+  real iy = fmin(glint_floor(sample_u(key, 4u) * b.res_a), b.res_a - GLINT_R(1.0));
   /* 3. Reservoir over the cell's four facets: keep facet j with probability
    * w_j / (running sum), one uniform per candidate. */
   KemppinenSampleFacet chosen = kemppinen_sample_facet(m, p, fp, b, level, wl, 0, ix, iy);

@@ -13,6 +13,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -276,6 +277,68 @@ TEST(Neighborhood, AgainstTheSumOverEveryFacet) {
           }
       }
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The point-light pass takes a query's lights in pairs, both glint factors in one pass over the
+// cells (kemppinen_reflect_at2, for throughput): it must give exactly the bits of each light
+// alone (kemppinen_reflect_at) summed in the same order, in both precisions, for every
+// neighbourhood and k, with colours, two levels and one, and an odd light count (the last light
+// alone), including lights below the horizon in some queries (the early returns).
+template <typename Query>
+void ExpectPairedLightsBitIdentical(Query query, const char *precision) {
+  std::mt19937 rng(20261206);
+  std::uniform_real_distribution<double> U(0.0, 1.0);
+  auto dir = [&](double zmin) {
+    double z = zmin + (1.0 - zmin) * U(rng), phi = 2 * M_PI * U(rng), r = std::sqrt(1 - z * z);
+    return V3{r * std::cos(phi), r * std::sin(phi), z};
+  };
+  int cases = 0, mismatches = 0, nonzero = 0;
+  for (int ndf : {1, GLINT_NDF_BECKMANN})
+    for (int hood : {GLINT_KEMPPINEN_NEIGHBORHOOD_PAPER, GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL,
+                     GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL})
+      for (int k : {1, 4, 9, 16})
+        for (int n_lights : {2, 3}) {
+          Glinty g;
+          g.ndf = ndf;
+          g.ax = 0.3;
+          g.ay = 0.2;
+          g.density = 1e5;
+          g.neighbors = k;
+          g.neighborhood = hood;
+          if (k == 4) g.colors = {1, 0.2, 0.1, 1, 0.9, 0.2, 0.1, 0.5, 1};
+          for (int i = 0; i < 12; ++i) {
+            // Footprints over several MIP levels (two levels or one: lambda fractional or not).
+            double j = 1e-4 * std::pow(10.0, 3 * U(rng));
+            const double fp[4] = {j, 0.3 * j * (U(rng) - 0.5), 0.2 * j * (U(rng) - 0.5), j};
+            double u = U(rng), v = U(rng);
+            V3 wo = dir(0.05);
+            std::vector<V3> wi;
+            // Every fourth query has its second light below the horizon.
+            for (int l = 0; l < n_lights; ++l) wi.push_back(dir(i % 4 == 0 && l == 1 ? -1 : 0.02));
+            auto paired = query(g, u, v, fp, wo, wi, false);
+            auto single = query(g, u, v, fp, wo, wi, true);
+            ++cases;
+            if (std::memcmp(paired.data(), single.data(), sizeof paired) != 0) {
+              ++mismatches;
+              ADD_FAILURE() << precision << " " << NdfName(ndf) << " " << HoodName(hood) << " k "
+                            << k << " lights " << n_lights << ": paired " << double(paired[0])
+                            << " " << double(paired[1]) << " " << double(paired[2])
+                            << ", one by one " << double(single[0]) << " " << double(single[1])
+                            << " " << double(single[2]);
+            }
+            if (paired[0] > 0) ++nonzero;
+          }
+        }
+  std::printf("%s: %d queries, %d with light, %d differ from one light at a time\n", precision,
+              cases, nonzero, mismatches);
+  // Most queries see some light (else the comparison would be of zeros).
+  EXPECT_GT(nonzero, cases / 2) << precision;
+}
+
+TEST(PairedLights, SameBitsAsOneLightAtATime) {
+  ExpectPairedLightsBitIdentical(k32::QueryLights, "fp32");
+  ExpectPairedLightsBitIdentical(k64::QueryLights, "fp64");
 }
 
 }  // namespace

@@ -135,8 +135,11 @@ struct Row {
   std::optional<double> ratio_to_smooth, error_mean, error_p95, error_max, error_se;
   std::optional<double> error_signed;  // glint models: mean / smooth mean - 1 (error_mean = |.|)
   int error_seeds = 0;                 // glint models: the request seeds behind it
-  std::string error_reference;         // "" = none
-  uint32_t batch = 0;                  // queries per timed run
+  // Timed itself: the slowest of its runs over the fastest, minus 1 (stderr only: what a
+  // shorter or fewer runs would risk on this machine).
+  double spread = NAN;
+  std::string error_reference;  // "" = none
+  uint32_t batch = 0;           // queries per timed run
   uint32_t error_queries = 0;
   uint32_t nonfinite = 0;
   std::string transport;  // end_to_end: unary or stream; shared_memory: shm or shm-direct
@@ -616,6 +619,7 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
   std::sort(times.begin(), times.end());
   std::sort(device_times.begin(), device_times.end());
   row->evals_per_s = n / times[times.size() / 2];
+  row->spread = times.back() / times.front() - 1;
   if (!device_times.empty())
     row->ratio_to_device = device_times[device_times.size() / 2] / times[times.size() / 2];
   row->batch = n;
@@ -1091,9 +1095,12 @@ void Driver::Run() {
                       *row.ratio_to_device);
       const std::string shared =
           same ? "; timing shared with " + same->variant + " (bit-identical radiance)" : "";
-      std::fprintf(stderr, "%s %s %s %s %s: %.4g evals/s (batch %u)%s%s; row %.2f s\n",
+      char spread[48] = "";
+      if (std::isfinite(row.spread))
+        std::snprintf(spread, sizeof spread, ", runs spread %.1f%%", 100 * row.spread);
+      std::fprintf(stderr, "%s %s %s %s %s: %.4g evals/s (batch %u%s)%s%s; row %.2f s\n",
                    row.model.c_str(), row.variant.c_str(), row.lights.c_str(),
-                   row.precision.c_str(), path, row.evals_per_s, row.batch, vs_device,
+                   row.precision.c_str(), path, row.evals_per_s, row.batch, spread, vs_device,
                    shared.c_str(), std::chrono::duration<double>(Clock::now() - row_start).count());
       rows_.push_back(row);
       if (first.empty()) first = variant;

@@ -15,7 +15,8 @@
 //               write the radiance into the region; same rows and batch as end_to_end;
 //               bench_shm_steps times the copying ShmSession::Evaluate),
 // in fp32 and fp64. One row per measurement:
-//   evals_per_s      queries / median seconds of --repeat runs; the batch (the shared queries
+//   evals_per_s      queries / median seconds of --repeat runs (--quick: or the mean of two
+//                    runs within 5%, Driver::Time); the batch (the shared queries
 //                    tiled) grows until one run takes >= the minimum time or reaches 2^20 queries,
 //                    after an untimed run that compiles and warms the kernel (--quick: on 16
 //                    queries, and a first run of the starting batch at >= 2x the minimum time
@@ -138,6 +139,7 @@ struct Row {
   // Timed itself: the slowest of its runs over the fastest, minus 1 (stderr only: what a
   // shorter or fewer runs would risk on this machine).
   double spread = NAN;
+  int runs = 0;                 // the timed runs behind evals_per_s (stderr only)
   std::string error_reference;  // "" = none
   uint32_t batch = 0;           // queries per timed run
   uint32_t error_queries = 0;
@@ -607,7 +609,22 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
   // shared_memory, whose runs pair with interleaved device runs.
   if (o_.mode == "quick" && !same_as_device && (n != start_n || t >= 2 * o_.min_time))
     times.push_back(t);
+  // --quick (median of 3): two runs within kAgree of each other end the repeats, and the row
+  // reports their mean time. The median of three runs always lies between the first two (a
+  // third run below both makes the faster of them the median, above both the slower), so the
+  // mean of two within 5% is within 2.5% of the median the third run would have given,
+  // whatever it came out; quick rows move more than that between quiet runs (README: up to 30%
+  // for the same SMOOTH row). The third run is skipped on a quiet machine for most rows; a
+  // loaded one spreads them more and runs it. end_to_end and shared_memory: both series, the
+  // path's and the interleaved device's, within 5% (their ratio then within ~5% of the one a
+  // third pair would have given).
+  constexpr double kAgree = 0.05;
+  auto agree = [&](const std::vector<double> &v) {
+    return v.size() == 2 && std::max(v[0], v[1]) <= (1 + kAgree) * std::min(v[0], v[1]);
+  };
+  const bool stop_at_two = o_.mode == "quick" && o_.repeat == 3;
   for (int k = int(times.size()); k < o_.repeat; ++k) {
+    if (stop_at_two && agree(times) && (!same_as_device || agree(device_times))) break;
     if (same_as_device) {
       double d = 0;
       if (!device_once(n, &d)) return false;
@@ -616,12 +633,17 @@ bool Driver::Time(const std::string &path, const glint::v1::EvaluateRequest &req
     if (!once(n, &t)) return false;
     times.push_back(t);
   }
-  std::sort(times.begin(), times.end());
-  std::sort(device_times.begin(), device_times.end());
-  row->evals_per_s = n / times[times.size() / 2];
-  row->spread = times.back() / times.front() - 1;
-  if (!device_times.empty())
-    row->ratio_to_device = device_times[device_times.size() / 2] / times[times.size() / 2];
+  // The median, or with two runs that ended the repeats (stop_at_two) their mean.
+  auto middle = [&](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return stop_at_two && v.size() == 2 ? 0.5 * (v[0] + v[1]) : v[v.size() / 2];
+  };
+  row->evals_per_s = n / middle(times);
+  row->spread = *std::max_element(times.begin(), times.end()) /
+                    *std::min_element(times.begin(), times.end()) -
+                1;
+  row->runs = int(times.size());
+  if (!device_times.empty()) row->ratio_to_device = middle(device_times) / middle(times);
   row->batch = n;
   return true;
 }
@@ -1097,7 +1119,8 @@ void Driver::Run() {
           same ? "; timing shared with " + same->variant + " (bit-identical radiance)" : "";
       char spread[48] = "";
       if (std::isfinite(row.spread))
-        std::snprintf(spread, sizeof spread, ", runs spread %.1f%%", 100 * row.spread);
+        std::snprintf(spread, sizeof spread, ", %d runs, spread %.1f%%", row.runs,
+                      100 * row.spread);
       std::fprintf(stderr, "%s %s %s %s %s: %.4g evals/s (batch %u%s)%s%s; row %.2f s\n",
                    row.model.c_str(), row.variant.c_str(), row.lights.c_str(),
                    row.precision.c_str(), path, row.evals_per_s, row.batch, spread, vs_device,

@@ -1,8 +1,10 @@
 #include "tools/area_auto/area_auto_fit.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
+#include <mutex>
 #include <thread>
 
 #include "kernels/area/area_auto_features.h"
@@ -57,6 +59,114 @@ std::vector<Sample> Measure(const std::vector<Config> &configs, int threads) {
   std::vector<Sample> all;
   for (auto &s : per) all.insert(all.end(), s.begin(), s.end());
   return all;
+}
+
+namespace {
+
+// The truths consistent with a cached error e of a result x (RelativeError's two branches and
+// the sign of x - T); NaN where a branch has none.
+std::array<double, 4> TruthsFromError(double x, double e) {
+  const double nan = std::nan("");
+  std::array<double, 4> t = {x / (1 + e), e < 1 ? x / (1 - e) : nan, x - e * kFloor,
+                             x + e * kFloor};
+  for (int i = 0; i < 4; ++i) {
+    const bool above = i < 2;
+    if (!(std::isfinite(t[size_t(i)]) && t[size_t(i)] >= 0 &&
+          (above ? t[size_t(i)] >= kFloor : t[size_t(i)] < kFloor)))
+      t[size_t(i)] = nan;
+  }
+  return t;
+}
+
+// A cached float error e reproduced by a result x and a recovered truth: to e's float rounding
+// (2^-24 relative) plus the truth's, recovered from the smallest error e_best: T (1 +- e_best) =
+// x leaves T 2^-24 e_best / (1 - e_best) off (relative; e_best 2^-24 kFloor absolute below the
+// floor), which moves |x - T| / T by (1 + e) times that; ~10x margin on both.
+bool Reproduces(double x, double truth, float e, float e_best) {
+  const double now = std::min(RelativeError(x, truth), 1e30);
+  const double eb = double(e_best), ek = double(e);
+  return std::fabs(now - ek) <= 6e-7 * (ek + (1 + ek) * eb / std::max(1 - eb, 1e-3)) + 1e-15;
+}
+
+}  // namespace
+
+std::vector<Sample> Remeasure(const std::vector<Config> &configs, const std::vector<Sample> &old,
+                              const std::vector<int> &which, int threads, int verify_every,
+                              RemeasureStats *stats) {
+  bool redo[kCandidates] = {};
+  for (int k : which) redo[k] = true;
+  std::vector<size_t> offset(configs.size() + 1, 0);
+  for (size_t i = 0; i < configs.size(); ++i) offset[i + 1] = offset[i] + configs[i].wo.size();
+  std::vector<Sample> out(old);
+  std::mutex mu;
+  std::atomic<size_t> next{0};
+  auto work = [&] {
+    for (size_t i; (i = next.fetch_add(1)) < configs.size();) {
+      const Config &c = configs[i];
+      const size_t nv = c.wo.size();
+      std::vector<std::vector<double>> x(kCandidates);
+      for (int k = 0; k < kCandidates; ++k)
+        x[size_t(k)] = HostRed(MakeRequest(c, CandidateMethod(k), CandidateSamples(k), 1));
+      std::vector<double> truth(nv, std::nan(""));
+      for (size_t v = 0; v < nv; ++v) {
+        const Sample &o = old[offset[i] + v];
+        int best = -1;  // the usable unchanged candidate of smallest cached error
+        int usable = 0;
+        for (int k = 0; k < kCandidates; ++k) {
+          if (redo[k] || !std::isfinite(x[size_t(k)][v]) || !(o.error[k] < 1e29f)) continue;
+          ++usable;
+          if (best < 0 || o.error[k] < o.error[best]) best = k;
+        }
+        if (usable < 2) continue;
+        int found = 0;
+        double pick = 0;
+        for (double t : TruthsFromError(x[size_t(best)][v], double(o.error[best]))) {
+          if (!std::isfinite(t)) continue;
+          bool all = true;
+          for (int k = 0; k < kCandidates && all; ++k)
+            if (!redo[k] && k != best && std::isfinite(x[size_t(k)][v]) && o.error[k] < 1e29f)
+              all = Reproduces(x[size_t(k)][v], t, o.error[k], o.error[best]);
+          if (!all) continue;
+          // Two branches within 1e-7 (e_best < 5e-8) are one solution for the errors' purpose.
+          if (found > 0 && std::fabs(t - pick) <= 1e-7 * std::max(t, kFloor)) continue;
+          ++found;
+          pick = t;
+        }
+        if (found == 1) truth[v] = pick;
+      }
+      bool missing = false;
+      for (double t : truth) missing |= !std::isfinite(t);
+      const bool verify = verify_every > 0 && i % size_t(verify_every) == 0;
+      std::vector<double> exact;
+      if (missing || verify) exact = Truth(c);
+      double deviation = 0;
+      size_t recovered = 0;
+      for (size_t v = 0; v < nv; ++v) {
+        if (std::isfinite(truth[v])) {
+          ++recovered;
+          if (verify)
+            deviation =
+                std::max(deviation, std::fabs(truth[v] - exact[v]) / std::max(exact[v], kFloor));
+        } else {
+          truth[v] = exact[v];
+        }
+        Sample &s = out[offset[i] + v];
+        for (int k = 0; k < kCandidates; ++k)
+          if (redo[k]) s.error[k] = float(std::min(RelativeError(x[size_t(k)][v], truth[v]), 1e30));
+      }
+      std::lock_guard<std::mutex> lock(mu);
+      stats->recovered += recovered;
+      stats->integrated += nv - recovered;
+      if (verify) {
+        stats->verified += recovered;
+        stats->max_deviation = std::max(stats->max_deviation, deviation);
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 0; t < std::max(1, threads); ++t) pool.emplace_back(work);
+  for (auto &t : pool) t.join();
+  return out;
 }
 
 float Quantile(std::vector<float> v, double q) {

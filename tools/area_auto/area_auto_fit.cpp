@@ -64,29 +64,35 @@ std::vector<Sample> Measure(const std::vector<Config> &configs, int threads) {
 namespace {
 
 // The truths consistent with a cached error e of a result x (RelativeError's two branches and
-// the sign of x - T); NaN where a branch has none.
-std::array<double, 4> TruthsFromError(double x, double e) {
-  const double nan = std::nan("");
-  std::array<double, 4> t = {x / (1 + e), e < 1 ? x / (1 - e) : nan, x - e * kFloor,
-                             x + e * kFloor};
+// the sign of x - T), NaN where a branch has none, each with its conditioning: the relative
+// uncertainty (of max(T, kFloor)) that e's float rounding (2^-24 relative) leaves in it:
+// 2^-24 e / (1 +- e) above the floor (x / (1 - e) is ill-conditioned as e -> 1: a result ~0),
+// 2^-24 e below it.
+struct Solution {
+  double t, u;
+};
+std::array<Solution, 4> TruthsFromError(double x, double e) {
+  const double nan = std::nan(""), r = 6e-8;
+  std::array<Solution, 4> s = {Solution{x / (1 + e), r * e / (1 + e)},
+                               Solution{e < 1 ? x / (1 - e) : nan, r * e / (1 - e)},
+                               Solution{x - e * kFloor, r * e}, Solution{x + e * kFloor, r * e}};
   for (int i = 0; i < 4; ++i) {
-    const bool above = i < 2;
-    if (!(std::isfinite(t[size_t(i)]) && t[size_t(i)] >= 0 &&
-          (above ? t[size_t(i)] >= kFloor : t[size_t(i)] < kFloor)))
-      t[size_t(i)] = nan;
+    const double t = s[size_t(i)].t;
+    if (!(std::isfinite(t) && t >= 0 && (i < 2 ? t >= kFloor : t < kFloor))) s[size_t(i)].t = nan;
   }
-  return t;
+  return s;
 }
 
-// A cached float error e reproduced by a result x and a recovered truth: to e's float rounding
-// (2^-24 relative) plus the truth's, recovered from the smallest error e_best: T (1 +- e_best) =
-// x leaves T 2^-24 e_best / (1 - e_best) off (relative; e_best 2^-24 kFloor absolute below the
-// floor), which moves |x - T| / T by (1 + e) times that; ~10x margin on both.
-bool Reproduces(double x, double truth, float e, float e_best) {
-  const double now = std::min(RelativeError(x, truth), 1e30);
-  const double eb = double(e_best), ek = double(e);
-  return std::fabs(now - ek) <= 6e-7 * (ek + (1 + ek) * eb / std::max(1 - eb, 1e-3)) + 1e-15;
+// A cached float error e reproduced by a result x and a truth recovered with uncertainty u: to
+// e's float rounding plus u moving |x - T| / T by (1 + e) u; 10x margin.
+bool Reproduces(double x, double truth, float e, double u) {
+  const double now = std::min(RelativeError(x, truth), 1e30), ek = double(e);
+  return std::fabs(now - ek) <= 10 * (6e-8 * ek + (1 + ek) * u) + 1e-15;
 }
+
+// Recovered truths must be good to this (relative): errors computed against them are then off
+// by at most ~1e-7, far below the fingerprint test's 3e-4 and the smallest budget (5e-3).
+constexpr double kMaxUncertainty = 1e-7;
 
 }  // namespace
 
@@ -110,29 +116,34 @@ std::vector<Sample> Remeasure(const std::vector<Config> &configs, const std::vec
       std::vector<double> truth(nv, std::nan(""));
       for (size_t v = 0; v < nv; ++v) {
         const Sample &o = old[offset[i] + v];
-        int best = -1;  // the usable unchanged candidate of smallest cached error
-        int usable = 0;
+        // Every well-conditioned solution of every usable unchanged candidate that reproduces
+        // all the other usable candidates' cached errors; they must agree (one truth), and the
+        // best-conditioned is kept. None, or two apart (e.g. equal results, which cannot tell
+        // the sign), leaves the query to the integration.
+        auto usable = [&](int k) {
+          return !redo[k] && std::isfinite(x[size_t(k)][v]) && o.error[k] < 1e29f;
+        };
+        int n_usable = 0;
+        for (int k = 0; k < kCandidates; ++k) n_usable += usable(k);
+        if (n_usable < 2) continue;
+        Solution pick = {std::nan(""), 1.0};
+        bool ambiguous = false;
         for (int k = 0; k < kCandidates; ++k) {
-          if (redo[k] || !std::isfinite(x[size_t(k)][v]) || !(o.error[k] < 1e29f)) continue;
-          ++usable;
-          if (best < 0 || o.error[k] < o.error[best]) best = k;
+          if (!usable(k)) continue;
+          for (const Solution &sol : TruthsFromError(x[size_t(k)][v], double(o.error[k]))) {
+            if (!std::isfinite(sol.t) || sol.u > kMaxUncertainty) continue;
+            bool all = true;
+            for (int j = 0; j < kCandidates && all; ++j)
+              if (j != k && usable(j)) all = Reproduces(x[size_t(j)][v], sol.t, o.error[j], sol.u);
+            if (!all) continue;
+            if (std::isfinite(pick.t) &&
+                std::fabs(sol.t - pick.t) >
+                    (10 * (sol.u + pick.u) + kMaxUncertainty) * std::max(pick.t, kFloor))
+              ambiguous = true;
+            if (!std::isfinite(pick.t) || sol.u < pick.u) pick = sol;
+          }
         }
-        if (usable < 2) continue;
-        int found = 0;
-        double pick = 0;
-        for (double t : TruthsFromError(x[size_t(best)][v], double(o.error[best]))) {
-          if (!std::isfinite(t)) continue;
-          bool all = true;
-          for (int k = 0; k < kCandidates && all; ++k)
-            if (!redo[k] && k != best && std::isfinite(x[size_t(k)][v]) && o.error[k] < 1e29f)
-              all = Reproduces(x[size_t(k)][v], t, o.error[k], o.error[best]);
-          if (!all) continue;
-          // Two branches within 1e-7 (e_best < 5e-8) are one solution for the errors' purpose.
-          if (found > 0 && std::fabs(t - pick) <= 1e-7 * std::max(t, kFloor)) continue;
-          ++found;
-          pick = t;
-        }
-        if (found == 1) truth[v] = pick;
+        if (!ambiguous) truth[v] = pick.t;
       }
       bool missing = false;
       for (double t : truth) missing |= !std::isfinite(t);

@@ -145,11 +145,19 @@ std::vector<Sample> Remeasure(const std::vector<Config> &configs, const std::vec
         }
         if (!ambiguous) truth[v] = pick.t;
       }
-      bool missing = false;
-      for (double t : truth) missing |= !std::isfinite(t);
+      // The integration (Truth, view by view independent) of the views left without a
+      // recovered truth, or of all of a verified light's.
       const bool verify = verify_every > 0 && i % size_t(verify_every) == 0;
-      std::vector<double> exact;
-      if (missing || verify) exact = Truth(c);
+      std::vector<double> exact(nv, std::nan(""));
+      Config todo = c;
+      todo.wo.clear();
+      for (size_t v = 0; v < nv; ++v)
+        if (verify || !std::isfinite(truth[v])) todo.wo.push_back(c.wo[v]);
+      if (!todo.wo.empty()) {
+        const std::vector<double> t = Truth(todo);
+        for (size_t v = 0, n = 0; v < nv; ++v)
+          if (verify || !std::isfinite(truth[v])) exact[v] = t[n++];
+      }
       double deviation = 0;
       size_t recovered = 0;
       for (size_t v = 0; v < nv; ++v) {

@@ -116,10 +116,12 @@ std::vector<Sample> Remeasure(const std::vector<Config> &configs, const std::vec
       std::vector<double> truth(nv, std::nan(""));
       for (size_t v = 0; v < nv; ++v) {
         const Sample &o = old[offset[i] + v];
-        // Every well-conditioned solution of every usable unchanged candidate that reproduces
-        // all the other usable candidates' cached errors; they must agree (one truth), and the
-        // best-conditioned is kept. None, or two apart (e.g. equal results, which cannot tell
-        // the sign), leaves the query to the integration.
+        // Every solution of every usable unchanged candidate that reproduces all the other
+        // usable candidates' cached errors; they must agree (one truth), and the
+        // best-conditioned is kept if well conditioned. None, or two apart, leaves the query to
+        // the integration: e.g. equal results cannot tell the sign, and a result 0 (error 1 for
+        // any truth above the floor) tells nothing, so an ill-conditioned x / (1 - e) of another
+        // candidate that also reproduces it makes the query ambiguous.
         auto usable = [&](int k) {
           return !redo[k] && std::isfinite(x[size_t(k)][v]) && o.error[k] < 1e29f;
         };
@@ -131,7 +133,7 @@ std::vector<Sample> Remeasure(const std::vector<Config> &configs, const std::vec
         for (int k = 0; k < kCandidates; ++k) {
           if (!usable(k)) continue;
           for (const Solution &sol : TruthsFromError(x[size_t(k)][v], double(o.error[k]))) {
-            if (!std::isfinite(sol.t) || sol.u > kMaxUncertainty) continue;
+            if (!std::isfinite(sol.t)) continue;
             bool all = true;
             for (int j = 0; j < kCandidates && all; ++j)
               if (j != k && usable(j)) all = Reproduces(x[size_t(j)][v], sol.t, o.error[j], sol.u);
@@ -143,7 +145,7 @@ std::vector<Sample> Remeasure(const std::vector<Config> &configs, const std::vec
             if (!std::isfinite(pick.t) || sol.u < pick.u) pick = sol;
           }
         }
-        if (!ambiguous) truth[v] = pick.t;
+        if (!ambiguous && pick.u <= kMaxUncertainty) truth[v] = pick.t;
       }
       // The integration (Truth, view by view independent) of the views left without a
       // recovered truth, or of all of a verified light's.

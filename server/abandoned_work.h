@@ -20,8 +20,11 @@ namespace glint {
 
 struct AbandonedCounts {
   uint64_t cancelled = 0;  // the client cancelled the call (or went away)
-  uint64_t deadline = 0;   // the call's deadline passed
-  uint64_t shutdown = 0;   // cancelled by the server after --shutdown-grace
+  // The call's deadline passed, as the server saw it. A client whose own deadline expires
+  // first sends a cancellation, which reaches the server before (or at) the server's deadline
+  // for the call: work stopped by it counts as cancelled.
+  uint64_t deadline = 0;
+  uint64_t shutdown = 0;  // cancelled by the server after --shutdown-grace
 };
 
 class AbandonedWork {

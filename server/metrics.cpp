@@ -197,7 +197,8 @@ std::string Metrics::Render() const {
     const AbandonedCounts a = abandoned_();
     Header("glint_abandoned_queries_total", "counter",
            "Queries not computed because nobody waited for them any more, by reason: cancelled "
-           "(the client cancelled the call or went away), deadline (the call's deadline passed), "
+           "(the client cancelled the call or went away, or gave up at its own deadline first), "
+           "deadline (the server saw the call's deadline pass), "
            "shutdown (cancelled after --shutdown-grace). Counted where the work stopped: between "
            "query slices, or when a queued call was dropped before it started.",
            &out);

@@ -344,6 +344,8 @@ TEST(MetricsEndToEnd, BadListenAddressIsRefusedAtStart) {
   EXPECT_NE(error.find("--metrics-listen 127.0.0.1:notaport: expected HOST:PORT"),
             std::string::npos)
       << error;
+  // The start-up wait ended when glintd exited, and says how (tests/support/glintd_process.h).
+  EXPECT_NE(error.find("glintd exited before SERVING (exit status 1)"), std::string::npos) << error;
 }
 
 }  // namespace

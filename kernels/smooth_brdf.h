@@ -60,11 +60,14 @@ GLINT_FN SmoothReflect smooth_reflect_cos_parts(SmoothMaterial m, real3 wi, real
     return r;
   }
   h = r3_scale(h, GLINT_R(1.0) / glint_select(h_len, GLINT_R(1.0), dead)); /* 1 division, not 3 */
+  /* D is returned for callers that reuse it (the SMOOTH kernels do not: the compiler drops it). */
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
-  /* V cos_i in one piece: V alone overflows fp32 at cosines ~1e-36 (see ndf.h). */
-  real V_cos_i = smith_visibility_cos_i(m.ndf, wo, wi, m.alpha_x, m.alpha_y);
+  /* D V cos_i: V alone overflows fp32 at cosines ~1e-36 (see ndf.h); GGX in one division. */
+  real DV_cos_i = m.ndf == GLINT_NDF_BECKMANN
+                      ? D * smith_visibility_cos_i(m.ndf, wo, wi, m.alpha_x, m.alpha_y)
+                      : ggx_D_visibility_cos_i(h, wo, wi, m.alpha_x, m.alpha_y);
   real3 F = fresnel_eval(m.fresnel, r3_dot(wo, h));
-  r.fc = r3_select(r3_scale(F, D * V_cos_i), zero, dead);
+  r.fc = r3_select(r3_scale(F, DV_cos_i), zero, dead);
   r.h = h;
   r.D = D;
   return r;

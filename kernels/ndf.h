@@ -145,8 +145,8 @@ GLINT_FN real ggx_D_visibility_cos_i(real3 h, real3 wo, real3 wi, real alpha_x, 
   real xi = alpha_x * wi.x, yi = alpha_y * wi.y;
   real zo = glint_fmax_nn(wo.z, GLINT_R(0.0));
   real zi = glint_fmax_nn(wi.z, GLINT_R(0.0));
-  real r_o = sqrt(zo * zo + (xo * xo + yo * yo));
-  real r_i = sqrt(zi * zi + (xi * xi + yi * yi));
+  real r_o = glint_sqrt_nn(zo * zo + (xo * xo + yo * yo));
+  real r_i = glint_sqrt_nn(zi * zi + (xi * xi + yi * yi));
   real denom = GLINT_R(2.0) * GLINT_PI * alpha_x * alpha_y * q * q * (r_o * zi + zo * r_i);
   return glint_select(GLINT_R(0.0), zi / denom, denom > GLINT_R(0.0));
 }

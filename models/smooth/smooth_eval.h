@@ -22,17 +22,13 @@
 GLINT_FN real3 smooth_shade(EvalSpec spec, KernelInputs in, QueryInputs q) {
   SmoothMaterial m = smooth_material_unpack(in.material, spec.ndf, spec.fresnel);
   if (spec.probe) {
-    /* Probes normalise both directions by one reciprocal of the product of their lengths:
-     * wo / |wo| = wo (|wi| / (|wi| |wo|)), one division and seven products instead of two
-     * divisions (within ~2.5 ulp per component instead of 0.5; the probe kernel is bound by its
-     * divider, which every division and square root of a 16-lane block queues on, issue 13).
-     * Validation admits lengths within 1e-3 of 1, so the product neither overflows nor
-     * underflows. */
-    real len_o = r3_length(q.wo);
-    real len_i = r3_length(q.wi);
-    real inv = GLINT_R(1.0) / (len_o * len_i);
-    ShadingPoint sp = shading_point_unit(spec, q, r3_scale(q.wo, len_i * inv));
-    real3 wi = shading_to_local(spec, sp, r3_scale(q.wi, len_o * inv));
+    /* Probes normalise both directions by a reciprocal square root each (no division: the
+     * probe kernel is bound by its divider, which every division and square root of a 16-lane
+     * block queues on, issue 13; kernels/compat.h glint_rsqrt_nn). Validation admits lengths
+     * within 1e-3 of 1. */
+    ShadingPoint sp =
+        shading_point_unit(spec, q, r3_scale(q.wo, glint_rsqrt_nn(r3_dot(q.wo, q.wo))));
+    real3 wi = shading_to_local(spec, sp, r3_scale(q.wi, glint_rsqrt_nn(r3_dot(q.wi, q.wi))));
     return smooth_reflect_cos(m, wi, sp.wo);
   }
   ShadingPoint sp = shading_point(spec, q);

@@ -303,8 +303,7 @@ GLINT_FN real3 normalize(real3 a) {
  * 6 divisions per block kept it busy for most of the block (issue 13); the estimate is a
  * pipelined 2-cycle instruction. Elsewhere (host, fp64, 8 lanes) they are sqrt and 1 / sqrt:
  * device and host then differ by these few ulp, inside the device-vs-host tolerance. */
-#if defined(__OPENCL_VERSION__) && GLINT_LANES == 16 && !GLINT_USE_DOUBLE && \
-    defined(__AVX512F__)
+#if defined(__OPENCL_VERSION__) && GLINT_LANES == 16 && !GLINT_USE_DOUBLE && defined(__AVX512F__)
 GLINT_FN real glint_rsqrt_est(real x) {
   real r = __builtin_ia32_rsqrt14ps512_mask(x, (real)(0.0f), (ushort)0xFFFF);
   return r * (GLINT_R(1.5) - GLINT_R(0.5) * x * r * r);

@@ -129,9 +129,10 @@ GLINT_FN real smith_visibility_cos_i_ggx(real3 wo, real3 wi, real alpha_x, real 
 
 /* D(h) V cos_i for GGX in one division, the product smooth_reflect_cos needs: with q and r_o, r_i
  * as in D_ggx_aniso and smith_visibility_cos_i_ggx above,
- *   D V zi = 1 / (pi ax ay q^2) * zi / (2 (r_o zi + zo r_i)) = zi / (2 pi ax ay q^2 (r_o zi + zo r_i)),
- * one division where the two functions take three (the kernel's divider, shared by every division
- * and square root of a 16-lane block, is its busiest unit: issue 13). Range (documented cosines
+ *   D V zi = 1 / (pi ax ay q^2) * zi / (2 (r_o zi + zo r_i)) = zi / (2 pi ax ay q^2 (r_o zi + zo
+ * r_i)), one division where the two functions take three (the kernel's divider, shared by every
+ * division and square root of a 16-lane block, is its busiest unit: issue 13). Range (documented
+ * cosines
  * >= 1e-7, alpha in [1e-4, 1]): for a unit h, 1 <= q <= 1e8, and zo zi <= r_o zi + zo r_i <= 3,
  * so the denominator stays in [6e-22, 2e17], far inside fp32: no overflow or subnormal where the
  * separate factors had none. For a subnormal zi the separate form gave 0 (r_i / zi overflowed);

@@ -130,6 +130,7 @@ using std::logb;
 using std::pow;
 using std::sin;
 using std::sqrt;
+using std::tan;
 
 typedef unsigned int uint;
 

@@ -33,8 +33,14 @@ GLINT_FN SmoothMaterial smooth_material_unpack(const GLINT_GLOBAL float *packed,
 /* smooth_reflect_cos with its unit half-vector h and D(h), for callers that
  * reuse them (the glint models' D_star = D S: models/kemppinen/kemppinen_eval.h
  * would otherwise normalise h and evaluate D a second time per light). In
- * lanes where `fc` is 0 because a direction is at or below the horizon, h is
- * wi + wo unnormalised (finite) and D its value; callers drop those lanes.
+ * lanes where `fc` is 0 because a direction is at or below the horizon (dead
+ * lanes), h is wi + wo unnormalised (finite, 0 when wi = -wo) and D is ndf_D
+ * of that h, which need NOT be finite: with wi on the horizon and wo grazing,
+ * h is a tiny near-vertical vector, GGX's q^2 underflows (fp32) and D is
+ * +Inf. fc itself is selected to 0 in those lanes, every operation is per
+ * lane, and callers select the lanes away (kemppinen_reflect_at by its `live`
+ * mask), so a dead lane's D never reaches a live result; a caller that uses D
+ * must not combine lanes before dropping the dead ones.
  * Directions are unit vectors in the local frame (see smooth_reflect_cos). */
 typedef struct {
   real3 fc; /* f(wi, wo) cos(theta_i), RGB */
@@ -47,7 +53,8 @@ GLINT_FN SmoothReflect smooth_reflect_cos_parts(SmoothMaterial m, real3 wi, real
   real3 h = r3_add(wi, wo);
   real hh = r3_dot(h, h);
   /* Branch-free: every lane computes, dead ones (either direction at or below
-   * the horizon, or wi = -wo) use |h| = 1 to stay finite and give 0. */
+   * the horizon, or wi = -wo) use |h| = 1 so that h stays finite, and give
+   * fc = 0 (their D may be +Inf: see SmoothReflect). */
   glint_mask dead = (wi.z <= GLINT_R(0.0)) | (wo.z <= GLINT_R(0.0)) | !(hh > GLINT_R(0.0));
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   /* No lane live: skip the rest (host: the early return). On the device this

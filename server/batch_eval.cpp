@@ -79,7 +79,10 @@ Status EvaluateBatched(DeviceEngine *engine, int worker, const EvalPlan &plan,
   uint64_t total = 0;
   for (BatchPart &p : *parts) {
     p.status = p.stop ? p.stop() : Status::Ok();
-    if (!p.status.ok()) continue;  // expired or cancelled while queued: never started
+    if (!p.status.ok()) {  // expired or cancelled while queued: never started
+      if (slicing.on_stop) slicing.on_stop(p.status, p.queries->count());
+      continue;
+    }
     live.push_back(&p);
     total += p.queries->count();
   }

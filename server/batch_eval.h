@@ -65,7 +65,9 @@ double BatchPerQueryCost(const glint::v1::EvaluateRequest &settings,
 // `slicing.stop` (the server's reason, e.g. shutdown) fails or every part has stopped; a part
 // that stops while the others go on gets its stop status and no result. Returns the launch's
 // status (not OK: the device failed, slicing.stop stopped it, or every part stopped); each
-// part's own outcome is in its status.
+// part's own outcome is in its status. slicing.on_stop hears of every query not computed: a
+// part left out before the launch (all its queries), and the rest of a launch that stopped (a
+// part that stops while the others go on was computed, so it is not reported).
 Status EvaluateBatched(DeviceEngine *engine, int worker, const EvalPlan &plan,
                        std::vector<BatchPart> *parts, const SliceOptions &slicing,
                        BatchStats *stats = nullptr);

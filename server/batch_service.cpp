@@ -83,7 +83,7 @@ std::vector<Scheduler::Respond> GlintServiceImpl::RunEvaluateBatch(
       // per-query cost in Evaluate's handler).
       slicing.per_query_cost = BatchPerQueryCost(*first, parts);
       slicing.target_ms = options_.slice_ms;
-      slicing.stop = [this] { return StopReason(nullptr); };
+      StopSlicesFor(nullptr, &slicing);  // the server's reason; each part has its own
       EvaluateBatched(engine_, worker, plan, &parts, slicing, &stats);
     }
     for (size_t k = 0; k < parts.size(); ++k)

@@ -349,7 +349,7 @@ grpc::ServerUnaryReactor *KServeServiceImpl::ModelInfer(grpc::CallbackServerCont
         return [reactor, st] { reactor->Finish(ToGrpcStatus(st)); };
       },
       nullptr,
-      glint_->DeadCall(ctx, "ModelInfer model=" + model->name,
+      glint_->DeadCall(ctx, "ModelInfer model=" + model->name, rows,
                        [this, reactor, model_index, received](const Status &st) {
                          Timings t;
                          t.total_ns = NsBetween(received, Clock::now());

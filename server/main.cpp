@@ -359,6 +359,8 @@ int main(int argc, char **argv) {
   builder.RegisterService(&kserve);
   builder.RegisterService(&health);
   ops.Configure(&builder, &scheduler, engine.get());
+  if (glint::Metrics *metrics = ops.metrics())
+    metrics->SetAbandonedSource([&service] { return service.abandoned().counts(); });
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   if (!server || port == 0) {
     std::fprintf(stderr, "glintd: could not listen on %s\n", flags.listen.c_str());
@@ -464,6 +466,14 @@ int main(int argc, char **argv) {
   }
   server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(1));
   shm_regions.Clear();
-  std::fprintf(stderr, "glintd: stopped after %.2f s\n", since());
+  // The abandoned-work count (server/abandoned_work.h) in the last line, also without /metrics:
+  // how much work this replica's shutdown (and its clients) gave up.
+  const glint::AbandonedCounts abandoned = service.abandoned().counts();
+  std::fprintf(stderr,
+               "glintd: stopped after %.2f s; queries abandoned: %llu cancelled, %llu deadline, "
+               "%llu shutdown\n",
+               since(), static_cast<unsigned long long>(abandoned.cancelled),
+               static_cast<unsigned long long>(abandoned.deadline),
+               static_cast<unsigned long long>(abandoned.shutdown));
   return 0;
 }

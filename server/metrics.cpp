@@ -134,6 +134,11 @@ void Metrics::SetProgramCacheSource(std::function<ProgramCacheCounts()> source) 
   program_cache_ = std::move(source);
 }
 
+void Metrics::SetAbandonedSource(std::function<AbandonedCounts()> source) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  abandoned_ = std::move(source);
+}
+
 std::string Metrics::Render() const {
   std::lock_guard<std::mutex> lock(mutex_);
   std::string out;
@@ -187,6 +192,19 @@ std::string Metrics::Render() const {
         "glint_program_cache_lookups_total{result=\"memory_hit\"} " + Value(c.memory_hits) + "\n";
     out += "glint_program_cache_lookups_total{result=\"disk_hit\"} " + Value(c.disk_hits) + "\n";
     out += "glint_program_cache_lookups_total{result=\"compiled\"} " + Value(c.compiled) + "\n";
+  }
+  if (abandoned_) {
+    const AbandonedCounts a = abandoned_();
+    Header("glint_abandoned_queries_total", "counter",
+           "Queries not computed because nobody waited for them any more, by reason: cancelled "
+           "(the client cancelled the call or went away, or gave up at its own deadline first), "
+           "deadline (the server saw the call's deadline pass), "
+           "shutdown (cancelled after --shutdown-grace). Counted where the work stopped: between "
+           "query slices, or when a queued call was dropped before it started.",
+           &out);
+    out += "glint_abandoned_queries_total{reason=\"cancelled\"} " + Value(a.cancelled) + "\n";
+    out += "glint_abandoned_queries_total{reason=\"deadline\"} " + Value(a.deadline) + "\n";
+    out += "glint_abandoned_queries_total{reason=\"shutdown\"} " + Value(a.shutdown) + "\n";
   }
   return out;
 }

@@ -18,6 +18,8 @@
 #include <tuple>
 #include <vector>
 
+#include "server/abandoned_work.h"
+
 namespace glint {
 
 // Cumulative histogram with fixed upper bounds (seconds), as Prometheus defines it: bucket i
@@ -60,6 +62,8 @@ class Metrics {
   // Read at scrape time. Unset sources are left out of the output.
   void SetQueueDepthSource(std::function<double()> depth, double capacity);
   void SetProgramCacheSource(std::function<ProgramCacheCounts()> source);
+  // glint_abandoned_queries_total{reason}: the service's AbandonedWork (server/abandoned_work.h).
+  void SetAbandonedSource(std::function<AbandonedCounts()> source);
 
   // The whole exposition, HELP and TYPE lines included.
   std::string Render() const;
@@ -75,6 +79,7 @@ class Metrics {
   std::function<double()> queue_depth_;
   double queue_capacity_ = 0.0;
   std::function<ProgramCacheCounts()> program_cache_;
+  std::function<AbandonedCounts()> abandoned_;
 };
 
 // The latency buckets (seconds) of both histograms: 100 us to 60 s, roughly x2.5 apart, so a

@@ -64,7 +64,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Sample(grpc::CallbackServerContext *
         // In query slices, stopping between them for cancellation, deadline or shutdown.
         SliceOptions slicing;
         slicing.target_ms = options_.slice_ms;
-        slicing.stop = [this, ctx] { return StopReason(ctx); };
+        StopSlicesFor(ctx, &slicing);
         double compile_ms = 0;
         Status st =
             RunSample(engine_, worker, *request, options_.limits, response, &slicing, &compile_ms);
@@ -93,6 +93,7 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Sample(grpc::CallbackServerContext *
       },
       nullptr,
       DeadCall(ctx, "Sample n=" + std::to_string(request->queries().count()),
+               request->queries().count(),
                [reactor](const Status &st) { reactor->Finish(ToGrpcStatus(st)); }));
   if (!queued) {
     Status busy = OverloadStatus(*scheduler_);

@@ -175,10 +175,19 @@ Status GlintServiceImpl::StopReason(grpc::CallbackServerContext *ctx) const {
         "server shutting down: work in flight cancelled after "
         "--shutdown-grace; retry on another replica");
   if (!ctx) return Status::Ok();
-  if (ctx->IsCancelled()) return Status::Cancelled("the client cancelled the call");
+  // The deadline first: gRPC also marks a call whose deadline passed as cancelled, and the
+  // abandoned-work count (server/abandoned_work.h) should say which it was.
   if (ctx->deadline() <= std::chrono::system_clock::now())
     return Status::DeadlineExceeded("the call's deadline passed before its work finished");
+  if (ctx->IsCancelled()) return Status::Cancelled("the client cancelled the call");
   return Status::Ok();
+}
+
+void GlintServiceImpl::StopSlicesFor(grpc::CallbackServerContext *ctx, SliceOptions *slicing) {
+  slicing->stop = [this, ctx] { return StopReason(ctx); };
+  slicing->on_stop = [this](const Status &stop, uint32_t not_run) {
+    abandoned_.Count(stop, not_run);
+  };
 }
 
 Status GlintServiceImpl::RunBatch(int worker, const glint::v1::EvaluateRequest &settings,
@@ -217,7 +226,7 @@ Status GlintServiceImpl::RunBatchInto(int worker, const glint::v1::EvaluateReque
   SliceOptions slicing;
   slicing.per_query_cost = EstimateQueriesCost(settings, queries, first_query).per_query;
   slicing.target_ms = options_.slice_ms;
-  slicing.stop = [this, ctx] { return StopReason(ctx); };
+  StopSlicesFor(ctx, &slicing);
   s = EvaluateSliced(engine_, worker, plan, queries, out, slicing);
   stats->set_compute_ms(MsSince(start));
   stats->set_device(DeviceName());
@@ -315,7 +324,10 @@ grpc::ServerUnaryReactor *GlintServiceImpl::Evaluate(grpc::CallbackServerContext
         return [reactor, st] { reactor->Finish(ToGrpcStatus(st)); };
       },
       std::move(member),
-      DeadCall(ctx, "Evaluate n=" + std::to_string(request->queries().count()), finish));
+      DeadCall(ctx, "Evaluate n=" + std::to_string(request->queries().count()),
+               request->has_shared_memory() ? request->shared_memory().count()
+                                            : request->queries().count(),
+               finish));
   if (!queued) {
     Status busy = OverloadStatus(*scheduler_);
     LogLine("Evaluate n=" + std::to_string(request->queries().count()) + " " + busy.message());
@@ -540,6 +552,7 @@ class GlintServiceImpl::StreamReactor
     Scheduler::Dead dead = [this, chunk]() -> Scheduler::Respond {
       Status reason = service_->StopReason(ctx_);
       if (reason.ok()) return {};
+      service_->abandoned().Count(reason, chunk->message.request().queries().count());
       return Answered(chunk, ChunkStatus(chunk->index, reason), grpc::ByteBuffer());
     };
     return service_->scheduler().TrySubmit(

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "glint/v1/glint.grpc.pb.h"
+#include "server/abandoned_work.h"
 #include "server/auth.h"
 #include "server/delivery_budget.h"
 #include "server/device_engine.h"
@@ -19,6 +20,7 @@
 #include "server/request_cost.h"
 #include "server/scheduler.h"
 #include "server/shm_regions.h"
+#include "server/sliced_eval.h"
 #include "server/validation.h"
 
 namespace glint {
@@ -137,11 +139,18 @@ class GlintServiceImpl final : public GlintRawService {
   Status ShutdownStatus() const;
   // Why work for `ctx` must stop now (OK: go on).
   Status StopReason(grpc::CallbackServerContext *ctx) const;
+  // Sets `slicing`'s stop check to StopReason(ctx) and counts the queries a stop leaves
+  // uncomputed as abandoned work (abandoned()).
+  void StopSlicesFor(grpc::CallbackServerContext *ctx, SliceOptions *slicing);
   // The scheduler's Dead check (server/scheduler.h) of a job answering `ctx`: once StopReason
   // fails while the job is queued, the job is dropped without running, `finish` answers with
-  // that status, and the line "<what> dropped from the queue: <reason>" is logged.
-  Scheduler::Dead DeadCall(grpc::CallbackServerContext *ctx, std::string what,
+  // that status, its `queries` are counted as abandoned, and the line "<what> dropped from the
+  // queue: <reason>" is logged.
+  Scheduler::Dead DeadCall(grpc::CallbackServerContext *ctx, std::string what, uint64_t queries,
                            std::function<void(const Status &)> finish);
+  // Queries not computed because their call was cancelled, its deadline passed or shutdown
+  // cancelled it (server/abandoned_work.h; /metrics glint_abandoned_queries_total).
+  AbandonedWork &abandoned() { return abandoned_; }
 
   // Dynamic batching (server/batch_service.cpp, server/batch_eval.h). A unary Evaluate call
   // that may share a launch: null when batching is off or the request is not Batchable.
@@ -178,6 +187,7 @@ class GlintServiceImpl final : public GlintRawService {
   std::mutex log_mutex_;
   std::atomic<bool> shutting_down_{false};
   std::atomic<bool> cancel_in_flight_{false};
+  AbandonedWork abandoned_;
 };
 
 // The one mapping from the engine's Status to gRPC's: unary calls finish with it as is.

@@ -278,7 +278,7 @@ Status GlintServiceImpl::RunShared(int worker, const glint::v1::EvaluateRequest 
   SliceOptions slicing;
   slicing.per_query_cost = per_query_cost;
   slicing.target_ms = options_.slice_ms;
-  slicing.stop = [this, ctx] { return StopReason(ctx); };
+  StopSlicesFor(ctx, &slicing);
   if (in_place) {
     // overlap_check: the value check (ValidateQueryView) runs on its own thread while the kernels
     // run here, instead of one after the other (1M probes: ~1.2 ms of a ~6.5 ms call, issue 12).
@@ -300,6 +300,10 @@ Status GlintServiceImpl::RunShared(int worker, const glint::v1::EvaluateRequest 
         return refused.load(std::memory_order_acquire)
                    ? Status::Cancelled("refused by the value check")
                    : StopReason(ctx);
+      };
+      // A refusal is not abandoned work: the call is answered INVALID_ARGUMENT.
+      slicing.on_stop = [this, &refused](const Status &stop, uint32_t not_run) {
+        if (!refused.load(std::memory_order_acquire)) abandoned_.Count(stop, not_run);
       };
     }
     s = RunInSlices(

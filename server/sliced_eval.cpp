@@ -46,7 +46,10 @@ Status RunInSlices(uint32_t n, bool on_device, const SliceOptions &options,
   while (begin < n) {
     if (options.stop) {
       Status s = options.stop();
-      if (!s.ok()) return s;
+      if (!s.ok()) {
+        if (options.on_stop) options.on_stop(s, n - begin);
+        return s;
+      }
     }
     double want = std::floor(rate * options.target_ms);
     // A request estimated at no more than a few slices runs whole: splitting it would copy its

@@ -34,6 +34,10 @@ struct SliceOptions {
   // Returns OK to go on, or the status the call ends with (CANCELLED, DEADLINE_EXCEEDED,
   // UNAVAILABLE). Empty: never stop.
   std::function<Status()> stop;
+  // Called once when stop() ends the loop, with its status and the queries not run (those from
+  // the slice it would have started to the end): the abandoned-work count (server/
+  // abandoned_work.h). Empty: not reported.
+  std::function<void(const Status &stop, uint32_t not_run)> on_stop;
 };
 
 struct SliceStats {

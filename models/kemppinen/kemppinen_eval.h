@@ -34,8 +34,9 @@ GLINT_FN real3 kemppinen_reflect_at(SmoothMaterial m, const GLINT_PRIVATE Kemppi
   real3 ls = r3_mul(fc, radiance);
   glint_mask live = ls.x + ls.y + ls.z > GLINT_R(0.0);
   if (!glint_any(live)) return zero; /* host: the early return; device: whole blocks */
-  /* Dead lanes (a direction below the horizon, wi = -wo) compute on sr's finite h and are
-   * dropped. */
+  /* Dead lanes (a direction below the horizon, wi = -wo) compute on sr's finite h and its D,
+   * which may be +Inf (kernels/smooth_brdf.h SmoothReflect); per lane only, and the select by
+   * `live` below drops them. */
   real3 s = kemppinen_glint_factor_at(p, levels, m.ndf, sr.h, m.alpha_x, m.alpha_y, sr.D);
   /* (f cos D_star / D) radiance: the radiance last, so that a light whose smooth term overflows
    * to +Inf (fp32: 3e38 W/m^2 on a sharp lobe) meets the glint factor's exact zeros as 0, not

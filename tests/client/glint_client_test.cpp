@@ -566,6 +566,12 @@ TEST(GlintClient, UnreachableServerIsUnavailable) {
 
 // ---- Health ---------------------------------------------------------------------------------
 
+// WaitUntilServing is checked by what it returns and says, not by how long it took (a loaded
+// machine makes wall-clock bounds flaky). "not SERVING after N ms: <last answer>" is the only
+// message of the exit at its timeout (the early exit, a server without grpc.health.v1, says
+// "does not implement"), so it shows the call kept checking until its timeout; the last answer
+// shows what it saw. A call that never returned would be caught by the test's ctest TIMEOUT.
+
 TEST(GlintClient, WaitUntilServingSeesServingAndNotServing) {
   FakeServer server;
   GlintClient client(server.address());
@@ -573,12 +579,8 @@ TEST(GlintClient, WaitUntilServingSeesServingAndNotServing) {
   EXPECT_TRUE(client.WaitUntilServing(std::chrono::milliseconds(3000), &why)) << why;
 
   server.server()->GetHealthCheckService()->SetServingStatus(false);
-  const auto start = std::chrono::steady_clock::now();
   EXPECT_FALSE(client.WaitUntilServing(std::chrono::milliseconds(500), &why));
-  const auto elapsed = std::chrono::steady_clock::now() - start;
-  EXPECT_NE(why.find("NOT_SERVING"), std::string::npos) << why;
-  EXPECT_GE(elapsed, std::chrono::milliseconds(450));
-  EXPECT_LT(elapsed, std::chrono::milliseconds(2500));
+  EXPECT_EQ(why, "not SERVING after 500 ms: health status NOT_SERVING");
 }
 
 TEST(GlintClient, WaitUntilServingGivesUpOnADeadAddress) {
@@ -600,9 +602,8 @@ TEST(GlintClient, WaitUntilServingGivesUpOnADeadAddress) {
   const int port = ntohs(addr.sin_port);
   GlintClient client("127.0.0.1:" + std::to_string(port));
   std::string why;
-  const auto start = std::chrono::steady_clock::now();
   EXPECT_FALSE(client.WaitUntilServing(std::chrono::milliseconds(400), &why));
-  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(2500));
+  EXPECT_EQ(why.rfind("not SERVING after 400 ms: ", 0), 0u) << why;
   EXPECT_NE(why.find("UNAVAILABLE"), std::string::npos) << why;
 }
 

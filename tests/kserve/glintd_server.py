@@ -34,8 +34,9 @@ class Glintd:
     def __enter__(self):
         deadline = time.monotonic() + START_TIMEOUT_S
         while time.monotonic() < deadline:
-            if self.process.poll() is not None:
-                raise RuntimeError("glintd exited before SERVING:\n" + self.log())
+            if self.process.poll() is not None:  # a crash or a refused flag: say so at once
+                raise RuntimeError(f"glintd exited before SERVING (exit status {self.process.returncode}):\n"
+                                   + self.log())
             if os.path.exists(self.port_file):
                 with open(self.port_file) as f:
                     port = f.read().strip()

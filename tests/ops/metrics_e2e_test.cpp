@@ -160,6 +160,14 @@ TEST(MetricsEndToEnd, CountersMatchWhatWasSent) {
   ExpectHistogram(after, "glint_queue_wait_seconds", "");
   EXPECT_EQ(Get(after, "glint_queue_depth"), 0);  // every request has been answered
   EXPECT_EQ(Get(after, "glint_queue_capacity"), 5);
+  // Exported from the start under each reason; nothing above was abandoned (the stopped calls
+  // that count are in robustness_test's Cancellation and Shutdown tests).
+  for (const char *reason : {"cancelled", "deadline", "shutdown"}) {
+    const std::string series =
+        std::string("glint_abandoned_queries_total{reason=\"") + reason + "\"}";
+    EXPECT_EQ(before.count(series), 1u) << series;
+    EXPECT_EQ(delta(series), 0) << series;
+  }
 
   // Program cache: glintd logs "(C compiled, D from cache ...)" after its warm-up, before any
   // request; the workload above only uses warm kernel variants, so nothing new was compiled.
@@ -336,6 +344,8 @@ TEST(MetricsEndToEnd, BadListenAddressIsRefusedAtStart) {
   EXPECT_NE(error.find("--metrics-listen 127.0.0.1:notaport: expected HOST:PORT"),
             std::string::npos)
       << error;
+  // The start-up wait ended when glintd exited, and says how (tests/support/glintd_process.h).
+  EXPECT_NE(error.find("glintd exited before SERVING (exit status 1)"), std::string::npos) << error;
 }
 
 }  // namespace

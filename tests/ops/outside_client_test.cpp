@@ -216,11 +216,16 @@ TEST(OutsideClientLog, ClientStringsCannotForgeOrFloodLogLines) {
                                         port_file, "--device", "host", "--warm", "none"},
                                        log + ".out", log);
   ASSERT_GT(pid, 0);
-  const auto deadline = std::chrono::steady_clock::now() + glint::test::kServerStartTimeout;
-  while (glint::test::ReadFile(port_file).empty() && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::string error;
+  bool reaped = false;
+  if (!glint::test::WaitForPortFile(pid, port_file, log, &error, &reaped)) {
+    if (!reaped) {
+      kill(pid, SIGKILL);
+      waitpid(pid, nullptr, 0);
+    }
+    FAIL() << error;
+  }
   const std::string port = glint::test::ReadFile(port_file);
-  ASSERT_FALSE(port.empty()) << glint::test::ReadFile(log);
   auto channel = grpc::CreateChannel("127.0.0.1:" + port, grpc::InsecureChannelCredentials());
   // UploadNormalMap with one chunk: file name `name`, 8 bytes that are no PNG (refused, logged).
   auto upload = [&](const std::string &name) {

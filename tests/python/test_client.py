@@ -159,16 +159,16 @@ def test_wait_until_serving(client):
 
 
 def test_wait_until_serving_gives_up_on_a_dead_address():
+    """Checked by what it raises, not by how long it took: "not SERVING after 1.5 s" is only said
+    once the wait reached its timeout, and the last attempt's UNAVAILABLE says why. A call that
+    never returned would be caught by the suite's ctest TIMEOUT."""
     import socket
-    import time
 
     with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
+        s.bind(("127.0.0.1", 0))  # bound, never listening: connections are refused
         with glint.Client(f"127.0.0.1:{s.getsockname()[1]}") as c:
-            start = time.monotonic()
-            e = _expect_error(lambda: c.wait_until_serving(timeout=1.5), grpc.StatusCode.DEADLINE_EXCEEDED,
-                              "not SERVING after 1.5 s", "UNAVAILABLE")
-            assert time.monotonic() - start < 10, e
+            _expect_error(lambda: c.wait_until_serving(timeout=1.5), grpc.StatusCode.DEADLINE_EXCEEDED,
+                          "not SERVING after 1.5 s", "UNAVAILABLE")
 
 
 def test_an_exception_in_progress_cancels_the_stream(server_address):

@@ -4,11 +4,16 @@
 // not when the queue is next full or the worker takes the job. With the one worker busy on a
 // long request (~30 s of REFERENCE work, cancelled at the end) and room in the queue, the gauge
 // (glintd --metrics-listen, scraped with cpp-httplib) must fall back to 1 while the long request
-// still runs. Before, it stayed at 2 until the worker was free again.
+// still runs. Before, it stayed at 2 until the worker was free again. Each dropped call's 16
+// queries are counted as abandoned (glint_abandoned_queries_total, exactly 16: none of them
+// ran) under "cancelled", or for a call past its deadline under "cancelled" or "deadline" (the
+// client's cancellation at its deadline may reach the server first), never "shutdown"; the long
+// request, cancelled at the end, adds between 1 and 600.
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -21,6 +26,7 @@
 #include "inference/grpc_service.grpc.pb.h"
 #include "kserve_queries.h"
 #include "queue_depth_gauge.h"
+#include "scraped_metric.h"
 #include "test_queries.h"
 
 namespace {
@@ -107,7 +113,17 @@ TEST(DeadCall, CancelledQueuedCallLeavesTheQueueAtOnce) {
     // Past its deadline: 1.5 s, doubled (up to 4 times) while the call expires before the gauge
     // has shown it queued, which a loaded machine can take that long to do; such a round
     // would prove nothing.
+    const auto abandoned = [&] {
+      const double cancelled =
+          glint::test::ScrapedValue(http, glint::test::AbandonedSeries("cancelled"));
+      const double deadline =
+          glint::test::ScrapedValue(http, glint::test::AbandonedSeries("deadline"));
+      const double shutdown =
+          glint::test::ScrapedValue(http, glint::test::AbandonedSeries("shutdown"));
+      return std::array<double, 3>{cancelled, deadline, shutdown};
+    };
     for (int attempt = 0, deadline_ms = 1500;; ++attempt, deadline_ms *= 2) {
+      const std::array<double, 3> abandoned_before = abandoned();
       grpc::ClientContext ctx;
       ctx.set_deadline(std::chrono::system_clock::now() +
                        std::chrono::milliseconds(c.use_deadline ? deadline_ms : 60000));
@@ -145,14 +161,31 @@ TEST(DeadCall, CancelledQueuedCallLeavesTheQueueAtOnce) {
       EXPECT_EQ(status.error_code(),
                 c.use_deadline ? grpc::StatusCode::DEADLINE_EXCEEDED : grpc::StatusCode::CANCELLED);
       EXPECT_EQ(WaitForDepth(http, 1, long_ended), 1) << "the dead call kept its slot";
+      // Counted when it was dropped, before the gauge fell.
+      const std::array<double, 3> abandoned_after = abandoned();
+      const double cancelled = abandoned_after[0] - abandoned_before[0];
+      const double deadline = abandoned_after[1] - abandoned_before[1];
+      EXPECT_EQ(cancelled + deadline, 16);
+      if (!c.use_deadline) {
+        EXPECT_EQ(deadline, 0);
+      }
+      EXPECT_EQ(abandoned_after[2] - abandoned_before[2], 0);
       EXPECT_FALSE(long_done) << "the long request ended first, so the check proved nothing ("
                               << long_status.error_message() << ")";
       break;
     }
   }
+  const double cancelled_before =
+      glint::test::ScrapedValue(http, glint::test::AbandonedSeries("cancelled"));
   long_ctx.TryCancel();
   long_call.join();
   EXPECT_EQ(long_status.error_code(), grpc::StatusCode::CANCELLED) << long_status.error_message();
+  const double long_abandoned =
+      glint::test::WaitForScrapedValue(http, glint::test::AbandonedSeries("cancelled"),
+                                       cancelled_before + 1, std::chrono::seconds(120)) -
+      cancelled_before;
+  EXPECT_GE(long_abandoned, 1) << "the long request ran to its end";
+  EXPECT_LE(long_abandoned, 600);
   EXPECT_EQ(WaitForDepth(http, 0, [] { return false; }), 0);
   EXPECT_TRUE(server->Alive());
 }

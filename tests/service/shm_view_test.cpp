@@ -246,34 +246,59 @@ TEST_F(ShmViewEngine, GarbageQueriesLeaveTheOthersBitIdentical) {
   }
 }
 
+// The truncation tests' region: 100000 BRDF probes (seed `seed`) in a region of their own,
+// resolved and evaluated in place; Truncate() then cuts the object to 0 bytes under it.
+struct InPlaceProbes {
+  std::unique_ptr<ShmBuffer> buffer;
+  EvaluateRequest shared;
+  Resolved r;
+  glint::QueryView view;
+  glint::EvalPlan plan;
+  int fd = -1;
+  ~InPlaceProbes() {
+    if (fd >= 0) close(fd);
+  }
+};
+
+void PrepareInPlaceProbes(uint32_t seed, InPlaceProbes *p) {
+  const EvaluateRequest request = Probe(100000, seed);
+  p->buffer = Buffer(RegionBytes(request, 0));
+  uint64_t out_offset = 0;
+  p->shared = SharedRequest(request, *p->buffer, "io", 0, &out_offset);
+  Resolve(*p->buffer, p->shared, &p->r);
+  if (::testing::Test::HasFatalFailure()) return;
+  ASSERT_TRUE(glint::EvaluatesInPlace(p->r.call, p->shared, true));
+  p->view = glint::SharedQueryView(p->r.call, p->shared.shared_memory());
+  glint::v1::QueryBatch shape;  // what the plan needs to know of the queries: probes, normals
+  shape.add_wi(0.0f);
+  shape.add_normal(0.0f);
+  p->plan = glint::MakeEvalPlan(p->shared, shape);
+}
+
+// Truncates the region's object to 0 bytes: every later access to its pages faults.
+void Truncate(InPlaceProbes *p) {
+  p->fd = shm_open(p->buffer->key().c_str(), O_RDWR, 0);
+  ASSERT_GE(p->fd, 0);
+  ASSERT_EQ(ftruncate(p->fd, 0), 0);
+}
+
 // The object truncated to 0 before the kernels run: every access to the region faults, on the
 // engine's own threads too. The handler maps zero pages over the region, the engine returns,
 // the region is lost and every later range check refuses it.
 TEST_F(ShmViewEngine, RegionTruncatedUnderTheKernelsIsLostNotFatal) {
-  const EvaluateRequest request = Probe(100000, 3);
-  auto buffer = Buffer(RegionBytes(request, 0));
-  uint64_t out_offset = 0;
-  const EvaluateRequest shared = SharedRequest(request, *buffer, "io", 0, &out_offset);
-  Resolved r;
-  Resolve(*buffer, shared, &r);
-  ASSERT_TRUE(glint::EvaluatesInPlace(r.call, shared, true));
-  const int fd = shm_open(buffer->key().c_str(), O_RDWR, 0);
-  ASSERT_GE(fd, 0);
-  ASSERT_EQ(ftruncate(fd, 0), 0);
-  const glint::QueryView view = glint::SharedQueryView(r.call, shared.shared_memory());
-  glint::v1::QueryBatch shape;
-  shape.add_wi(0.0f);
-  shape.add_normal(0.0f);
-  const glint::EvalPlan plan = glint::MakeEvalPlan(shared, shape);
-  EXPECT_FALSE(r.call.in->lost());
-  glint::Status s = engine_->Evaluate(0, plan, view, r.call.output);
+  InPlaceProbes p;
+  PrepareInPlaceProbes(3, &p);
+  if (HasFatalFailure()) return;
+  Truncate(&p);
+  if (HasFatalFailure()) return;
+  EXPECT_FALSE(p.r.call.in->lost());
+  glint::Status s = engine_->Evaluate(0, p.plan, p.view, p.r.call.output);
   EXPECT_TRUE(s.ok()) << s.message();
-  EXPECT_TRUE(r.call.in->lost());
-  EXPECT_EQ(view.wo[0], 0.0f);  // zero pages now
-  const glint::Status again = r.call.in->CheckRange(0, 16, "shared_memory.input_offset");
+  EXPECT_TRUE(p.r.call.in->lost());
+  EXPECT_EQ(p.view.wo[0], 0.0f);  // zero pages now
+  const glint::Status again = p.r.call.in->CheckRange(0, 16, "shared_memory.input_offset");
   EXPECT_EQ(again.code(), glint::Status::Code::kFailedPrecondition);
   EXPECT_NE(again.message().find("lost its pages"), std::string::npos) << again.message();
-  close(fd);
 }
 
 // A SIGBUS handler like the one LLVM (inside PoCL) installs the first time it writes a file:
@@ -297,32 +322,21 @@ void LingeringResetHandler(int) {
 // the foreign handler must never run: that also fails without the fix when only one PoCL thread
 // faults (it would then put the guard back itself and the access would be rescued).
 TEST_F(ShmViewEngine, RegionTruncatedWithAForeignHandlerInstalledOverTheGuard) {
-  const EvaluateRequest request = Probe(100000, 4);
-  auto buffer = Buffer(RegionBytes(request, 0));
-  uint64_t out_offset = 0;
-  const EvaluateRequest shared = SharedRequest(request, *buffer, "io", 0, &out_offset);
-  Resolved r;
-  Resolve(*buffer, shared, &r);
-  ASSERT_TRUE(glint::EvaluatesInPlace(r.call, shared, true));
+  InPlaceProbes p;
+  PrepareInPlaceProbes(4, &p);
+  if (HasFatalFailure()) return;
   struct sigaction foreign {};
   foreign.sa_handler = LingeringResetHandler;
   foreign.sa_flags = SA_RESETHAND | SA_NODEFER;
   sigemptyset(&foreign.sa_mask);
   ASSERT_EQ(sigaction(SIGBUS, &foreign, &g_displaced), 0);
   g_foreign_ran = 0;
-  const int fd = shm_open(buffer->key().c_str(), O_RDWR, 0);
-  ASSERT_GE(fd, 0);
-  ASSERT_EQ(ftruncate(fd, 0), 0);
-  const glint::QueryView view = glint::SharedQueryView(r.call, shared.shared_memory());
-  glint::v1::QueryBatch shape;
-  shape.add_wi(0.0f);
-  shape.add_normal(0.0f);
-  const glint::Status s =
-      engine_->Evaluate(0, glint::MakeEvalPlan(shared, shape), view, r.call.output);
+  Truncate(&p);
+  if (HasFatalFailure()) return;
+  const glint::Status s = engine_->Evaluate(0, p.plan, p.view, p.r.call.output);
   EXPECT_TRUE(s.ok()) << s.message();
-  EXPECT_TRUE(r.call.in->lost());
+  EXPECT_TRUE(p.r.call.in->lost());
   EXPECT_EQ(g_foreign_ran, 0) << "a fault reached the handler installed over the guard";
-  close(fd);
 }
 
 class Caller {

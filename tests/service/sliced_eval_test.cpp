@@ -91,9 +91,20 @@ TEST_P(SlicedEval, StopIsCheckedBeforeEverySliceTheFirstIncluded) {
     o.stop = [&]() -> glint::Status {
       return checks++ == stop_at ? glint::Status::DeadlineExceeded("deadline") : glint::Status();
     };
+    // The abandoned-work hook (server/abandoned_work.h): once, with the stop's status and the
+    // queries from the slice not started to the end, by the explicit count of slices run.
+    int reported = 0;
+    uint32_t not_run = 0;
+    o.on_stop = [&](const glint::Status &stop, uint32_t queries) {
+      ++reported;
+      not_run = queries;
+      EXPECT_EQ(stop.code(), glint::Status::Code::kDeadlineExceeded);
+    };
     glint::Status s = glint::EvaluateSliced(engine(), 0, plan, r.queries(), out.data(), o);
     EXPECT_EQ(s.code(), glint::Status::Code::kDeadlineExceeded);
     EXPECT_EQ(checks, stop_at + 1);
+    EXPECT_EQ(reported, 1);
+    EXPECT_EQ(not_run, n - uint32_t(stop_at) * 100);
     // Slices before the stop wrote their queries; nothing after it was evaluated.
     const size_t written = size_t(stop_at) * 100 * 3;
     for (size_t i = 0; i < out.size(); ++i) {

@@ -15,6 +15,7 @@
 
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -92,6 +93,49 @@ inline pid_t Spawn(const std::vector<std::string> &args, const std::string &out_
     _exit(127);
   }
   return pid;
+}
+
+// "exit status N" or "killed by signal N (name)" for a waitpid status.
+inline std::string DescribeWaitStatus(int status) {
+  if (WIFEXITED(status)) return "exit status " + std::to_string(WEXITSTATUS(status));
+  if (WIFSIGNALED(status))
+    return "killed by signal " + std::to_string(WTERMSIG(status)) + " (" +
+           strsignal(WTERMSIG(status)) + ")";
+  return "wait status " + std::to_string(status);
+}
+
+// The last `max_lines` lines of a log file (a crash's message is at its end).
+inline std::string LogTail(const std::string &path, size_t max_lines = 40) {
+  const std::string text = ReadFile(path);
+  size_t at = text.size();
+  for (size_t lines = 0; at > 0 && lines < max_lines;)
+    if (text[--at] == '\n' && at + 1 < text.size()) ++lines;
+  if (at > 0) return "[...]\n" + text.substr(at + 1);
+  return text;
+}
+
+// Waits for `port_file` (written by glintd once SERVING) of the child `pid`, whose stderr goes to
+// `err_path`. Ends at once when the child exits first (a crash, a refused flag): false with its
+// exit status and stderr tail in `error`, the child reaped (`*reaped` set). The
+// kServerStartTimeout bound only ends a start that hangs.
+inline bool WaitForPortFile(pid_t pid, const std::string &port_file, const std::string &err_path,
+                            std::string *error, bool *reaped) {
+  *reaped = false;
+  const auto deadline = std::chrono::steady_clock::now() + kServerStartTimeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (!ReadFile(port_file).empty()) return true;
+    int status = 0;
+    if (waitpid(pid, &status, WNOHANG) == pid) {
+      *reaped = true;
+      *error = "glintd exited before SERVING (" + DescribeWaitStatus(status) + "); its stderr:\n" +
+               LogTail(err_path);
+      return false;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  *error = "glintd did not write its port file within " +
+           std::to_string(kServerStartTimeout.count()) + " s; its stderr:\n" + LogTail(err_path);
+  return false;
 }
 
 // A loopback port that was free a moment ago (bound to port 0, read back, closed), for a test
@@ -175,23 +219,19 @@ class Glintd {
     return server;
   }
 
-  // Waits for the port file, which glintd writes once it reports SERVING.
+  // Waits for the port file, which glintd writes once it reports SERVING; ends at once with
+  // glintd's exit status and stderr tail if it exits first (WaitForPortFile).
   bool WaitUntilServing(std::string *error) {
-    const auto deadline = std::chrono::steady_clock::now() + kServerStartTimeout;
-    while (std::chrono::steady_clock::now() < deadline) {
-      if (!Alive()) {
-        *error = "glintd exited before SERVING:\n" + ReadFile(log_ + ".err");
-        return false;
-      }
-      const int port = PortFromFile();
-      if (port > 0) {
-        address_ = "127.0.0.1:" + std::to_string(port);
-        return true;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    if (pid_ <= 0) {
+      *error = "glintd is not running";
+      return false;
     }
-    *error = "glintd did not write its port file within the timeout:\n" + ReadFile(log_ + ".err");
-    return false;
+    bool reaped = false;
+    const bool serving = WaitForPortFile(pid_, port_file_, log_ + ".err", error, &reaped);
+    if (reaped) pid_ = -1;  // never signal a pid that may have been reused
+    if (!serving) return false;
+    address_ = "127.0.0.1:" + std::to_string(PortFromFile());
+    return true;
   }
 
   // The port glintd wrote to its port file, 0 while there is none.

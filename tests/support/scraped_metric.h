@@ -34,6 +34,13 @@ inline std::string HandledSeries(const std::string &method, const std::string &c
          method + "\",grpc_code=\"" + code + "\"}";
 }
 
+// Queries glintd did not compute because their call was cancelled, its deadline passed or
+// shutdown cancelled it: `reason` is "cancelled", "deadline" or "shutdown"
+// (server/abandoned_work.h).
+inline std::string AbandonedSeries(const std::string &reason) {
+  return "glint_abandoned_queries_total{reason=\"" + reason + "\"}";
+}
+
 // Polls until the series reads at least `want` or `timeout` passes; returns the last value read.
 inline double WaitForScrapedValue(httplib::Client &http, const std::string &series, double want,
                                   std::chrono::seconds timeout) {

@@ -1,8 +1,10 @@
 #include "tools/area_auto/area_auto_fit.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
+#include <mutex>
 #include <thread>
 
 #include "kernels/area/area_auto_features.h"
@@ -57,6 +59,135 @@ std::vector<Sample> Measure(const std::vector<Config> &configs, int threads) {
   std::vector<Sample> all;
   for (auto &s : per) all.insert(all.end(), s.begin(), s.end());
   return all;
+}
+
+namespace {
+
+// The truths consistent with a cached error e of a result x (RelativeError's two branches and
+// the sign of x - T), NaN where a branch has none, each with its conditioning: the relative
+// uncertainty (of max(T, kFloor)) that e's float rounding (2^-24 relative) leaves in it:
+// 2^-24 e / (1 +- e) above the floor (x / (1 - e) is ill-conditioned as e -> 1: a result ~0),
+// 2^-24 e below it.
+struct Solution {
+  double t, u;
+};
+std::array<Solution, 4> TruthsFromError(double x, double e) {
+  const double nan = std::nan(""), r = 6e-8;
+  std::array<Solution, 4> s = {Solution{x / (1 + e), r * e / (1 + e)},
+                               Solution{e < 1 ? x / (1 - e) : nan, r * e / (1 - e)},
+                               Solution{x - e * kFloor, r * e}, Solution{x + e * kFloor, r * e}};
+  for (int i = 0; i < 4; ++i) {
+    const double t = s[size_t(i)].t;
+    if (!(std::isfinite(t) && t >= 0 && (i < 2 ? t >= kFloor : t < kFloor))) s[size_t(i)].t = nan;
+  }
+  return s;
+}
+
+// A cached float error e reproduced by a result x and a truth recovered with uncertainty u: to
+// e's float rounding plus u moving |x - T| / T by (1 + e) u; 10x margin.
+bool Reproduces(double x, double truth, float e, double u) {
+  const double now = std::min(RelativeError(x, truth), 1e30), ek = double(e);
+  return std::fabs(now - ek) <= 10 * (6e-8 * ek + (1 + ek) * u) + 1e-15;
+}
+
+// Recovered truths must be good to this (relative): errors computed against them are then off
+// by at most ~1e-7, far below the fingerprint test's 3e-4 and the smallest budget (5e-3).
+constexpr double kMaxUncertainty = 1e-7;
+
+}  // namespace
+
+std::vector<Sample> Remeasure(const std::vector<Config> &configs, const std::vector<Sample> &old,
+                              const std::vector<int> &which, int threads, int verify_every,
+                              RemeasureStats *stats) {
+  bool redo[kCandidates] = {};
+  for (int k : which) redo[k] = true;
+  std::vector<size_t> offset(configs.size() + 1, 0);
+  for (size_t i = 0; i < configs.size(); ++i) offset[i + 1] = offset[i] + configs[i].wo.size();
+  std::vector<Sample> out(old);
+  std::mutex mu;
+  std::atomic<size_t> next{0};
+  auto work = [&] {
+    for (size_t i; (i = next.fetch_add(1)) < configs.size();) {
+      const Config &c = configs[i];
+      const size_t nv = c.wo.size();
+      std::vector<std::vector<double>> x(kCandidates);
+      for (int k = 0; k < kCandidates; ++k)
+        x[size_t(k)] = HostRed(MakeRequest(c, CandidateMethod(k), CandidateSamples(k), 1));
+      std::vector<double> truth(nv, std::nan(""));
+      for (size_t v = 0; v < nv; ++v) {
+        const Sample &o = old[offset[i] + v];
+        // Every solution of every usable unchanged candidate that reproduces all the other
+        // usable candidates' cached errors; they must agree (one truth), and the
+        // best-conditioned is kept if well conditioned. None, or two apart, leaves the query to
+        // the integration: e.g. equal results cannot tell the sign, and a result 0 (error 1 for
+        // any truth above the floor) tells nothing, so an ill-conditioned x / (1 - e) of another
+        // candidate that also reproduces it makes the query ambiguous.
+        auto usable = [&](int k) {
+          return !redo[k] && std::isfinite(x[size_t(k)][v]) && o.error[k] < 1e29f;
+        };
+        int n_usable = 0;
+        for (int k = 0; k < kCandidates; ++k) n_usable += usable(k);
+        if (n_usable < 2) continue;
+        Solution pick = {std::nan(""), 1.0};
+        bool ambiguous = false;
+        for (int k = 0; k < kCandidates; ++k) {
+          if (!usable(k)) continue;
+          for (const Solution &sol : TruthsFromError(x[size_t(k)][v], double(o.error[k]))) {
+            if (!std::isfinite(sol.t)) continue;
+            bool all = true;
+            for (int j = 0; j < kCandidates && all; ++j)
+              if (j != k && usable(j)) all = Reproduces(x[size_t(j)][v], sol.t, o.error[j], sol.u);
+            if (!all) continue;
+            if (std::isfinite(pick.t) &&
+                std::fabs(sol.t - pick.t) >
+                    (10 * (sol.u + pick.u) + kMaxUncertainty) * std::max(pick.t, kFloor))
+              ambiguous = true;
+            if (!std::isfinite(pick.t) || sol.u < pick.u) pick = sol;
+          }
+        }
+        if (!ambiguous && pick.u <= kMaxUncertainty) truth[v] = pick.t;
+      }
+      // The integration (Truth, view by view independent) of the views left without a
+      // recovered truth, or of all of a verified light's.
+      const bool verify = verify_every > 0 && i % size_t(verify_every) == 0;
+      std::vector<double> exact(nv, std::nan(""));
+      Config todo = c;
+      todo.wo.clear();
+      for (size_t v = 0; v < nv; ++v)
+        if (verify || !std::isfinite(truth[v])) todo.wo.push_back(c.wo[v]);
+      if (!todo.wo.empty()) {
+        const std::vector<double> t = Truth(todo);
+        for (size_t v = 0, n = 0; v < nv; ++v)
+          if (verify || !std::isfinite(truth[v])) exact[v] = t[n++];
+      }
+      double deviation = 0;
+      size_t recovered = 0;
+      for (size_t v = 0; v < nv; ++v) {
+        if (std::isfinite(truth[v])) {
+          ++recovered;
+          if (verify)
+            deviation =
+                std::max(deviation, std::fabs(truth[v] - exact[v]) / std::max(exact[v], kFloor));
+        } else {
+          truth[v] = exact[v];
+        }
+        Sample &s = out[offset[i] + v];
+        for (int k = 0; k < kCandidates; ++k)
+          if (redo[k]) s.error[k] = float(std::min(RelativeError(x[size_t(k)][v], truth[v]), 1e30));
+      }
+      std::lock_guard<std::mutex> lock(mu);
+      stats->recovered += recovered;
+      stats->integrated += nv - recovered;
+      if (verify) {
+        stats->verified += recovered;
+        stats->max_deviation = std::max(stats->max_deviation, deviation);
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 0; t < std::max(1, threads); ++t) pool.emplace_back(work);
+  for (auto &t : pool) t.join();
+  return out;
 }
 
 float Quantile(std::vector<float> v, double q) {

@@ -40,6 +40,26 @@ struct Sample {
 // Measures every view of the configurations on the host path (fp32), `threads` threads.
 std::vector<Sample> Measure(const std::vector<Config> &configs, int threads);
 
+// Re-measures the candidates in `which` (indices into LTC .. REFERENCE 32) after a change of
+// those methods only, without the truth integration that dominates Measure's cost: each query's
+// truth is recovered from `old` (Measure's samples of the same configurations, before the
+// change) and today's results of the other candidates, which must be unchanged. A cached error e
+// of a result x fixes the truth T up to the sign of x - T (e = |x - T| / max(T, kFloor)): T =
+// x / (1 -+ e) above the floor, x -+ e kFloor below it. The candidate of smallest cached error
+// gives the solutions (the least sensitive to the float rounding of e); one is kept when it
+// reproduces every other unchanged candidate's cached error (to float rounding) and the other
+// solution does not. A query with no such unique solution (fewer than two usable candidates,
+// equal results, or a changed result) gets Truth() like Measure. MONTE_CARLO's cv and the other
+// candidates' errors are kept from `old`. Every `verify_every`-th configuration (0: none) also
+// computes Truth() and records the largest relative deviation of the recovered truth from it.
+struct RemeasureStats {
+  size_t recovered = 0, integrated = 0, verified = 0;
+  double max_deviation = 0;  // |recovered - Truth| / max(Truth, kFloor) over the verified
+};
+std::vector<Sample> Remeasure(const std::vector<Config> &configs, const std::vector<Sample> &old,
+                              const std::vector<int> &which, int threads, int verify_every,
+                              RemeasureStats *stats);
+
 // The table of one NDF: GLINT_AUTO_CELLS x 8 floats (7 error quantiles, the cv quantile), and
 // per cell the number of training queries it drew on and its pooling level (0 = its own).
 struct NdfTable {

@@ -188,7 +188,11 @@ class Client:
                 error = Error.from_rpc_error(e)
                 if error.code == grpc.StatusCode.UNIMPLEMENTED:
                     raise Error(error.code, f"server does not implement grpc.health.v1.Health ({error})") from None
-                last = str(error)
+                # A check cut short by this wait's own end (its timeout is at most what was left)
+                # keeps the earlier answer, which says more than a bare DEADLINE_EXCEEDED.
+                cut_short = error.code == grpc.StatusCode.DEADLINE_EXCEEDED and time.monotonic() >= end
+                if not (cut_short and last != "no health check attempted"):
+                    last = str(error)
             time.sleep(0.1)
         raise Error(grpc.StatusCode.DEADLINE_EXCEEDED, f"{self.address} not SERVING after {timeout:g} s: {last}")
 

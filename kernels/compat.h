@@ -307,7 +307,8 @@ GLINT_FN real3 normalize(real3 a) {
 #if defined(__OPENCL_VERSION__) && GLINT_LANES == 16 && !GLINT_USE_DOUBLE && defined(__AVX512F__)
 GLINT_FN real glint_rsqrt_est(real x) {
   real r = __builtin_ia32_rsqrt14ps512_mask(x, (real)(0.0f), (ushort)0xFFFF);
-  return r * (GLINT_R(1.5) - GLINT_R(0.5) * x * r * r);
+  return r *
+         (GLINT_R(1.5) - GLINT_R(0.5) * ((x * r) * r)); /* x r first: x / 2 loses subnormal bits */
 }
 GLINT_FN real glint_sqrt_nn(real x) {
   /* x rsqrt(x) with the Newton step on the product: s (3/2 - r s / 2), s = x r. x = 0 gives

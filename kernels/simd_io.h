@@ -57,9 +57,14 @@ typedef float16 floatn;
   (float16)(p0.s147a, p0.sd, p1.s0369, p1.scf, p2.s258b, p2.se)
 #define GLINT_DEINTERLEAVE_Z(p0, p1, p2) \
   (float16)(p0.s258b, p0.se, p1.s147a, p1.sd, p2.s0369, p2.scf)
-#if defined(__has_builtin) && __has_builtin(__builtin_shufflevector)
-/* Each output vector as two two-source shuffles (x with y, then the result with z): one
- * shufflevector each, which LLVM lowers to one vpermt2ps with AVX-512. The component-wise
+#if defined(__has_builtin)
+#if __has_builtin(__builtin_shufflevector)
+#define GLINT_HAS_SHUFFLEVECTOR 1
+#endif
+#endif
+#ifdef GLINT_HAS_SHUFFLEVECTOR
+/* Each output vector as two two-source shuffles (x with y, then the result with z): two
+ * shufflevectors, which LLVM lowers to two vpermt2ps with AVX-512. The component-wise
  * vector literals below gave ~50 instructions for the three stores of a block (inserts, blends
  * and masks loaded per block: objdump of PoCL's kernel), a tenth of the smooth probe kernel;
  * the same lanes move to the same places, so the stored bits are the same. -1 marks a lane the

@@ -294,4 +294,43 @@ GLINT_FN real3 normalize(real3 a) {
 #define GLINT_INV_PI GLINT_R(0.31830988618379067154)
 #define GLINT_SQRT_PI GLINT_R(1.77245385090551602730)
 
+/* sqrt(x) and 1 / sqrt(x) for finite x >= 0 (x > 0 for the reciprocal). In kernels that ask for
+ * them (GLINT_FAST_ROOTS: the smooth model's probe/punctual entry, models/smooth/smooth.cl) on a
+ * 16-lane fp32 AVX-512 device they are AVX-512's 14-bit reciprocal square root estimate refined
+ * by one Newton step, r' = r (3/2 - x r^2 / 2), whose relative error is (3/2) e^2 + e^3 / 2 for
+ * an estimate error e < 2^-14 (Intel SDM, VRSQRT14PS), plus the rounding of the step: at most
+ * 4 2^-24 relative, 2-4 ulp (tests/kernels/fast_roots_device_test.cpp measures it against long
+ * double over every binade). Why: vsqrtps and vdivps on 16 lanes share one unit that takes 10-12
+ * cycles per instruction on this device (Skylake-X), and the conductor probe kernel's 11 square
+ * roots and 6 divisions per block kept it busy for most of the block (issue 13); the estimate is
+ * a pipelined 2-cycle instruction. Everywhere else (host, fp64, 8 lanes, other devices, the other
+ * models' kernels) they are sqrt and 1 / sqrt, correctly rounded on PoCL: the host path, and the
+ * device on a CPU without AVX-512, then differ from the AVX-512 device by these few ulp (inside
+ * the device-vs-host tolerance); replicas that must agree bit for bit need the same CPU kind, as
+ * they already do for PoCL's code generation. GLINT_FAST_ROOTS_ACTIVE says which is compiled. */
+#if defined(GLINT_FAST_ROOTS) && defined(__OPENCL_VERSION__) && GLINT_LANES == 16 && \
+    !GLINT_USE_DOUBLE && defined(__AVX512F__)
+#define GLINT_FAST_ROOTS_ACTIVE 1
+GLINT_FN real glint_sqrt_nn(real x) {
+  /* x rsqrt(x) with the Newton step on the product: s (3/2 - r s / 2), s = x r. x = 0 gives
+   * r = inf and 0 * inf: selected to the exact 0. */
+  real r = __builtin_ia32_rsqrt14ps512_mask(x, (real)(0.0f), (ushort)0xFFFF);
+  real s = x * r;
+  return glint_select(s * (GLINT_R(1.5) - GLINT_R(0.5) * r * s), GLINT_R(0.0), x == GLINT_R(0.0));
+}
+GLINT_FN real glint_rsqrt_nn(real x) {
+  real r = __builtin_ia32_rsqrt14ps512_mask(x, (real)(0.0f), (ushort)0xFFFF);
+  /* x r first: x / 2 would lose a subnormal x's last bit. */
+  return r * (GLINT_R(1.5) - GLINT_R(0.5) * ((x * r) * r));
+}
+#else
+#define GLINT_FAST_ROOTS_ACTIVE 0
+GLINT_FN real glint_sqrt_nn(real x) {
+  return sqrt(x);
+}
+GLINT_FN real glint_rsqrt_nn(real x) {
+  return GLINT_R(1.0) / sqrt(x);
+}
+#endif
+
 #endif /* GLINT_COMPAT_H */

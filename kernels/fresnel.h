@@ -26,7 +26,7 @@ GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
   real c2 = c * c;
   real s2 = GLINT_R(1.0) - c2;
   real t0 = eta * eta - k * k - s2;
-  real a2b2 = sqrt(fmax(t0 * t0 + GLINT_R(4.0) * eta * eta * k * k, GLINT_R(0.0)));
+  real a2b2 = glint_sqrt_nn(fmax(t0 * t0 + GLINT_R(4.0) * eta * eta * k * k, GLINT_R(0.0)));
   /* a^2 = (a2b2 + t0) / 2 cancels when t0 < 0 and |t0| >> 2 eta k (small eta, large k: silver,
    * gold in the red), costing fp32 up to 1e-5 in F. With u = a2b2 + |t0| (a sum of
    * non-negatives: no cancellation) and w = sqrt(u / 2): a = w for t0 >= 0, and for t0 < 0
@@ -34,7 +34,7 @@ GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
    * merged into the final one: both fractions below are multiplied through by w, with
    * T = 2 a c w = c u (t0 >= 0) or 2 c eta k (t0 < 0), so no term needs a itself. */
   real u = a2b2 + fabs(t0);
-  real w = sqrt(GLINT_R(0.5) * u);
+  real w = glint_sqrt_nn(GLINT_R(0.5) * u);
   real T = glint_select(GLINT_R(2.0) * c * (eta * k), c * u, t0 >= GLINT_R(0.0));
   /* The fractions are now of degree 2 in w, and their terms can be as small as ~w^4 (a2b2 is
    * between w^2 and 2 w^2, and t1 t3 >= ~a2b2 as c -> 0 or 1): below w ~ 2^-32 they reach the

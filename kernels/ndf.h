@@ -127,6 +127,31 @@ GLINT_FN real smith_visibility_cos_i_ggx(real3 wo, real3 wi, real alpha_x, real 
   return glint_select(v, GLINT_R(0.0), dead);
 }
 
+/* D(h) V cos_i for GGX in one division, the product smooth_reflect_cos needs: with q and r_o, r_i
+ * as in D_ggx_aniso and smith_visibility_cos_i_ggx above,
+ *   D V zi = 1 / (pi ax ay q^2) * zi / (2 (r_o zi + zo r_i)) = zi / (2 pi ax ay q^2 (r_o zi + zo
+ * r_i)), one division where the two functions take three (the kernel's divider, shared by every
+ * division and square root of a 16-lane block, is its busiest unit: issue 13). Range (documented
+ * cosines
+ * >= 1e-7, alpha in [1e-4, 1]): for a unit h, 1 <= q <= 1e8, and zo zi <= r_o zi + zo r_i <= 3,
+ * so the denominator stays in [6e-22, 2e17], far inside fp32: no overflow or subnormal where the
+ * separate factors had none. For a subnormal zi the separate form gave 0 (r_i / zi overflowed);
+ * this one the finite limit. h must have h.z > 0 and wo, wi be above the horizon: callers drop
+ * other lanes (the result there is finite or 0, never used). */
+GLINT_FN real ggx_D_visibility_cos_i(real3 h, real3 wo, real3 wi, real alpha_x, real alpha_y) {
+  real sx = h.x * (GLINT_R(1.0) / alpha_x);
+  real sy = h.y * (GLINT_R(1.0) / alpha_y);
+  real q = sx * sx + sy * sy + h.z * h.z;
+  real xo = alpha_x * wo.x, yo = alpha_y * wo.y;
+  real xi = alpha_x * wi.x, yi = alpha_y * wi.y;
+  real zo = glint_fmax_nn(wo.z, GLINT_R(0.0));
+  real zi = glint_fmax_nn(wi.z, GLINT_R(0.0));
+  real r_o = glint_sqrt_nn(zo * zo + (xo * xo + yo * yo));
+  real r_i = glint_sqrt_nn(zi * zi + (xi * xi + yi * yi));
+  real denom = GLINT_R(2.0) * GLINT_PI * alpha_x * alpha_y * q * q * (r_o * zi + zo * r_i);
+  return glint_select(GLINT_R(0.0), zi / denom, denom > GLINT_R(0.0));
+}
+
 /* V cos_i = G2 / (4 cos_o), the factor smooth_reflect_cos needs. V itself overflows in fp32
  * when both cosines are tiny (denominator < 1 / FLT_MAX: cos ~1e-36 at alpha 1e-4) although
  * V cos_i stays moderate, so divide V's denominator by zi first:

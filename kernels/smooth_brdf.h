@@ -51,11 +51,11 @@ typedef struct {
 GLINT_FN SmoothReflect smooth_reflect_cos_parts(SmoothMaterial m, real3 wi, real3 wo) {
   SmoothReflect r;
   real3 h = r3_add(wi, wo);
-  real h_len = r3_length(h);
+  real hh = r3_dot(h, h);
   /* Branch-free: every lane computes, dead ones (either direction at or below
-   * the horizon, or wi = -wo) use h_len = 1 so that h stays finite, and give
+   * the horizon, or wi = -wo) use |h| = 1 so that h stays finite, and give
    * fc = 0 (their D may be +Inf: see SmoothReflect). */
-  glint_mask dead = (wi.z <= GLINT_R(0.0)) | (wo.z <= GLINT_R(0.0)) | !(h_len > GLINT_R(0.0));
+  glint_mask dead = (wi.z <= GLINT_R(0.0)) | (wo.z <= GLINT_R(0.0)) | !(hh > GLINT_R(0.0));
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   /* No lane live: skip the rest (host: the early return). On the device this
    * pays off for coherent batches, e.g. +30-50% for a lit sphere where a light
@@ -66,12 +66,15 @@ GLINT_FN SmoothReflect smooth_reflect_cos_parts(SmoothMaterial m, real3 wi, real
     r.D = GLINT_R(0.0);
     return r;
   }
-  h = r3_scale(h, GLINT_R(1.0) / glint_select(h_len, GLINT_R(1.0), dead)); /* 1 division, not 3 */
+  h = r3_scale(h, glint_rsqrt_nn(glint_select(hh, GLINT_R(1.0), dead))); /* no division */
+  /* D is returned for callers that reuse it (the SMOOTH kernels do not: the compiler drops it). */
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
-  /* V cos_i in one piece: V alone overflows fp32 at cosines ~1e-36 (see ndf.h). */
-  real V_cos_i = smith_visibility_cos_i(m.ndf, wo, wi, m.alpha_x, m.alpha_y);
+  /* D V cos_i: V alone overflows fp32 at cosines ~1e-36 (see ndf.h); GGX in one division. */
+  real DV_cos_i = m.ndf == GLINT_NDF_BECKMANN
+                      ? D * smith_visibility_cos_i(m.ndf, wo, wi, m.alpha_x, m.alpha_y)
+                      : ggx_D_visibility_cos_i(h, wo, wi, m.alpha_x, m.alpha_y);
   real3 F = fresnel_eval(m.fresnel, r3_dot(wo, h));
-  r.fc = r3_select(r3_scale(F, D * V_cos_i), zero, dead);
+  r.fc = r3_select(r3_scale(F, DV_cos_i), zero, dead);
   r.h = h;
   r.D = D;
   return r;

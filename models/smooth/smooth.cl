@@ -4,6 +4,9 @@
  * ceil(n / GLINT_LANES) work-items, padded, run as a 2D grid
  * (kernels/work_item.h). Inputs stay float in buffers; `real` is the
  * arithmetic. */
+/* Square roots by AVX-512's estimate + one Newton step where the device has it
+ * (kernels/compat.h glint_sqrt_nn): this kernel is bound by its divider. */
+#define GLINT_FAST_ROOTS 1
 #include "kernels/kernel_args.h"
 #include "kernels/simd_io.h"
 #include "kernels/work_item.h"

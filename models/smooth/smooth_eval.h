@@ -17,21 +17,18 @@
 #include "kernels/query.h"
 #include "kernels/smooth_brdf.h"
 
-/* a / |a| by the reciprocal of the length. */
-GLINT_FN real3 smooth_unit(real3 a) {
-  return r3_scale(a, GLINT_R(1.0) / r3_length(a));
-}
-
 /* Reflected radiance towards wo (RGB) from the probe direction or the
  * directional and point lights. */
 GLINT_FN real3 smooth_shade(EvalSpec spec, KernelInputs in, QueryInputs q) {
   SmoothMaterial m = smooth_material_unpack(in.material, spec.ndf, spec.fresnel);
   if (spec.probe) {
-    /* Probes normalise both directions by one reciprocal each: a division and three products
-     * instead of three divisions (within ~1.5 ulp per component instead of 0.5; the probe
-     * kernel is bound by its divisions and square roots, issue 13). */
-    ShadingPoint sp = shading_point_unit(spec, q, smooth_unit(q.wo));
-    real3 wi = shading_to_local(spec, sp, smooth_unit(q.wi));
+    /* Probes normalise both directions by a reciprocal square root each (no division: the
+     * probe kernel is bound by its divider, which every division and square root of a 16-lane
+     * block queues on, issue 13; kernels/compat.h glint_rsqrt_nn). Validation admits lengths
+     * within 1e-3 of 1. */
+    ShadingPoint sp =
+        shading_point_unit(spec, q, r3_scale(q.wo, glint_rsqrt_nn(r3_dot(q.wo, q.wo))));
+    real3 wi = shading_to_local(spec, sp, r3_scale(q.wi, glint_rsqrt_nn(r3_dot(q.wi, q.wi))));
     return smooth_reflect_cos(m, wi, sp.wo);
   }
   ShadingPoint sp = shading_point(spec, q);

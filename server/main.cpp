@@ -465,6 +465,9 @@ int main(int argc, char **argv) {
     while (scheduler.pending() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(1));
+  // /metrics (owned by ops, which outlives service) must not read service once it is gone: the
+  // source is swapped under the lock Render holds while it calls it.
+  if (glint::Metrics *metrics = ops.metrics()) metrics->SetAbandonedSource(nullptr);
   shm_regions.Clear();
   // The abandoned-work count (server/abandoned_work.h) in the last line, also without /metrics:
   // how much work this replica's shutdown (and its clients) gave up.

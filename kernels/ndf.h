@@ -127,13 +127,12 @@ GLINT_FN real smith_visibility_cos_i_ggx(real3 wo, real3 wi, real alpha_x, real 
   return glint_select(v, GLINT_R(0.0), dead);
 }
 
-/* D(h) V cos_i for GGX in one division, the product smooth_reflect_cos needs: with q and r_o, r_i
+/* D(h) V cos_i for GGX in one division, the product smooth_reflect_cos needs. With q and r_o, r_i
  * as in D_ggx_aniso and smith_visibility_cos_i_ggx above,
- *   D V zi = 1 / (pi ax ay q^2) * zi / (2 (r_o zi + zo r_i)) = zi / (2 pi ax ay q^2 (r_o zi + zo
- * r_i)), one division where the two functions take three (the kernel's divider, shared by every
- * division and square root of a 16-lane block, is its busiest unit: issue 13). Range (documented
- * cosines
- * >= 1e-7, alpha in [1e-4, 1]): for a unit h, 1 <= q <= 1e8, and zo zi <= r_o zi + zo r_i <= 3,
+ *   D V zi = zi / (pi ax ay q^2 * 2 (r_o zi + zo r_i)),
+ * one division where the two functions take three (the kernel's divider, shared by every division
+ * and square root of a 16-lane block, is its busiest unit: issue 13). Range (documented cosines
+ * >= 1e-7, alpha in [1e-4, 1]): for a unit h, 1 <= q <= 1e8, and 2 zo zi <= r_o zi + zo r_i <= 2,
  * so the denominator stays in [6e-22, 2e17], far inside fp32: no overflow or subnormal where the
  * separate factors had none. For a subnormal zi the separate form gave 0 (r_i / zi overflowed);
  * this one the finite limit. h must have h.z > 0 and wo, wi be above the horizon: callers drop

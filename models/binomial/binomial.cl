@@ -1,7 +1,7 @@
 /* Entry of the binomial glint model (models/binomial/binomial_eval.h) for
  * requests with polygon lights by an area method other than LTC (REFERENCE,
  * MONTE_CARLO, LECOCQ, AUTO), whose integrators branch per query: one query
- * per work-item (GLINT_LANES == 1). Everything else runs 8 queries per
+ * per work-item (GLINT_LANES == 1). Everything else runs 16 queries per
  * work-item in binomial_lanes.cl. Light kinds the request lacks are compiled
  * out (GLINT_HAS_DIRECTIONAL, GLINT_HAS_POINT). */
 #include "kernels/kernel_args.h"

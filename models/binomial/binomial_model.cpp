@@ -1,6 +1,6 @@
 // The binomial model's entry in the model table (server/model.h): its
 // parameter block (glint.v1.BinomialParams), what it needs of lights and
-// queries, and its passes: 8 queries per work-item for directional, point and polygon lights
+// queries, and its passes: 16 queries per work-item for directional, point and polygon lights
 // by LTC, one per work-item for polygon lights by the other area methods.
 #include <sstream>
 
@@ -155,7 +155,7 @@ const Model kBinomialModel = {
     .id = glint::v1::BINOMIAL,
     .name = "BINOMIAL",
     .params_field = "binomial",
-    .passes = {{"models/binomial/binomial_lanes.cl", "glint_binomial_lanes", 8, BinomialInLanes,
+    .passes = {{"models/binomial/binomial_lanes.cl", "glint_binomial_lanes", 16, BinomialInLanes,
                 BinomialF32, BinomialF64},
                {"models/binomial/binomial.cl", "glint_binomial", 1, BinomialOneQueryPerItem,
                 BinomialF32, BinomialF64}},

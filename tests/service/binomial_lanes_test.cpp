@@ -1,9 +1,9 @@
-// The 8-lane pass of the binomial glint model (models/binomial/binomial_lanes.cl: 8 queries per
+// The 16-lane pass of the binomial glint model (models/binomial/binomial_lanes.cl: 16 queries per
 // work-item for directional, point and polygon lights by LTC; footprint grids, LTC clips and the
 // count draws per lane with selects and masked search loops, models/binomial/binomial_count.h)
 // on the OpenCL device:
 //  - a query's result must not depend on which queries share its work-item: the same queries
-//    after 1..7 copies of another query, reversed, and split into batches of odd sizes and of
+//    after 1..15 copies of another query, reversed, and split into batches of odd sizes and of
 //    multiples of the lane width give bit-identical results (a mask that let one lane's regime,
 //    search length, clip or early exit leak into another would not);
 //  - against the host path (the same functions on scalars, one query at a time) at the
@@ -146,7 +146,7 @@ TEST_F(BinomialLanes, ResultDoesNotDependOnLaneNeighboursOrBatchSize) {
       // The comparisons below must see glints: many lit values next to many exact zeros.
       ASSERT_GT(lit, int(whole.size()) / 20);
       ASSERT_GT(dark, int(whole.size()) / 20);
-      for (int pad = 1; pad < 8; ++pad) {
+      for (int pad = 1; pad < 16; ++pad) {
         // Padding with query 40 (above the horizon) and query 48 (below: RandomQueries puts every
         // 8th wo under the surface) changes every work-item's mix of lanes.
         for (int pad_from : {40, 48}) {
@@ -161,7 +161,7 @@ TEST_F(BinomialLanes, ResultDoesNotDependOnLaneNeighboursOrBatchSize) {
         for (int c = 0; c < 3; ++c)
           ASSERT_EQ(reversed[size_t(3 * (402 - i) + c)], whole[size_t(3 * i + c)]) << "query " << i;
       // Batches of odd sizes, of the lane width and of its multiples (the last one partial).
-      for (uint32_t chunk : {1u, 3u, 8u, 13u, 64u}) {
+      for (uint32_t chunk : {1u, 3u, 8u, 13u, 16u, 64u}) {
         std::vector<float> pieces;
         for (uint32_t first = 0; first < q.count(); first += chunk) {
           const v1::QueryBatch part =

@@ -125,7 +125,7 @@ GLINT_FN FootprintShape binomial_footprint_shape(real density,
   real A = x1 * x1 + x2 * x2, B = x1 * y1 + x2 * y2, C = y1 * y1 + y2 * y2;
   real half_diff = GLINT_R(0.5) * (A - C);
   real lambda1 = GLINT_R(0.5) * (A + C) + sqrt(half_diff * half_diff + B * B);
-  real major = sqrt(fmax(lambda1, GLINT_R(0.0)));
+  real major = sqrt(glint_fmax_nn(lambda1, GLINT_R(0.0)));
   /* sqrt(det) / sqrt(lambda1) */
   real minor = glint_select(GLINT_R(0.0), area / major, lambda1 > GLINT_R(0.0));
   real theta = GLINT_R(0.5) * atan2(GLINT_R(2.0) * B, A - C); /* (-pi/2, pi/2] */
@@ -137,11 +137,11 @@ GLINT_FN FootprintShape binomial_footprint_shape(real density,
   minor = glint_select(minor, GLINT_R(1.0), unusable);
   theta = glint_select(theta, GLINT_R(0.0), unusable);
   const real max_aniso = GLINT_R(1 << GLINT_BINOMIAL_MAX_ANISO_LOG2);
-  minor = fmax(minor, major / max_aniso);
+  minor = glint_fmax_nn(minor, major / max_aniso);
 
   f.lod = log2(minor);
-  real aniso = fmin(log2(major / minor), GLINT_R(GLINT_BINOMIAL_MAX_ANISO_LOG2));
-  f.aniso = fmax(aniso, GLINT_R(0.0));
+  real aniso = glint_fmin_nn(log2(major / minor), GLINT_R(GLINT_BINOMIAL_MAX_ANISO_LOG2));
+  f.aniso = glint_fmax_nn(aniso, GLINT_R(0.0));
   f.theta = theta;
   return f;
 }
@@ -155,10 +155,10 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
   g.n_facets = f.n_facets;
   real theta = f.theta;
   real lod = f.lod;
-  real lod0 = floor(lod);
+  real lod0 = glint_floor(lod);
   real t_lod = lod - lod0;
   real aniso = f.aniso;
-  real aniso0 = floor(aniso);
+  real aniso0 = glint_floor(aniso);
   real t_aniso = aniso - aniso0;
 
   glint_key seed_key = rng_hash2(seed_lo, seed_hi);
@@ -174,7 +174,7 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
      * moves its far end by ~pi/8 of its short side. */
     real bins = GLINT_R(4.0) * ratio[ia];
     real pos = theta * bins / GLINT_PI;
-    real bin0 = floor(pos);
+    real bin0 = glint_floor(pos);
     real t_rot = pos - bin0;
     for (int ir = 0; ir < 2; ++ir) {
       int j = 2 * ia + ir;
@@ -201,8 +201,8 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
         real along = rot_u[j] / (side * ratio[ia]);
         real across = rot_v[j] / side;
         glint_key key = rng_absorb_key(aniso_key, bin_key[j]);
-        key = rng_absorb_key(key, binomial_cell_key(floor(along)));
-        key = rng_absorb_key(key, binomial_cell_key(floor(across)));
+        key = rng_absorb_key(key, binomial_cell_key(glint_floor(along)));
+        key = rng_absorb_key(key, binomial_cell_key(glint_floor(across)));
         g.cell_key[k] = key;
         g.share[k] = w_l * w_a[ia] * w_r[j];
         ++k;
@@ -220,7 +220,7 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
 GLINT_FN real binomial_quantile_bound(real n, real q, real L) {
   real var = n * q * (GLINT_R(1.0) - q);
   real t = L / GLINT_R(3.0) + sqrt(L * L / GLINT_R(9.0) + GLINT_R(2.0) * L * var);
-  return fmin(n, floor(n * q + t) + GLINT_R(1.0));
+  return glint_fmin_nn(glint_floor(n * q + t) + GLINT_R(1.0), n);
 }
 
 /* The largest count binomial_exact can return for the rarer outcome's probability q: the bound
@@ -461,14 +461,16 @@ GLINT_FN real binomial_normal_of_uniform(real u) {
  * sums over the draw's exact law (all 2^24 uniforms): total variation 1e-3 .. 3e-3 at variance 9,
  * 1e-4 at 210; variance n p (1 - p) + O(1): +1.3% at variance 9. */
 GLINT_FN real binomial_arcsine_theta(real n, real p, real theta, real z) {
-  real phi = clamp(theta + GLINT_R(0.5) * z / sqrt(n), GLINT_R(0.0), GLINT_R(0.5) * GLINT_PI);
+  real phi =
+      glint_clamp_nn(theta + GLINT_R(0.5) * z / sqrt(n), GLINT_R(0.0), GLINT_R(0.5) * GLINT_PI);
   real s = sin(phi);
   /* 1 - exp(-x) for x = 1/(2n) < 1/128 (n > 64 here): the series to x^3, relative error x^3/24 */
   real x = GLINT_R(0.5) / n;
   real mean_excess = GLINT_R(0.5) * (GLINT_R(1.0) - GLINT_R(2.0) * p) * x *
                      (GLINT_R(1.0) - GLINT_R(0.5) * x * (GLINT_R(1.0) - x / GLINT_R(3.0)));
   real skew = (GLINT_R(1.0) - GLINT_R(2.0) * p) * (z * z - GLINT_R(1.0)) / GLINT_R(12.0);
-  return clamp(floor(n * (s * s - mean_excess) - skew + GLINT_R(0.5)), GLINT_R(0.0), n);
+  return glint_clamp_nn(glint_floor(n * (s * s - mean_excess) - skew + GLINT_R(0.5)), GLINT_R(0.0),
+                        n);
 }
 
 /* theta = asin(sqrt(p)) depends on p alone: the draws of one light share it (binomial_prob). */
@@ -486,7 +488,7 @@ typedef struct {
 
 GLINT_FN BinomialProb binomial_prob(real p) {
   BinomialProb b;
-  b.p = fmin(p, GLINT_R(1.0));
+  b.p = glint_fmin_nn(p, GLINT_R(1.0));
   b.theta = asin(sqrt(b.p));
   b.log1m_q = binomial_log1m_rarer(b.p);
   return b;
@@ -536,7 +538,7 @@ GLINT_FN real binomial_whole_prob(real n, BinomialProb prob, real threshold, rea
     real theta = prob.theta;
     glint_mask above_p2 = approx & (p > p2);
     if (glint_any(above_p2)) theta = glint_select(theta, asin(sqrt(p2)), above_p2);
-    x = binomial_arcsine_theta(n, fmin(p, p2), theta, binomial_normal_of_uniform(u));
+    x = binomial_arcsine_theta(n, glint_fmin_nn(p, p2), theta, binomial_normal_of_uniform(u));
     /* max(x, E(p1)) needs E(p1) only if it can exceed x: E(p1) <= the cap for every u, and
      * <= the Bernstein bound at L = -log(1 - u) for this u (L enlarged by 1e-3 against its
      * rounding; plus one count for a comparison that rounding decides, binomial_exact).
@@ -603,7 +605,7 @@ GLINT_FN real binomial_draw_prob(real n, real p, BinomialProb prob, real thresho
                                  glint_mask active) {
   glint_mask drawn = active & (n > GLINT_R(0.0)) & (p > GLINT_R(0.0));
   p = prob.p; /* fmin(p, 1) */
-  real whole = floor(n);
+  real whole = glint_floor(n);
   real part = n - whole;
   real k = GLINT_R(0.0);
   real u = rng_u01_key(rng_absorb_key(key, 1u));

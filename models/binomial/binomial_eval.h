@@ -55,10 +55,10 @@
 
 /* Random stream of light `index` of `kind` seen through half-vector h. */
 GLINT_FN glint_key binomial_light_key(uint kind, uint index, real3 h, real slope_cell) {
-  real z = fmax(h.z, GLINT_R(1e-6));
+  real z = glint_fmax_nn(h.z, GLINT_R(1e-6));
   glint_key key = rng_hash2(kind, index);
-  key = rng_absorb_key(key, binomial_cell_key(floor(h.x / (z * slope_cell))));
-  return rng_absorb_key(key, binomial_cell_key(floor(h.y / (z * slope_cell))));
+  key = rng_absorb_key(key, binomial_cell_key(glint_floor(h.x / (z * slope_cell))));
+  return rng_absorb_key(key, binomial_cell_key(glint_floor(h.y / (z * slope_cell))));
 }
 
 /* KK24 Eq. 20, or the DB23 heuristic: p for a small cone around wi. */
@@ -66,10 +66,11 @@ GLINT_FN real binomial_p_cone(SmoothMaterial m, BinomialParams b, real3 wi, real
                               real solid_angle, real d_h, real d_n) {
   real3 h = r3_normalize(r3_add(wi, wo));
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
-  real p = b.p_mode == GLINT_P_MODE_HEURISTIC_R
-               ? b.r * D / d_n
-               : solid_angle * D / (d_h * GLINT_R(4.0) * fmax(r3_dot(h, wi), GLINT_R(1e-7)));
-  return clamp(p, GLINT_R(0.0), GLINT_R(1.0));
+  real p =
+      b.p_mode == GLINT_P_MODE_HEURISTIC_R
+          ? b.r * D / d_n
+          : solid_angle * D / (d_h * GLINT_R(4.0) * glint_fmax_nn(r3_dot(h, wi), GLINT_R(1e-7)));
+  return glint_clamp_nn(p, GLINT_R(0.0), GLINT_R(1.0));
 }
 
 /* One light's glint radiance from its smooth radiance: L_smooth x fraction / p; 0 in the
@@ -105,7 +106,7 @@ GLINT_FN real3 binomial_polygon(FootprintGrids g, BinomialParams b, SmoothMateri
   real prob = b.p_mode == GLINT_P_MODE_HEURISTIC_R
                   ? b.r * ndf_D(m.ndf, h, m.alpha_x, m.alpha_y) / d_n
                   : ff * e6 / e7;
-  prob = clamp(prob, GLINT_R(0.0), GLINT_R(1.0));
+  prob = glint_clamp_nn(prob, GLINT_R(0.0), GLINT_R(1.0));
   return binomial_light(g, b, ls, prob, binomial_light_key(GLINT_KEY_POLYGON, l, h, b.slope_cell),
                         lit);
 }

@@ -38,8 +38,8 @@ GLINT_FN real binomial_select_uniform(TetrahedralSplit q, real u, real v, uint s
                                       uint seed_hi) {
   glint_key key = rng_absorb_key(rng_hash2(seed_lo, seed_hi), GLINT_BINOMIAL_SELECT_TAG);
   key = rng_absorb_key(key, binomial_cell_key(q.level[3]));
-  key = rng_absorb_key(key, binomial_cell_key(floor(u / q.side[3])));
-  key = rng_absorb_key(key, binomial_cell_key(floor(v / q.side[3])));
+  key = rng_absorb_key(key, binomial_cell_key(glint_floor(u / q.side[3])));
+  key = rng_absorb_key(key, binomial_cell_key(glint_floor(v / q.side[3])));
   return rng_u01_key(key);
 }
 

@@ -88,8 +88,8 @@ GLINT_FN glint_key binomial_tetrahedral_key(glint_key seed_key, real level, real
   glint_key key = rng_absorb_key(seed_key, binomial_cell_key(level));
   key = rng_absorb_key(key, binomial_cell_key(aniso_level));
   key = rng_absorb_key(key, binomial_cell_key(glint_select(bin, bin - bins, bin >= bins)));
-  key = rng_absorb_key(key, binomial_cell_key(floor(rot_u / (side * ratio))));
-  return rng_absorb_key(key, binomial_cell_key(floor(rot_v / side)));
+  key = rng_absorb_key(key, binomial_cell_key(glint_floor(rot_u / (side * ratio))));
+  return rng_absorb_key(key, binomial_cell_key(glint_floor(rot_v / side)));
 }
 
 /* Steps 1 and 2 above without the cell keys: the 4 grids' weights and lattice coordinates. */
@@ -106,15 +106,15 @@ typedef struct {
 
 GLINT_FN TetrahedralSplit binomial_tetrahedral_split(FootprintShape f) {
   TetrahedralSplit q;
-  real lod0 = floor(f.lod);
+  real lod0 = glint_floor(f.lod);
   real t = f.lod - lod0;
-  real a0 = floor(f.aniso);
+  real a0 = glint_floor(f.aniso);
   real s = f.aniso - a0;
   /* 2^l and 2^a of the lower levels; the upper ones are exactly twice */
   real side0 = exp2(lod0), ratio0 = exp2(a0);
   real bins0 = GLINT_R(4.0) * ratio0;
   real pos0 = f.theta * bins0 / GLINT_PI;
-  real b0 = floor(pos0);
+  real b0 = glint_floor(pos0);
   real x = pos0 - b0;
 
   /* Step 1: the triangle and its weights beta, vertices (anisotropy level, bin) in order. */
@@ -124,8 +124,8 @@ GLINT_FN TetrahedralSplit binomial_tetrahedral_split(FootprintShape f) {
   real beta0 = glint_select(GLINT_R(1.0) - x - GLINT_R(0.5) * s, GLINT_R(1.0) - s, tri_a | tri_c);
   real beta1 = glint_select(x - GLINT_R(0.5) * s, s - GLINT_R(2.0) * x, tri_a);
   beta1 = glint_select(beta1, GLINT_R(2.0) * one_minus_x, tri_c);
-  beta0 = fmax(beta0, GLINT_R(0.0));
-  beta1 = fmax(beta1, GLINT_R(0.0));
+  beta0 = glint_fmax_nn(beta0, GLINT_R(0.0));
+  beta1 = glint_fmax_nn(beta1, GLINT_R(0.0));
   real a1 = a0 + GLINT_R(1.0);
   q.vert_aniso[0] = a0;
   q.vert_bin[0] = glint_select(b0, b0 + GLINT_R(1.0), tri_c);
@@ -148,7 +148,8 @@ GLINT_FN TetrahedralSplit binomial_tetrahedral_split(FootprintShape f) {
   q.w[1] = glint_select(fmin(T, c2) - c1, c1 - T, q.early);
   q.w[2] = glint_select(c2 - fmax(T, c1), T - c2, q.late);
   q.w[3] = GLINT_R(1.0) - fmax(c2, T);
-  for (int k = 0; k < GLINT_BINOMIAL_TETRAHEDRAL_GRIDS; ++k) q.w[k] = fmax(q.w[k], GLINT_R(0.0));
+  for (int k = 0; k < GLINT_BINOMIAL_TETRAHEDRAL_GRIDS; ++k)
+    q.w[k] = glint_fmax_nn(q.w[k], GLINT_R(0.0));
   real l1 = lod0 + GLINT_R(1.0);
   q.level[0] = lod0;
   q.level[1] = glint_select(lod0, l1, q.early);

@@ -7,6 +7,8 @@
 /* Square roots by AVX-512's estimate + one Newton step where the device has it
  * (kernels/compat.h glint_sqrt_nn): this kernel is bound by its divider. */
 #define GLINT_FAST_ROOTS 1
+/* and a * b + c fused where the compiler finds it (kernels/compat.h). */
+#define GLINT_CONTRACT_FMA 1
 #include "kernels/kernel_args.h"
 #include "kernels/simd_io.h"
 #include "kernels/work_item.h"

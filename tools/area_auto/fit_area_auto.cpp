@@ -15,8 +15,8 @@
 // instead of integrating it again (area_auto_fit.h Remeasure; minutes instead of ~40), writing
 // the new measurements to --cache (required). --verify-every N (default 50) integrates the truth
 // of every N-th light too and prints the recovered truth's largest deviation from it; one above
-// area_auto_fit.h kMaxRecoveryDeviation (1e-6) fails the fit (exit 1, no table written). A bad
-// argument: a message naming it, exit 2.
+// area_auto_fit.h kMaxRecoveryDeviation (1e-6) fails the fit (exit 1, no table or cache written,
+// --verify-every 0 checks nothing). A bad argument: a message naming it, exit 2.
 #include <charconv>
 #include <chrono>
 #include <cstdio>

@@ -29,7 +29,9 @@ inline constexpr int kFresnelConductor = 2;
 inline constexpr int kFresnelDielectric = 3;
 
 inline constexpr int kNdfs[] = {kNdfGgx, kNdfBeckmann};
-inline const char *ndf_name(int ndf) { return ndf == kNdfBeckmann ? "Beckmann" : "GGX"; }
+inline const char *ndf_name(int ndf) {
+  return ndf == kNdfBeckmann ? "Beckmann" : "GGX";
+}
 
 // An anisotropic roughness pair (alpha_x along the tangent, alpha_y along the bitangent).
 struct Alphas {
@@ -53,18 +55,20 @@ inline std::ostream &operator<<(std::ostream &os, const Material &m) {
 }
 
 // The same declarations for both precisions.
-#define GLINT_TEST_DECLARE_KERNEL_API                                           \
-  /* smooth_reflect_cos: f(wi, wo) cos(theta_i), RGB */                         \
-  Vec3 reflect_cos(const Material &m, Vec3 wi, Vec3 wo);                        \
-  double ndf_D(int ndf, Vec3 h, double alpha_x, double alpha_y);                \
-  /* ndf_z_lambda: w.z * Lambda(w) */                                           \
-  double z_lambda(int ndf, Vec3 w, double alpha_x, double alpha_y);             \
-  /* smith_visibility_correlated: G2 / (4 cos_o cos_i) */                       \
-  double visibility(int ndf, Vec3 wo, Vec3 wi, double alpha_x, double alpha_y); \
-  double fresnel_schlick(double f0, double cos_theta);                          \
-  double fresnel_conductor(double eta, double k, double cos_theta);             \
-  double fresnel_dielectric(double ior, double cos_theta);                      \
-  /* fresnel_eval on the material's Fresnel parameters */                       \
+#define GLINT_TEST_DECLARE_KERNEL_API                                            \
+  /* smooth_reflect_cos: f(wi, wo) cos(theta_i), RGB */                          \
+  Vec3 reflect_cos(const Material &m, Vec3 wi, Vec3 wo);                         \
+  double ndf_D(int ndf, Vec3 h, double alpha_x, double alpha_y);                 \
+  /* ndf_z_lambda: w.z * Lambda(w) */                                            \
+  double z_lambda(int ndf, Vec3 w, double alpha_x, double alpha_y);              \
+  /* smith_visibility_correlated: G2 / (4 cos_o cos_i) */                        \
+  double visibility(int ndf, Vec3 wo, Vec3 wi, double alpha_x, double alpha_y);  \
+  /* ggx_D_visibility_cos_i: GGX D(h) V(wo, wi) cos_i in one division */         \
+  double ggx_dv_cos_i(Vec3 h, Vec3 wo, Vec3 wi, double alpha_x, double alpha_y); \
+  double fresnel_schlick(double f0, double cos_theta);                           \
+  double fresnel_conductor(double eta, double k, double cos_theta);              \
+  double fresnel_dielectric(double ior, double cos_theta);                       \
+  /* fresnel_eval on the material's Fresnel parameters */                        \
   Vec3 fresnel_eval(const Material &m, double cos_theta);
 
 namespace f32 {

@@ -59,6 +59,11 @@ double visibility(int ndf, Vec3 wo, Vec3 wi, double alpha_x, double alpha_y) {
                                          to_real(alpha_y));
 }
 
+double ggx_dv_cos_i(Vec3 h, Vec3 wo, Vec3 wi, double alpha_x, double alpha_y) {
+  return kn::ggx_D_visibility_cos_i(to_real3(h), to_real3(wo), to_real3(wi), to_real(alpha_x),
+                                    to_real(alpha_y));
+}
+
 double fresnel_schlick(double f0, double cos_theta) {
   return kn::F_schlick(to_real(f0), to_real(cos_theta));
 }

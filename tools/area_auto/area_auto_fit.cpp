@@ -4,6 +4,7 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <mutex>
 #include <thread>
 
@@ -94,6 +95,11 @@ bool Reproduces(double x, double truth, float e, double u) {
 // by at most ~1e-7, far below the fingerprint test's 3e-4 and the smallest budget (5e-3).
 constexpr double kMaxUncertainty = 1e-7;
 
+// std::max that keeps a NaN (an integration gone wrong must not vanish from max_deviation).
+double MaxKeepingNan(double a, double b) {
+  return std::isnan(a) || std::isnan(b) ? std::nan("") : std::max(a, b);
+}
+
 }  // namespace
 
 std::vector<Sample> Remeasure(const std::vector<Config> &configs, const std::vector<Sample> &old,
@@ -166,8 +172,8 @@ std::vector<Sample> Remeasure(const std::vector<Config> &configs, const std::vec
         if (std::isfinite(truth[v])) {
           ++recovered;
           if (verify)
-            deviation =
-                std::max(deviation, std::fabs(truth[v] - exact[v]) / std::max(exact[v], kFloor));
+            deviation = MaxKeepingNan(deviation,
+                                      std::fabs(truth[v] - exact[v]) / std::max(exact[v], kFloor));
         } else {
           truth[v] = exact[v];
         }
@@ -180,7 +186,7 @@ std::vector<Sample> Remeasure(const std::vector<Config> &configs, const std::vec
       stats->integrated += nv - recovered;
       if (verify) {
         stats->verified += recovered;
-        stats->max_deviation = std::max(stats->max_deviation, deviation);
+        stats->max_deviation = MaxKeepingNan(stats->max_deviation, deviation);
       }
     }
   };
@@ -188,6 +194,17 @@ std::vector<Sample> Remeasure(const std::vector<Config> &configs, const std::vec
   for (int t = 0; t < std::max(1, threads); ++t) pool.emplace_back(work);
   for (auto &t : pool) t.join();
   return out;
+}
+
+std::string RemeasureProblem(const RemeasureStats &stats) {
+  if (stats.verified == 0 || stats.max_deviation <= kMaxRecoveryDeviation) return "";
+  char b[256];
+  std::snprintf(b, sizeof b,
+                "recovered truths deviate from the integration by up to %.3g (relative), over the "
+                "bound %.3g: a candidate not re-measured or the truth changed, or the cache is of "
+                "another training set",
+                stats.max_deviation, kMaxRecoveryDeviation);
+  return b;
 }
 
 float Quantile(std::vector<float> v, double q) {

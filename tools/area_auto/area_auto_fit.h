@@ -60,6 +60,21 @@ std::vector<Sample> Remeasure(const std::vector<Config> &configs, const std::vec
                               const std::vector<int> &which, int threads, int verify_every,
                               RemeasureStats *stats);
 
+// The largest relative deviation of a verified recovered truth from the integration that a fit
+// accepts. Remeasure keeps a recovered truth only when the float rounding of the cached errors
+// leaves it uncertain by at most 1e-7 (area_auto_fit.cpp kMaxUncertainty), and Truth() is
+// deterministic, so the integration reproduces the truth the cached errors were measured
+// against: a recovered truth within its premises deviates by at most 1e-7. The bound is 10x that
+// (the margin Remeasure's own consistency checks use). More means a premise is broken: a
+// candidate outside `which` changed, the truth integration changed, or the cache is of another
+// training set; the errors it gives are then not the table's (they would still be off by only
+// (1 + e) x deviation, but nothing bounds the unverified lights' deviation then).
+constexpr double kMaxRecoveryDeviation = 1e-6;
+
+// Empty when the verified recovered truths are within kMaxRecoveryDeviation (or none were
+// verified), else a message saying by how much they are not.
+std::string RemeasureProblem(const RemeasureStats &stats);
+
 // The table of one NDF: GLINT_AUTO_CELLS x 8 floats (7 error quantiles, the cv quantile), and
 // per cell the number of training queries it drew on and its pooling level (0 = its own).
 struct NdfTable {

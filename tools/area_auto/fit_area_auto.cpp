@@ -14,7 +14,10 @@
 // those candidates and recovers each query's truth from the other candidates' cached errors
 // instead of integrating it again (area_auto_fit.h Remeasure; minutes instead of ~40), writing
 // the new measurements to --cache (required). --verify-every N (default 50) integrates the truth
-// of every N-th light too and prints the recovered truth's largest deviation from it.
+// of every N-th light too and prints the recovered truth's largest deviation from it; one above
+// area_auto_fit.h kMaxRecoveryDeviation (1e-6) fails the fit (exit 1, no table or cache written,
+// --verify-every 0 checks nothing). A bad argument: a message naming it, exit 2.
+#include <charconv>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
@@ -84,6 +87,19 @@ bool LoadSamples(const std::string &path, const std::vector<Config> &set,
   return true;
 }
 
+// An integer flag value: the whole argument in [lo, hi], else a message naming the flag and
+// false (std::stoi threw an uncaught exception on "abc" and took "12x" as 12).
+bool ParseInt(const char *flag, const std::string &arg, int lo, int hi, int *out) {
+  int v = 0;
+  const auto [end, ec] = std::from_chars(arg.data(), arg.data() + arg.size(), v);
+  if (ec != std::errc() || end != arg.data() + arg.size() || v < lo || v > hi) {
+    std::fprintf(stderr, "%s: '%s' is not an integer in [%d, %d]\n", flag, arg.c_str(), lo, hi);
+    return false;
+  }
+  *out = v;
+  return true;
+}
+
 }  // namespace
 
 int main(int argc, char **argv) {
@@ -93,27 +109,28 @@ int main(int argc, char **argv) {
   int verify_every = 50;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--configs" && i + 1 < argc)
-      configs = std::stoi(argv[++i]);
-    else if (a == "--threads" && i + 1 < argc)
-      threads = std::stoi(argv[++i]);
-    else if (a == "--out" && i + 1 < argc)
+    if (a == "--configs" && i + 1 < argc) {
+      if (!ParseInt("--configs", argv[++i], 1, 1000000, &configs)) return 2;
+    } else if (a == "--threads" && i + 1 < argc) {
+      if (!ParseInt("--threads", argv[++i], 1, 1024, &threads)) return 2;
+    } else if (a == "--out" && i + 1 < argc)
       out_path = argv[++i];
     else if (a == "--cache" && i + 1 < argc)
       cache = argv[++i];
     else if (a == "--remeasure-from" && i + 1 < argc)
       remeasure_from = argv[++i];
-    else if (a == "--verify-every" && i + 1 < argc)
-      verify_every = std::stoi(argv[++i]);
-    else if (a == "--remeasure" && i + 1 < argc) {
+    else if (a == "--verify-every" && i + 1 < argc) {
+      if (!ParseInt("--verify-every", argv[++i], 0, 1000000, &verify_every)) return 2;
+    } else if (a == "--remeasure" && i + 1 < argc) {
       std::stringstream ss(argv[++i]);
       for (std::string k; std::getline(ss, k, ',');) {
-        const int c = std::stoi(k);
-        if (c < 0 || c >= kCandidates) {
-          std::fprintf(stderr, "--remeasure: candidate %d is not in [0, %d]\n", c, kCandidates - 1);
-          return 2;
-        }
+        int c = 0;
+        if (!ParseInt("--remeasure", k, 0, kCandidates - 1, &c)) return 2;
         remeasure.push_back(c);
+      }
+      if (remeasure.empty()) {
+        std::fprintf(stderr, "--remeasure: no candidate given\n");
+        return 2;
       }
     } else {
       std::fprintf(
@@ -197,12 +214,20 @@ int main(int argc, char **argv) {
       }
       RemeasureStats st;
       samples = Remeasure(set, old, remeasure, threads, verify_every, &st);
-      SaveSamples(cache_file, samples);
       std::fprintf(stderr,
                    "%s: truth recovered from %s for %zu queries, integrated for %zu; verified "
                    "%zu recovered against the integration: max deviation %.3g\n",
                    ndf == 2 ? "beckmann" : "ggx", from.c_str(), st.recovered, st.integrated,
                    st.verified, st.max_deviation);
+      // A recovered truth off by more than Remeasure's premises allow fails the fit rather than
+      // writing a table (or a cache) measured against it (area_auto_fit.h kMaxRecoveryDeviation).
+      const std::string problem = RemeasureProblem(st);
+      if (!problem.empty()) {
+        std::fprintf(stderr, "%s: %s; no table or cache written\n", ndf == 2 ? "beckmann" : "ggx",
+                     problem.c_str());
+        return 1;
+      }
+      SaveSamples(cache_file, samples);
     } else if (!cache_file.empty() && LoadSamples(cache_file, set, &samples)) {
       std::fprintf(stderr, "%s: measurements from %s\n", ndf == 2 ? "beckmann" : "ggx",
                    cache_file.c_str());

@@ -301,6 +301,25 @@ GLINT_FN real3 normalize(real3 a) {
 }
 #endif
 
+/* The value of a uniform `real` (the same in every lane: a material or request parameter) as a
+ * scalar of real's precision, `real_scalar`. On the 16-lane device a division or square root of
+ * a broadcast value otherwise stays a vector instruction (LLVM does not narrow it), which keeps
+ * the divider busy ~10 cycles for one value (PoCL's KEMPPINEN kernel: sqrt(density) and
+ * 1e-6 / density per block); as a scalar it is the same IEEE operation, so the same bits, then
+ * broadcast. On the host (`real` a scalar, or host lanes) it is the value itself. Only for
+ * values that are uniform by construction: lane 0 stands for all. */
+#if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
+#if GLINT_USE_DOUBLE
+typedef double real_scalar;
+#else
+typedef float real_scalar;
+#endif
+#define GLINT_UNIFORM(x) ((x).s0)
+#else
+typedef real real_scalar;
+#define GLINT_UNIFORM(x) (x)
+#endif
+
 /* Literal in the working precision. fp32 device builds also pass
  * -cl-single-precision-constant so literals never force double arithmetic. */
 #define GLINT_R(x) ((real)(x))
@@ -309,7 +328,8 @@ GLINT_FN real3 normalize(real3 a) {
 #define GLINT_INV_PI GLINT_R(0.31830988618379067154)
 #define GLINT_SQRT_PI GLINT_R(1.77245385090551602730)
 
-/* sqrt(x) and 1 / sqrt(x) for finite x >= 0 (x > 0 for the reciprocal). In kernels that ask for
+/* sqrt(x) and 1 / sqrt(x) for finite x >= 0 (x > 0 for the reciprocal), and 1 / x
+ * (glint_recip_nn below). In kernels that ask for
  * them (GLINT_FAST_ROOTS: the smooth model's probe/punctual entry, models/smooth/smooth.cl) on a
  * 16-lane fp32 AVX-512 device they are AVX-512's 14-bit reciprocal square root estimate refined
  * by one Newton step, r' = r (3/2 - x r^2 / 2), whose relative error is (3/2) e^2 + e^3 / 2 for
@@ -338,6 +358,22 @@ GLINT_FN real glint_rsqrt_nn(real x) {
   /* x r first: x / 2 would lose a subnormal x's last bit. */
   return r * (GLINT_R(1.5) - GLINT_R(0.5) * ((x * r) * r));
 }
+/* 1 / x for finite x > 0 whose reciprocal is a normal float (x in [2^-126, 2^126]): AVX-512's
+ * 14-bit reciprocal estimate (VRCP14PS, |e| < 2^-14) and one Newton step r (2 - x r), relative
+ * error e^2 < 2^-28 plus the step's three roundings (x r ~ 1 rounds by 2^-24 into 2 - x r,
+ * which rounds once more, and the last product): <= 3 2^-24 + 2^-28
+ * (tests/kernels/fast_roots_device_test.cpp). */
+GLINT_FN real glint_recip_nn(real x) {
+  real r = __builtin_ia32_rcp14ps512_mask(x, (real)(0.0f), (ushort)0xFFFF);
+  return r * (GLINT_R(2.0) - x * r);
+}
+/* a b + c: one fused multiply-add (one rounding) in the same kernels, a product and a sum
+ * elsewhere (FP_CONTRACT is off: the host has no FMA in its baseline ISA, -march=x86-64, and
+ * host and device should round alike; these kernels already differ from the host by their
+ * roots' ulps). For polynomial steps whose own approximation error dwarfs one rounding. */
+GLINT_FN real glint_fma_fast(real a, real b, real c) {
+  return fma(a, b, c);
+}
 #else
 #define GLINT_FAST_ROOTS_ACTIVE 0
 GLINT_FN real glint_sqrt_nn(real x) {
@@ -345,6 +381,12 @@ GLINT_FN real glint_sqrt_nn(real x) {
 }
 GLINT_FN real glint_rsqrt_nn(real x) {
   return GLINT_R(1.0) / sqrt(x);
+}
+GLINT_FN real glint_recip_nn(real x) {
+  return GLINT_R(1.0) / x;
+}
+GLINT_FN real glint_fma_fast(real a, real b, real c) {
+  return a * b + c;
 }
 #endif
 

@@ -36,11 +36,63 @@ GLINT_FN real cap_solid_angle(real s) {
          (GLINT_R(1.0) + sqrt(fmax(GLINT_R(1.0) - s * s, GLINT_R(0.0))));
 }
 
+/* GLINT_SCALAR_LIGHTS (opt-in per kernel entry: models/kemppinen/kemppinen.cl): what a light
+ * gives every lane of a block alike, computed once in scalars and then broadcast. On a 16-lane
+ * device a directional light's normalisation, and without a frame a point light's direction
+ * and I / d^2 (the shading point is then the origin for every lane), otherwise run as vector
+ * square roots and divisions of broadcast values: LLVM does not narrow them to scalars (PoCL's
+ * kernel: vsqrtps and 3 vdivps per light and block for the direction, 3 more for I / d^2), and
+ * a 16-lane vdivps/vsqrtps occupies the divider ~10 cycles where the scalar one takes ~4. The
+ * scalar operations are the same IEEE operations in the same order as each lane's
+ * (r3_normalize, point_light_dir), so the result has the same bits. Not in the smooth model's
+ * entry: it would speed up SMOOTH's punctual kernel too, the reference of the KEMPPINEN ratio
+ * (issue 9), which the lead decides. Device only (the host's `real` is already a scalar). */
+#if defined(GLINT_SCALAR_LIGHTS) && defined(__OPENCL_VERSION__) && GLINT_LANES > 1
+#define GLINT_SCALAR_LIGHTS_ACTIVE 1
+typedef real_scalar light_scalar; /* kernels/compat.h */
+#if GLINT_USE_DOUBLE
+#define GLINT_LIGHT_SCALAR_MAX 1.7976931348623157e308 /* lights_real_max */
+#else
+#define GLINT_LIGHT_SCALAR_MAX 3.40282346638528859812e38f
+#endif
+
+/* directional_light_dir in scalars. */
+GLINT_FN real3 directional_light_dir_scalar(const GLINT_GLOBAL float *rec) {
+  light_scalar x = (light_scalar)rec[0], y = (light_scalar)rec[1], z = (light_scalar)rec[2];
+  light_scalar len = sqrt(x * x + y * y + z * z);
+  return make_real3((real)(x / len), (real)(y / len), (real)(z / len));
+}
+
+/* point_light_dir for the shading point at the origin (queries without a frame), in scalars:
+ * d = the light's position (position - 0 is the position exactly). */
+GLINT_FN real3 point_light_dir_origin_scalar(const GLINT_GLOBAL float *rec,
+                                             GLINT_PRIVATE real3 *irradiance) {
+  light_scalar x = (light_scalar)rec[0], y = (light_scalar)rec[1], z = (light_scalar)rec[2];
+  light_scalar d2 = x * x + y * y + z * z;
+  if (!(d2 > (light_scalar)0.0)) {
+    *irradiance = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+    return make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0));
+  }
+  const light_scalar e_max = (light_scalar)GLINT_LIGHT_SCALAR_MAX;
+  *irradiance = make_real3((real)fmin((light_scalar)rec[3] / d2, e_max),
+                           (real)fmin((light_scalar)rec[4] / d2, e_max),
+                           (real)fmin((light_scalar)rec[5] / d2, e_max));
+  light_scalar d = sqrt(d2);
+  return make_real3((real)(x / d), (real)(y / d), (real)(z / d));
+}
+#else
+#define GLINT_SCALAR_LIGHTS_ACTIVE 0
+#endif
+
 GLINT_FN PunctualLight punctual_light(EvalSpec spec, KernelInputs in, ShadingPoint sp, uint l) {
   PunctualLight light;
   if (spec.has_directional && l < in.n_directional) {
     const GLINT_GLOBAL float *rec = in.directional + GLINT_LIGHT_FLOATS * l;
+#if GLINT_SCALAR_LIGHTS_ACTIVE
+    light.wi = shading_to_local(spec, sp, directional_light_dir_scalar(rec));
+#else
     light.wi = shading_to_local(spec, sp, directional_light_dir(rec));
+#endif
     light.irradiance = directional_light_irradiance(rec);
     light.solid_angle = (real)rec[6];
     light.kind = GLINT_LIGHT_KIND_DIRECTIONAL;
@@ -49,7 +101,14 @@ GLINT_FN PunctualLight punctual_light(EvalSpec spec, KernelInputs in, ShadingPoi
     uint k = spec.has_directional ? l - in.n_directional : l;
     const GLINT_GLOBAL float *rec = in.point + GLINT_LIGHT_FLOATS * k;
     real3 E;
+#if GLINT_SCALAR_LIGHTS_ACTIVE
+    if (!spec.has_frame)
+      light.wi = point_light_dir_origin_scalar(rec, &E); /* sp.p = 0 (kernels/query.h) */
+    else
+      light.wi = shading_to_local(spec, sp, point_light_dir(rec, sp.p, &E));
+#else
     light.wi = shading_to_local(spec, sp, point_light_dir(rec, sp.p, &E));
+#endif
     light.irradiance = E;
     /* A sphere of radius r at distance d subtends a cap with sin(gamma) = r / d
      * (the whole sky from inside it). */

@@ -4,6 +4,14 @@
  * does (kernels/simd_io.h says why); the cell loops have uniform trip counts
  * and per-query conditions are selects. Polygon lights run in the second pass
  * (models/kemppinen/kemppinen_area.cl). */
+/* Square roots by AVX-512's estimate + one Newton step where the device has it, as the smooth
+ * model's entry does (kernels/compat.h glint_sqrt_nn / glint_rsqrt_nn): the smooth BRDF part,
+ * the lights and the point pass's map T, footprint and level set-up
+ * (models/kemppinen/kemppinen_ndf.h kemppinen_root) queue ~30 divisions and square roots per
+ * 16-query block on the divider otherwise. The polygon and sampling entries keep libm's. */
+#define GLINT_FAST_ROOTS 1
+/* Uniform light set-up in scalars, the same bits (kernels/punctual_lights.h). */
+#define GLINT_SCALAR_LIGHTS 1
 #include "kernels/kernel_args.h"
 #include "kernels/simd_io.h"
 #include "kernels/work_item.h"

@@ -87,12 +87,23 @@ GLINT_FN real3 kemppinen_shade(EvalSpec spec, KernelInputs in, QueryInputs q, re
                                const GLINT_PRIVATE real *footprint) {
   SmoothMaterial m = smooth_material_unpack(in.material, spec.ndf, spec.fresnel);
   KemppinenParams p = kemppinen_params_unpack(in.params);
+#if GLINT_FAST_ROOTS_ACTIVE
+  /* wo (and a probe's wi) normalised by the reciprocal square root estimate (kernels/compat.h:
+   * <= 3 2^-24 relative, no division; validation admits lengths within 1e-3 of 1), as the smooth
+   * model's probe entry does; elsewhere the exact division of r3_normalize. */
+  ShadingPoint sp = shading_point_unit(spec, q, r3_scale(q.wo, glint_rsqrt_nn(r3_dot(q.wo, q.wo))));
+#else
   ShadingPoint sp = shading_point(spec, q);
+#endif
   KemppinenFootprint fp = kemppinen_footprint(p, u, v, footprint, in.seed_lo, in.seed_hi);
   KemppinenQueryLevels levels;
   kemppinen_query_levels_into(p, fp, &levels); /* in place: no copy of ~2 KB per block */
   if (spec.probe) {
+#if GLINT_FAST_ROOTS_ACTIVE
+    real3 wi = shading_to_local(spec, sp, r3_scale(q.wi, glint_rsqrt_nn(r3_dot(q.wi, q.wi))));
+#else
     real3 wi = shading_to_local(spec, sp, r3_normalize(q.wi));
+#endif
     return kemppinen_reflect_at(m, &p, &levels, wi, sp.wo,
                                 make_real3(GLINT_R(1.0), GLINT_R(1.0), GLINT_R(1.0)));
   }

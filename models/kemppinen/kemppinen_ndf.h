@@ -133,7 +133,8 @@ GLINT_FN KemppinenParams kemppinen_params_unpack(const GLINT_GLOBAL float *packe
   int k = (int)packed[GLINT_KEMPPINEN_NEIGHBORS];
   p.n_side = k >= 16 ? 4 : k >= 9 ? 3 : k >= 4 ? 2 : 1;
   p.aniso = (real)packed[GLINT_KEMPPINEN_ANISO];
-  p.inv_aniso = GLINT_R(1.0) / p.aniso;
+  /* Uniform: a scalar division (kernels/compat.h GLINT_UNIFORM), the same bits. */
+  p.inv_aniso = (real)((real_scalar)1.0 / GLINT_UNIFORM(p.aniso));
   int n = (int)packed[GLINT_KEMPPINEN_N_COLORS];
   n = n > GLINT_KEMPPINEN_MAX_COLORS ? GLINT_KEMPPINEN_MAX_COLORS : n;
   p.n_colors = n >= 1 ? n : 1;
@@ -150,7 +151,7 @@ GLINT_FN KemppinenParams kemppinen_params_unpack(const GLINT_GLOBAL float *packe
       sum[c] += v;
     }
   }
-  real inv_n = GLINT_R(1.0) / (real)p.n_colors;
+  real inv_n = (real)((real_scalar)1.0 / (real_scalar)p.n_colors);
   p.mean_color = make_real3((real)sum[0] * inv_n, (real)sum[1] * inv_n, (real)sum[2] * inv_n);
   int hood = (int)packed[GLINT_KEMPPINEN_NEIGHBORHOOD];
   p.one_level = hood >= GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL;
@@ -253,10 +254,14 @@ GLINT_FN real3 kemppinen_from_disk(int ndf, real x, real y, real ax, real ay) {
 GLINT_FN real kemppinen_erfc_abs_poly(real x) {
   real y = fabs(x) * GLINT_R(0.70710678118654752440);
   real t = GLINT_R(1.0) / (GLINT_R(1.0) + GLINT_R(0.3275911) * y);
-  return t * (GLINT_R(0.254829592) +
-              t * (GLINT_R(-0.284496736) +
-                   t * (GLINT_R(1.421413741) +
-                        t * (GLINT_R(-1.453152027) + t * GLINT_R(1.061405429)))));
+  /* Horner's steps fused in the point pass's device entry (kernels/compat.h glint_fma_fast;
+   * elsewhere a product and a sum, the same bits as a + t (...)): one rounding per step, against
+   * the formula's 1.5e-7. */
+  real p = glint_fma_fast(t, GLINT_R(1.061405429), GLINT_R(-1.453152027));
+  p = glint_fma_fast(t, p, GLINT_R(1.421413741));
+  p = glint_fma_fast(t, p, GLINT_R(-0.284496736));
+  p = glint_fma_fast(t, p, GLINT_R(0.254829592));
+  return t * p;
 }
 
 GLINT_FN real kemppinen_erfc_abs(real x) {
@@ -276,9 +281,16 @@ GLINT_FN real kemppinen_erfc_abs(real x) {
  * them multiply without overflow: kemppinen_erfc4_with). */
 GLINT_FN real kemppinen_erfc_cheap_denominator(real x, real ymax) {
   real y = glint_fmin_nn(fabs(x) * GLINT_R(0.70710678118654752440), ymax);
-  real d = GLINT_R(1.0) +
-           y * (GLINT_R(0.278393) +
-                y * (GLINT_R(0.230389) + y * (GLINT_R(0.000972) + y * GLINT_R(0.078108))));
+  /* Horner's steps fused in the point pass's 16-lane device entry (kernels/compat.h
+   * glint_fma_fast: one rounding instead of two per step, far below the formula's 5e-4), a
+   * product and a sum elsewhere (the same bits as before). */
+  real d = glint_fma_fast(
+      y,
+      glint_fma_fast(y,
+                     glint_fma_fast(y, glint_fma_fast(y, GLINT_R(0.078108), GLINT_R(0.000972)),
+                                    GLINT_R(0.230389)),
+                     GLINT_R(0.278393)),
+      GLINT_R(1.0));
   real d2 = d * d;
   return d2 * d2;
 }
@@ -405,11 +417,14 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
   real dj = j00 * j11 - j01 * j10; /* det Sigma_s = (det J_s)^2, without cancellation */
   real half_tr = GLINT_R(0.5) * (sxx + syy);
   real hd = GLINT_R(0.5) * (sxx - syy);
-  real lmax = half_tr + sqrt(hd * hd + sxy * sxy);
+  /* glint_sqrt_nn: the estimate + Newton step in the point pass's 16-lane device entry
+   * (models/kemppinen/kemppinen.cl; <= 4 2^-24 relative, kernels/compat.h), sqrt elsewhere. The
+   * operands are finite (Sigma_s <= ~1e16 by the clamp above) and >= 0. */
+  real lmax = half_tr + glint_sqrt_nn(hd * hd + sxy * sxy);
   /* Regularisation (the det -> 0 pitfall of the shader's inv_quadratic): a
    * degenerate footprint (a line, a point) still gets a 2D filter, at least
    * 1% of its major axis and 1e-3 of the mean facet spacing 1/sqrt(K_P). */
-  real eps = GLINT_R(1e-4) * lmax + GLINT_R(1e-6) / p.density;
+  real eps = GLINT_R(1e-4) * lmax + (real)((real_scalar)1e-6 / GLINT_UNIFORM(p.density));
   fp.sxx = sxx + eps;
   fp.syy = syy + eps;
   fp.sxy = sxy;
@@ -417,9 +432,9 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
   fp.tr = sxx + syy;
   fp.eps = eps;
   /* Level: finer level's cells (2^floor(lambda) / sqrt(K_P)) >= 4 sigma_max. */
-  real sigma_max = sqrt(lmax + eps);
-  real lambda =
-      kemppinen_log2_pos(glint_fmax_nn(GLINT_R(8.0) * sigma_max * sqrt(p.density), GLINT_R(1e-30)));
+  real sigma_max = glint_sqrt_nn(lmax + eps);
+  real lambda = kemppinen_log2_pos(glint_fmax_nn(
+      GLINT_R(8.0) * sigma_max * (real)sqrt(GLINT_UNIFORM(p.density)), GLINT_R(1e-30)));
   fp.lambda = glint_clamp_nn(lambda, GLINT_R(0.0), GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL));
   fp.seed_key = rng_absorb(rng_absorb(0x4b323555u, seed_lo), seed_hi);
   return fp;
@@ -436,7 +451,15 @@ GLINT_FN kemp_uint kemppinen_cell_key(real c) {
 GLINT_FN real kemppinen_roulette(real r, real w) {
   real e0 = glint_fmax_nn(r - GLINT_R(GLINT_KEMPPINEN_ROULETTE_EPS), GLINT_R(0.0));
   real e1 = glint_fmin_nn(r + GLINT_R(GLINT_KEMPPINEN_ROULETTE_EPS), GLINT_R(1.0));
+#if GLINT_FAST_ROOTS_ACTIVE
+  /* The point pass's 16-lane device entry: e1 - e0 in [0.1, 0.2] (r in [0, 1)), so the
+   * reciprocal estimate + Newton step applies (kernels/compat.h glint_recip_nn, <= 3 2^-24 +
+   * 2^-28 relative): t moves by < 3e-7 relative, R(r, w) = t^2 (3 - 2 t) by < 1e-6. One division
+   * per facet and light otherwise (16 per block at k = 1, 64 at k = 4). */
+  real t = glint_clamp_nn((w - e0) * glint_recip_nn(e1 - e0), GLINT_R(0.0), GLINT_R(1.0));
+#else
   real t = glint_clamp_nn((w - e0) / (e1 - e0), GLINT_R(0.0), GLINT_R(1.0));
+#endif
   return t * t * (GLINT_R(3.0) - GLINT_R(2.0) * t);
 }
 
@@ -544,7 +567,7 @@ GLINT_FN KemppinenSpatial kemppinen_spatial(KemppinenParams p, KemppinenFootprin
 #endif
   /* sqrt(K_P) / 2^l as a product by the exact 2^-l: the same bits as the
    * quotient (both round sqrt(K_P) 2^-l once), without a division. */
-  s.res_s = sqrt(p.density) * s.inv_res_a;
+  s.res_s = (real)sqrt(GLINT_UNIFORM(p.density)) * s.inv_res_a; /* a scalar root: uniform */
   s.ts_x = fp.xs * s.res_s;
   s.ts_y = fp.ys * s.res_s;
   /* 2x2 spatial cells around the nearest cell vertex. */
@@ -600,7 +623,9 @@ GLINT_FN KemppinenErfc4 kemppinen_erfc4_with(real a, real b, real c, real d, int
       real pc = kemppinen_erfc_cheap_denominator(c, ymax);
       real pd = kemppinen_erfc_cheap_denominator(d, ymax);
       real pab = pa * pb, pcd = pc * pd;
-      real r = GLINT_R(1.0) / (pab * pcd);
+      /* pab pcd in [1, 2e24]: glint_recip_nn's estimate + Newton step in the 16-lane point
+       * pass (<= 3 2^-24 + 2^-28 relative, kernels/compat.h), the division elsewhere. */
+      real r = glint_recip_nn(pab * pcd);
       real rab = r * pcd, rcd = r * pab; /* 1 / (pa pb), 1 / (pc pd) */
       e.a = glint_select(zero, rab * pb, na);
       e.b = glint_select(zero, rab * pa, nb);
@@ -638,8 +663,8 @@ GLINT_FN real kemppinen_outside_width(KemppinenFootprint fp, real res_s, real ts
      * (eps >= 1e-6 / K_P), and at level 24 <= 1.2e8 (footprint clamp 1e6,
      * f <= 4, a <= 20) x 6e7 (K_P <= 1e30): qx in [1e-3, 7e15]. ~3 roundings
      * instead of 1. */
-    real qx = sqrt(fp.sxx) * res_s, qy = sqrt(fp.syy) * res_s;
-    real r = GLINT_R(1.0) / (qx * qy);
+    real qx = glint_sqrt_nn(fp.sxx) * res_s, qy = glint_sqrt_nn(fp.syy) * res_s;
+    real r = glint_recip_nn(qx * qy); /* qx qy in [1e-6, 5e31]: see glint_recip_nn */
     isx = qy * r;
     isy = qx * r;
   } else {
@@ -840,12 +865,33 @@ GLINT_FN real kemppinen_compensation_with(real ta_x, real ta_y, real ba_x, real 
   /* erfc at the 4 edges per axis, each used by two masses; the square's
    * edges are many standard deviations away except near the disk's rim. */
   KemppinenErfc4 eb = kemppinen_erfc4_with(x1, x2, y1, y2, cheap);
-  KemppinenErfc4 es = kemppinen_erfc4_with(x0, x3, y0, y3, cheap);
   real xb = kemppinen_mass_e(x1, x2, eb.a, eb.b), yb = kemppinen_mass_e(y1, y2, eb.c, eb.d);
-  real xsq = kemppinen_mass_e(x0, x3, es.a, es.b);
-  real xout = kemppinen_mass_e(x0, x1, es.a, eb.a) + kemppinen_mass_e(x2, x3, eb.b, es.b);
-  real yout = kemppinen_mass_e(y0, y1, es.c, eb.c) + kemppinen_mass_e(y2, y3, eb.d, es.d);
-  real square_minus_block = xsq * yout + yb * xout; /* = P_a(square) - P_a(B) */
+  real cut = GLINT_R(GLINT_KEMPPINEN_ERFC_CUT);
+  glint_mask square_far = (x0 <= -cut) & (x3 >= cut) & (y0 <= -cut) & (y3 >= cut);
+  real square_minus_block; /* = P_a(square) - P_a(B) */
+  if (glint_any(!square_far)) {
+    KemppinenErfc4 es = kemppinen_erfc4_with(x0, x3, y0, y3, cheap);
+    real xsq = kemppinen_mass_e(x0, x3, es.a, es.b);
+    real xout = kemppinen_mass_e(x0, x1, es.a, eb.a) + kemppinen_mass_e(x2, x3, eb.b, es.b);
+    real yout = kemppinen_mass_e(y0, y1, es.c, eb.c) + kemppinen_mass_e(y2, y3, eb.d, es.d);
+    square_minus_block = xsq * yout + yb * xout;
+  } else {
+    /* Every lane's square edges lie beyond the cut on their own side (x0, y0 <= -6 <= 6 <= x3,
+     * y3): the branch above with its erfc at those edges 0, folded. There xsq = mass_e(x0, x3,
+     * 0, 0) = 1 - (0 + 0) / 2 = 1, mass_e(x0, x1, 0, e) = (x1 <= 0 ? e / 2 : 1 - e / 2) (x0 < 0),
+     * mass_e(x2, x3, e, 0) = (x2 >= 0 ? e / 2 : 1 - e / 2) (x3 > 0), each the same IEEE
+     * operations on the same values (e + 0 = e - 0 = e for e >= 0, 1 * y = y): the same bits,
+     * without the 7 three-way selects of the general case (the compensation was ~22% of the
+     * ONE_CELL k = 1 kernel's time, measured by removing it). Usually taken: the unit square's
+     * edges are within 6 sigma_a of x_a only near the 4 points where the disk touches them. */
+    real hx1 = GLINT_R(0.5) * eb.a, hx2 = GLINT_R(0.5) * eb.b;
+    real hy1 = GLINT_R(0.5) * eb.c, hy2 = GLINT_R(0.5) * eb.d;
+    real xout = glint_select(GLINT_R(1.0) - hx1, hx1, x1 <= GLINT_R(0.0)) +
+                glint_select(GLINT_R(1.0) - hx2, hx2, x2 >= GLINT_R(0.0));
+    real yout = glint_select(GLINT_R(1.0) - hy1, hy1, y1 <= GLINT_R(0.0)) +
+                glint_select(GLINT_R(1.0) - hy2, hy2, y2 >= GLINT_R(0.0));
+    square_minus_block = yout + yb * xout;
+  }
   return glint_fmax_nn(square_minus_block + outside * xb * yb, GLINT_R(0.0));
 }
 
@@ -1121,12 +1167,12 @@ GLINT_FN KemppinenLobe kemppinen_lobe_of_h(const GLINT_PRIVATE KemppinenParams *
     real3 s = make_real3(h.x * ay, h.y * ax, hz * ax * ay);
     /* The floor only keeps a dead h = 0 finite: a unit h has len >= ax ay >= 1e-8 (alpha in
      * [1e-4, 1], validation). */
-    real len = glint_fmax_nn(r3_length(s), GLINT_R(1e-15));
+    real len = glint_fmax_nn(glint_sqrt_nn(r3_dot(s, s)), GLINT_R(1e-15));
     /* Lambert's 1 / (2 len sqrt(1 + nz)), nz = s.z / len, as 1 / (2 sqrt(len (len + s.z))):
      * one division instead of two (s.z >= 0, nothing cancels; len (len + s.z) >= 1e-30 is a
      * normal float). fp32: ~4 roundings on k instead of ~5 (tested against long double,
      * DiskMap.PointPassLobeMatchesThePaperFormulas). */
-    real k = GLINT_R(0.5) / sqrt(len * (len + s.z));
+    real k = GLINT_R(0.5) * glint_rsqrt_nn(len * (len + s.z));
     l.x = GLINT_R(0.5) + s.x * k;
     l.y = GLINT_R(0.5) + s.y * k;
     /* 1 / sigma = len^(3/2) sqrt(8) / (alpha_star ax ay): no division on the
@@ -1134,8 +1180,10 @@ GLINT_FN KemppinenLobe kemppinen_lobe_of_h(const GLINT_PRIVATE KemppinenParams *
      * floor sigma >= 1e-12 becomes 1 / sigma <= 1e12; alpha_star ax ay >=
      * 1e-13 (validation), so the uniform factor is finite (and +inf only
      * gives the floor's 1e12, as sigma would); len >= 1e-15 > 0. */
-    real c = GLINT_R(2.8284271247461900976) / (p->micro * ax * ay); /* uniform */
-    real inv_s = glint_fmin_nn(len * sqrt(len) * c, GLINT_R(1e12));
+    real c =
+        (real)((real_scalar)2.8284271247461900976 /
+               (GLINT_UNIFORM(p->micro) * GLINT_UNIFORM(ax) * GLINT_UNIFORM(ay))); /* uniform */
+    real inv_s = glint_fmin_nn(len * glint_sqrt_nn(len) * c, GLINT_R(1e12));
     l.inv_sx = inv_s * p->aniso;
     l.inv_sy = inv_s * p->inv_aniso;
     l.norm = l.inv_sx * l.inv_sy * GLINT_R(0.15915494309189533577);

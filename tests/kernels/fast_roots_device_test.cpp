@@ -9,6 +9,9 @@
 // 4 2^-24 for the square root (x r rounds once into the result and once through r s, weighted
 // 1 and 1/2, r s and 3/2 - r s / 2 weighted 1/2 and 1, the last product 1), 3 2^-24 for the
 // reciprocal; second-order terms stay below 2^-40.
+// glint_recip_nn (1 / x for x in [2^-126, 2^126]): the estimate r0 = (1 + e) / x, |e| < 2^-14
+// (VRCP14PS), one Newton step r0 (2 - x r0) = (1 - e^2) / x, and three roundings (x r0, 2 - x r0
+// near 1, the product), each at most 2^-24 relative: e^2 + 3 2^-24, second order below 2^-36.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -30,14 +33,17 @@ namespace {
 constexpr double kNewtonBound = 1.5 * 0x1p-28 + 0x1p-43;
 constexpr double kSqrtBound = kNewtonBound + 4 * 0x1p-24 + 0x1p-40;
 constexpr double kRsqrtBound = kNewtonBound + 3 * 0x1p-24 + 0x1p-40;
+constexpr double kRecipBound = 0x1p-28 + 3 * 0x1p-24 + 0x1p-36;
 
 const char *kKernel = R"(
 __kernel void fast_roots_active(__global int *active) { active[0] = GLINT_FAST_ROOTS_ACTIVE; }
-__kernel void fast_roots(__global const float *x, __global float *s, __global float *r) {
+__kernel void fast_roots(__global const float *x, __global float *s, __global float *r,
+                         __global float *q) {
   size_t i = get_global_id(0);
   real v = vload16(i, x);
   vstore16(glint_sqrt_nn(v), i, s);
   vstore16(glint_rsqrt_nn(v), i, r);
+  vstore16(glint_recip_nn(v), i, q);
 }
 )";
 
@@ -75,10 +81,12 @@ TEST(FastRootsDevice, WithinTheNewtonStepsBoundOfLongDouble) {
   ASSERT_EQ(err, CL_SUCCESS);
   ClBuffer out_r(clCreateBuffer(rt->context(), CL_MEM_WRITE_ONLY, bytes, nullptr, &err));
   ASSERT_EQ(err, CL_SUCCESS);
+  ClBuffer out_q(clCreateBuffer(rt->context(), CL_MEM_WRITE_ONLY, bytes, nullptr, &err));
+  ASSERT_EQ(err, CL_SUCCESS);
   ClKernel kernel(clCreateKernel(program, "fast_roots", &err));
   ASSERT_EQ(err, CL_SUCCESS);
-  cl_mem args[3] = {in.get(), out_s.get(), out_r.get()};
-  for (cl_uint a = 0; a < 3; ++a)
+  cl_mem args[4] = {in.get(), out_s.get(), out_r.get(), out_q.get()};
+  for (cl_uint a = 0; a < 4; ++a)
     ASSERT_EQ(clSetKernelArg(kernel.get(), a, sizeof(cl_mem), &args[a]), CL_SUCCESS);
   ClQueue queue(clCreateCommandQueue(rt->context(), rt->device(), 0, &err));
   ASSERT_EQ(err, CL_SUCCESS);
@@ -86,17 +94,20 @@ TEST(FastRootsDevice, WithinTheNewtonStepsBoundOfLongDouble) {
   ASSERT_EQ(clEnqueueNDRangeKernel(queue.get(), kernel.get(), 1, nullptr, &global, nullptr, 0,
                                    nullptr, nullptr),
             CL_SUCCESS);
-  std::vector<float> s(x.size()), r(x.size());
+  std::vector<float> s(x.size()), r(x.size()), q(x.size());
   ASSERT_EQ(clEnqueueReadBuffer(queue.get(), out_s.get(), CL_TRUE, 0, bytes, s.data(), 0, nullptr,
                                 nullptr),
             CL_SUCCESS);
   ASSERT_EQ(clEnqueueReadBuffer(queue.get(), out_r.get(), CL_TRUE, 0, bytes, r.data(), 0, nullptr,
                                 nullptr),
             CL_SUCCESS);
+  ASSERT_EQ(clEnqueueReadBuffer(queue.get(), out_q.get(), CL_TRUE, 0, bytes, q.data(), 0, nullptr,
+                                nullptr),
+            CL_SUCCESS);
 
   EXPECT_EQ(s[0], 0.0f) << "sqrt(0) must be exactly 0, not 0 * inf";
-  double worst_s = 0, worst_r = 0;
-  int exact_s = 0;
+  double worst_s = 0, worst_r = 0, worst_q = 0;
+  int exact_s = 0, checked_q = 0;
   for (size_t i = 0; i < x.size(); ++i) {
     const long double xi = x[i];
     if (xi == 0) continue;
@@ -108,7 +119,14 @@ TEST(FastRootsDevice, WithinTheNewtonStepsBoundOfLongDouble) {
     exact_s += s[i] == std::sqrt(x[i]);
     EXPECT_LE(es, kSqrtBound) << "sqrt(" << x[i] << ") = " << s[i];
     EXPECT_LE(er, kRsqrtBound) << "rsqrt(" << x[i] << ") = " << r[i];
+    if (xi >= 0x1p-126L && xi <= 0x1p126L) {  // glint_recip_nn's domain: 1 / x normal
+      const double eq = double(std::fabs((long double)q[i] * xi - 1.0L));
+      worst_q = std::max(worst_q, eq);
+      ++checked_q;
+      EXPECT_LE(eq, kRecipBound) << "1 / " << x[i] << " = " << q[i];
+    }
   }
+  EXPECT_GT(checked_q, 252 * 64);  // every binade of the domain
   int active = -1;
   {
     ClBuffer flag(clCreateBuffer(rt->context(), CL_MEM_WRITE_ONLY, sizeof active, nullptr, &err));
@@ -126,9 +144,10 @@ TEST(FastRootsDevice, WithinTheNewtonStepsBoundOfLongDouble) {
               CL_SUCCESS);
   }
   std::printf(
-      "device %s: worst relative error sqrt %.3g (bound %.3g), rsqrt %.3g (bound %.3g); "
-      "%d of %zu square roots correctly rounded\n",
-      rt->info().name.c_str(), worst_s, kSqrtBound, worst_r, kRsqrtBound, exact_s, x.size() - 1);
+      "device %s: worst relative error sqrt %.3g (bound %.3g), rsqrt %.3g (bound %.3g), "
+      "reciprocal %.3g (bound %.3g); %d of %zu square roots correctly rounded\n",
+      rt->info().name.c_str(), worst_s, kSqrtBound, worst_r, kRsqrtBound, worst_q, kRecipBound,
+      exact_s, x.size() - 1);
   if (active != 1)
     GTEST_SKIP() << "the device compiled sqrt and 1 / sqrt (no AVX-512 or not 16 lanes): "
                     "the estimate path was not tested";

@@ -31,6 +31,13 @@ struct DeviceEngineOptions {
   // Work-group size: explicit, because PoCL picks the largest divisor of the
   // global size otherwise (size 1 for a prime count). Global sizes are padded.
   size_t local_size = 128;
+  // Build a polygon plan's programs for its one area method (KernelSpec::area_only) instead of
+  // one program with every method behind the runtime switch: a build carries only the method's
+  // code (the glint models' LTC: a fraction of the compile time), results unchanged. AUTO picks
+  // a method per query in the kernel, so its plans keep the shared program. Off in glintd (its
+  // cache holds one polygon program per spec, whatever methods requests name); on in
+  // bench_models --quick, which compiles each of its rows' programs cold (bench/README.md).
+  bool specialise_area_method = false;
 };
 
 class DeviceEngine {
@@ -74,6 +81,10 @@ class DeviceEngine {
   // worker >= 0: on that queue only (concurrent calls with different workers
   // may run in parallel, as for Evaluate; server/warmup.h).
   Status Warm(const KernelSpec &spec, int worker = -1);
+
+  // The spec the plan's programs are built for: plan.spec, with area_only set when
+  // DeviceEngineOptions::specialise_area_method asks for it.
+  KernelSpec ProgramSpec(const EvalPlan &plan) const;
 
  private:
   struct Queue;

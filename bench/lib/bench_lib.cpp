@@ -115,10 +115,12 @@ std::string DefaultCacheDir() {
   return "";
 }
 
-Status CreateEngine(const std::string &cache_dir, std::unique_ptr<DeviceEngine> *engine) {
+Status CreateEngine(const std::string &cache_dir, std::unique_ptr<DeviceEngine> *engine,
+                    bool specialise_area_method) {
   DeviceEngineOptions options;
   options.workers = 1;
   options.cache_dir = cache_dir;
+  options.specialise_area_method = specialise_area_method;
   return DeviceEngine::Create(options, engine);
 }
 

@@ -1,13 +1,13 @@
-// What bench_models --quick's one-method polygon programs (DeviceEngineOptions::
-// specialise_area_method, --area-programs per-method) change: for the polygon-light rows of
-// bench_models' cases (each model's first quick variant per area method, quad and four_quads),
-// two device engines on one fresh PoCL cache, glintd's (one program per spec with every area
-// method behind the runtime switch) and the specialising one (-DGLINT_AREA_ONLY):
+// What bench_models --quick's LTC-only polygon programs (DeviceEngineOptions::ltc_only_programs,
+// --area-programs ltc-only) change: for the LTC polygon-light rows of bench_models' cases (each
+// model's first quick variant with LTC, quad and four_quads), two device engines on one fresh
+// PoCL cache, glintd's (one program per spec with every area method behind the runtime switch)
+// and the specialising one (-DGLINT_AREA_ONLY=1):
 //   build   each engine's first run of the row (its program's cold build and PoCL's
 //           work-group compile), wall and CPU seconds (all threads of this process);
 //   same    whether the two engines' radiance is bit-identical on the row's batch (exit 1 if not);
 //   cost    interleaved rounds, each engine evaluating the batch once per round (which goes first
-//           alternates), the specialised / generic ratio of CPU seconds per evaluation per round,
+//           alternates), the LTC-only / shared ratio of CPU seconds per evaluation per round,
 //           and its median: whether the rows time the same kernel speed as glintd's program.
 // Label the numbers "loaded" on a shared machine (CPU seconds move less with the load than wall).
 //
@@ -124,6 +124,7 @@ int Main(int argc, char **argv) {
           if (!Validate(r, engines[0]->info().fp64).ok()) continue;
           row.plan = MakeEvalPlan(r, r.queries());
           if (!ResolveRequestTable(r.material(), &row.plan).ok()) continue;
+          if (row.plan.area_method != GLINT_AREA_LTC) continue;  // the shared program either way
           const std::string key = std::string(LightsName(lights)) + " " +
                                   std::to_string(row.plan.area_method) + " " + precision;
           if (!seen.insert(key).second) continue;
@@ -156,7 +157,7 @@ int Main(int argc, char **argv) {
       if (!run(e, row, queries, &cpu)) return 1;
     row.same = std::memcmp(out[0].data(), out[1].data(), out[0].size() * sizeof(float)) == 0;
     all_same = all_same && row.same;
-    std::fprintf(stderr, "%s: build %.1f / %.1f CPU-s (generic / one method), radiance %s\n",
+    std::fprintf(stderr, "%s: build %.1f / %.1f CPU-s (shared / LTC only), radiance %s\n",
                  row.name.c_str(), row.build_cpu[0], row.build_cpu[1],
                  row.same ? "bit-identical" : "DIFFERENT");
   }
@@ -173,8 +174,8 @@ int Main(int argc, char **argv) {
   std::printf("%u queries, %d interleaved rounds, PoCL cache %s\n\n", queries, rounds,
               cache_dir.c_str());
   std::printf(
-      "| row | build CPU-s generic | one method | build s generic | one method | "
-      "radiance | CPU-us/eval generic | one method | ratio median | min | max |\n");
+      "| row | build CPU-s shared | LTC only | build s shared | LTC only | "
+      "radiance | CPU-us/eval shared | LTC only | ratio median | min | max |\n");
   std::printf("| --- | ---: | ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: |\n");
   double build[2] = {0, 0};
   for (const Row &row : rows) {
@@ -187,8 +188,8 @@ int Main(int argc, char **argv) {
     for (int e = 0; e < 2; ++e) build[e] += row.build_cpu[e];
   }
   std::printf(
-      "\nfirst runs (builds where a program was new to its engine): %.1f CPU-s generic, "
-      "%.1f one method\n",
+      "\nfirst runs (builds where a program was new to its engine): %.1f CPU-s shared, "
+      "%.1f LTC only\n",
       build[0], build[1]);
   return all_same ? 0 : 1;
 }

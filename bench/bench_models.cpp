@@ -48,9 +48,9 @@
 // Before the first row every kernel variant the run needs is built (Driver::WarmUp), in
 // --compile-jobs processes (default: one per core) sharing the kernel cache, so no row's first
 // run compiles; stderr and the JSON's machine.time_breakdown say where the time went. --quick
-// and --tiny build a polygon row's programs for its one area method (--area-programs
-// per-method, DeviceEngineOptions::specialise_area_method: the glint models' *_area programs
-// without the per-query integrators their LTC rows never run, about half the compile; radiance
+// and --tiny build an LTC polygon row's programs for LTC alone (--area-programs ltc-only,
+// DeviceEngineOptions::ltc_only_programs: the glint models' *_area programs without the
+// per-query integrators their LTC rows never run, about half the compile; radiance
 // bit-identical, bench_area_programs); the full run builds glintd's (--area-programs shared).
 // --warm-up-only stops after the warm-up.
 //
@@ -61,7 +61,7 @@
 // --shm-direct-output, --error-seeds S,
 // --note TEXT (stored in the JSON's machine note), --cache-dir DIR (default: glintd's,
 // $GLINT_CACHE_DIR; PoCL's own cache goes to DIR/pocl), --compile-jobs N,
-// --area-programs per-method|shared, --warm-up-only.
+// --area-programs ltc-only|shared, --warm-up-only.
 #include <fcntl.h>
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/message.h>
@@ -122,8 +122,8 @@ struct Options {
   int compile_jobs = int(std::max(1u, std::thread::hardware_concurrency()));
   std::string compile_worker;               // --compile-worker DIR: a child of WarmUp
   std::vector<std::string> selection_args;  // the flags that choose what runs, for the children
-  // --area-programs per-method|shared: DeviceEngineOptions::specialise_area_method (a polygon
-  // row's programs built for its one area method) or glintd's programs; default per-method with
+  // --area-programs ltc-only|shared: DeviceEngineOptions::ltc_only_programs (an LTC polygon
+  // row's programs built for LTC alone) or glintd's programs; default ltc-only with
   // --quick and --tiny, shared in the full run (bench/README.md says why).
   std::string area_programs;
   bool warm_up_only = false;  // --warm-up-only: the warm-up and its time breakdown, no rows
@@ -1192,7 +1192,7 @@ int Main(int argc, char **argv) {
                  "[--lights probe,directional_point,quad,four_quads] [--precisions fp32,fp64] "
                  "[--paths device,host,end_to_end,shared_memory] [--repeat R] [--min-time S] "
                  "[--error-seeds S] [--note TEXT] [--cache-dir DIR] [--compile-jobs N] "
-                 "[--shm-direct-output] [--area-programs per-method|shared] "
+                 "[--shm-direct-output] [--area-programs ltc-only|shared] "
                  "[--warm-up-only]\n");
     return 2;
   };
@@ -1242,7 +1242,7 @@ int Main(int argc, char **argv) {
       o.compile_worker = argv[++i];
       shown.clear();
     } else if (has_value && a == "--area-programs" &&
-               (std::string(argv[i + 1]) == "per-method" || std::string(argv[i + 1]) == "shared")) {
+               (std::string(argv[i + 1]) == "ltc-only" || std::string(argv[i + 1]) == "shared")) {
       o.area_programs = argv[++i];
       shown += " " + o.area_programs;
     } else if (a == "--warm-up-only") {
@@ -1289,9 +1289,9 @@ int Main(int argc, char **argv) {
   if (error_seeds) o.error_seeds = error_seeds;
   if (min_time >= 0) o.min_time = min_time;
 
-  if (o.area_programs.empty()) o.area_programs = o.mode == "full" ? "shared" : "per-method";
+  if (o.area_programs.empty()) o.area_programs = o.mode == "full" ? "shared" : "ltc-only";
   std::unique_ptr<DeviceEngine> engine;
-  Status s = CreateEngine(o.cache_dir, &engine, o.area_programs == "per-method");
+  Status s = CreateEngine(o.cache_dir, &engine, o.area_programs == "ltc-only");
   if (!s.ok()) {
     std::fprintf(stderr, "bench_models: %s\n", s.message().c_str());
     return 1;

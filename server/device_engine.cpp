@@ -261,7 +261,7 @@ KernelSpec DeviceEngine::ProgramSpec(const EvalPlan &plan) const {
   // constant always equals it.
   KernelSpec spec = plan.spec;
   spec.area_only =
-      options_.specialise_area_method && spec.has_polygon && plan.area_method != GLINT_AREA_AUTO
+      options_.ltc_only_programs && spec.has_polygon && plan.area_method == GLINT_AREA_LTC
           ? plan.area_method
           : -1;
   return spec;

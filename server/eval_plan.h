@@ -34,7 +34,7 @@ struct KernelSpec {
   // A program for one area method only (GLINT_AREA_ONLY, kernels/kernel_args.h): the GLINT_AREA_*
   // value every plan run with it has as area_method, -1 for none (every method behind the
   // kernel's runtime switch, what glintd builds). A build option only when set, like sample_uv.
-  // Set by DeviceEngine::Options::specialise_area_method (bench_models --quick), not by
+  // Set by DeviceEngine::ProgramSpec (DeviceEngineOptions::ltc_only_programs), not by
   // MakeEvalPlan.
   int area_only = -1;
 

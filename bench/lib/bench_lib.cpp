@@ -116,11 +116,11 @@ std::string DefaultCacheDir() {
 }
 
 Status CreateEngine(const std::string &cache_dir, std::unique_ptr<DeviceEngine> *engine,
-                    bool specialise_area_method) {
+                    bool ltc_only_programs) {
   DeviceEngineOptions options;
   options.workers = 1;
   options.cache_dir = cache_dir;
-  options.specialise_area_method = specialise_area_method;
+  options.ltc_only_programs = ltc_only_programs;
   return DeviceEngine::Create(options, engine);
 }
 

@@ -1,13 +1,15 @@
-// DeviceEngineOptions::specialise_area_method (bench_models --quick): a polygon plan's programs
-// built for its one area method (-DGLINT_AREA_ONLY, kernels/kernel_args.h) instead of the one
-// program with every method behind the runtime switch that glintd builds.
-//  - which spec each engine builds: glintd's (the option off) never specialises; with it on, a
-//    polygon plan names its method unless it is AUTO (which picks per query in the kernel), and
-//    plans without polygons are unchanged;
-//  - the specialised program gives the generic one's radiance bit for bit (the constant only
-//    removes the branches the argument did not take; the reference is the generic program,
-//    which the rest of the suite checks against host and quadrature), for SMOOTH with a
-//    per-query integrator (LECOCQ) and for CHERMAIN's representative-point pass with LTC.
+// DeviceEngineOptions::ltc_only_programs (bench_models --quick): an LTC polygon plan's programs
+// built for LTC alone (-DGLINT_AREA_ONLY, kernels/kernel_args.h) instead of the one program with
+// every area method behind the runtime switch that glintd builds.
+//  - which spec each engine builds: glintd's (the option off) never specialises; with it on, an
+//    LTC polygon plan gets area_only = LTC, every other method (AUTO, which picks per query in
+//    the kernel, included) the shared program, and plans without polygons are unchanged;
+//  - the specialised program gives the shared one's radiance bit for bit (the constant only
+//    removes the branches the argument did not take; the reference is the shared program, which
+//    the rest of the suite checks against host and quadrature), for SMOOTH's 8-lane LTC pass and
+//    CHERMAIN's one-query-per-item representative-point pass, whose shared program also holds
+//    every per-query integrator. bench_area_programs found the same for SMOOTH LECOCQ,
+//    LECOCQ_PEARSON and MONTE_CARLO with programs of those methods alone (session 15).
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -35,7 +37,7 @@ class AreaOnly : public test::DeviceEngineTest {
     const char *cache = std::getenv("GLINT_CACHE_DIR");
     o.cache_dir = cache ? cache : "";
     o.workers = 1;
-    o.specialise_area_method = true;
+    o.ltc_only_programs = true;
     Status s = DeviceEngine::Create(o, &specialised_);
     ASSERT_TRUE(s.ok()) << s.message();
   }
@@ -80,7 +82,7 @@ EvaluateRequest Request(v1::Model model, v1::AreaMethod method, uint32_t samples
   return r;
 }
 
-TEST_F(AreaOnly, OnlyThePolygonPlansOfTheSpecialisingEngineNameTheirMethod) {
+TEST_F(AreaOnly, OnlyTheLtcPolygonPlansOfTheSpecialisingEngineGetLtcOnlyPrograms) {
   for (v1::AreaMethod method :
        {v1::LTC, v1::LECOCQ, v1::LECOCQ_PEARSON, v1::MONTE_CARLO, v1::REFERENCE, v1::AUTO}) {
     const EvaluateRequest r = Request(v1::SMOOTH, method, 0);
@@ -92,20 +94,20 @@ TEST_F(AreaOnly, OnlyThePolygonPlansOfTheSpecialisingEngineNameTheirMethod) {
     EXPECT_EQ(spec.area_only, method == v1::AUTO ? -1 : plan.area_method) << int(method);
     EXPECT_EQ(spec.BuildOptions().find("GLINT_AREA_ONLY") != std::string::npos, method != v1::AUTO);
   }
-  EvaluateRequest probes = Request(v1::SMOOTH, v1::LECOCQ, 0);
+  EvaluateRequest probes = Request(v1::SMOOTH, v1::LTC, 0);
   probes.clear_lights();
   *probes.mutable_queries() = test::RandomQueries(4, true, false);
   const EvalPlan plan = MakeEvalPlan(probes, probes.queries());
   EXPECT_EQ(specialised_->ProgramSpec(plan), plan.spec) << "no polygons: nothing to specialise";
 }
 
-TEST_F(AreaOnly, SpecialisedProgramsGiveTheGenericProgramsRadianceBitForBit) {
+TEST_F(AreaOnly, LtcOnlyProgramsGiveTheSharedProgramsRadianceBitForBit) {
   struct Case {
     v1::Model model;
     v1::AreaMethod method;
     uint32_t samples;
   };
-  for (const Case &c : {Case{v1::SMOOTH, v1::LECOCQ, 0}, Case{v1::CHERMAIN, v1::LTC, 0}}) {
+  for (const Case &c : {Case{v1::SMOOTH, v1::LTC, 0}, Case{v1::CHERMAIN, v1::LTC, 0}}) {
     const EvaluateRequest r = Request(c.model, c.method, c.samples);
     EvalPlan plan = MakeEvalPlan(r, r.queries());
     ASSERT_TRUE(ResolveRequestTable(r.material(), &plan).ok());

@@ -91,8 +91,10 @@ TEST_F(AreaOnly, OnlyTheLtcPolygonPlansOfTheSpecialisingEngineGetLtcOnlyPrograms
     EXPECT_EQ(plan.spec.area_only, -1) << "MakeEvalPlan never specialises";
     EXPECT_EQ(engine_->ProgramSpec(plan), plan.spec) << "glintd's engine: " << int(method);
     const KernelSpec spec = specialised_->ProgramSpec(plan);
-    EXPECT_EQ(spec.area_only, method == v1::AUTO ? -1 : plan.area_method) << int(method);
-    EXPECT_EQ(spec.BuildOptions().find("GLINT_AREA_ONLY") != std::string::npos, method != v1::AUTO);
+    EXPECT_EQ(spec.area_only, method == v1::LTC ? GLINT_AREA_LTC : -1) << int(method);
+    EXPECT_EQ(spec.BuildOptions().find("-DGLINT_AREA_ONLY=1") != std::string::npos,
+              method == v1::LTC)
+        << int(method);
   }
   EvaluateRequest probes = Request(v1::SMOOTH, v1::LTC, 0);
   probes.clear_lights();

@@ -47,7 +47,12 @@
 //
 // Before the first row every kernel variant the run needs is built (Driver::WarmUp), in
 // --compile-jobs processes (default: one per core) sharing the kernel cache, so no row's first
-// run compiles; stderr and the JSON's machine.time_breakdown say where the time went.
+// run compiles; stderr and the JSON's machine.time_breakdown say where the time went. --quick
+// and --tiny build an LTC polygon row's programs for LTC alone (--area-programs ltc-only,
+// DeviceEngineOptions::ltc_only_programs: the glint models' *_area programs without the
+// per-query integrators their LTC rows never run, about half the compile; radiance
+// bit-identical, bench_area_programs); the full run builds glintd's (--area-programs shared).
+// --warm-up-only stops after the warm-up.
 //
 //   build/bench/bench_models --quick --json bench/results/quick.json   # < 3 min, even cold
 //   build/bench/bench_models --json results.json                       # every variant, longer
@@ -55,7 +60,8 @@
 // --precisions fp32,fp64, --paths device,host,end_to_end,shared_memory, --repeat R, --min-time S,
 // --shm-direct-output, --error-seeds S,
 // --note TEXT (stored in the JSON's machine note), --cache-dir DIR (default: glintd's,
-// $GLINT_CACHE_DIR; PoCL's own cache goes to DIR/pocl), --compile-jobs N.
+// $GLINT_CACHE_DIR; PoCL's own cache goes to DIR/pocl), --compile-jobs N,
+// --area-programs ltc-only|shared, --warm-up-only.
 #include <fcntl.h>
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/message.h>
@@ -116,6 +122,11 @@ struct Options {
   int compile_jobs = int(std::max(1u, std::thread::hardware_concurrency()));
   std::string compile_worker;               // --compile-worker DIR: a child of WarmUp
   std::vector<std::string> selection_args;  // the flags that choose what runs, for the children
+  // --area-programs ltc-only|shared: DeviceEngineOptions::ltc_only_programs (an LTC polygon
+  // row's programs built for LTC alone) or glintd's programs; default ltc-only with
+  // --quick and --tiny, shared in the full run (bench/README.md says why).
+  std::string area_programs;
+  bool warm_up_only = false;  // --warm-up-only: the warm-up and its time breakdown, no rows
 };
 
 bool Selected(const std::set<std::string> &filter, const std::string &name) {
@@ -248,12 +259,15 @@ struct Combination {
 };
 
 // What DeviceEngine compiles and runs for a plan: the model, the spec, the passes it needs and
-// the build options ("SMOOTH smooth/ggx/schlick/probe/fp32 glint_smooth [-DGLINT_NDF=1 ...]").
-std::string KernelKey(const Model &model, const EvalPlan &plan) {
-  std::string key = std::string(model.name) + " " + plan.spec.Describe();
+// the build options ("SMOOTH smooth/ggx/schlick/probe/fp32 glint_smooth [-DGLINT_NDF=1 ...]");
+// the spec as the engine builds it (DeviceEngine::ProgramSpec: with --quick a polygon plan's
+// area method is part of it).
+std::string KernelKey(const DeviceEngine &engine, const Model &model, const EvalPlan &plan) {
+  const KernelSpec spec = engine.ProgramSpec(plan);
+  std::string key = std::string(model.name) + " " + spec.Describe();
   for (const ModelPass &pass : model.passes)
     if (!pass.needed || pass.needed(plan)) key += std::string(" ") + pass.entry;
-  return key + " [" + plan.spec.BuildOptions() + "]";
+  return key + " [" + spec.BuildOptions() + "]";
 }
 
 // CPU seconds (user + system) of this process, all its threads (RUSAGE_SELF: the PoCL workers
@@ -837,7 +851,7 @@ std::vector<Driver::WarmItem> Driver::WarmItems() const {
     } catch (const std::exception &) {
       return;  // the row reports it
     }
-    item.key = KernelKey(*k.model, plan);
+    item.key = KernelKey(*engine_, *k.model, plan);
     item.lanes_min = 1 << 30, item.lanes_max = 1;
     for (const ModelPass &pass : k.model->passes)
       if (!pass.needed || pass.needed(plan)) {
@@ -1094,7 +1108,8 @@ void Driver::Run() {
       if (share) {
         if (k.bench_case->same_work) row.work = k.bench_case->same_work(*k.variant, k.lights);
         try {
-          row.kernel = KernelKey(*k.model, ResolvedPlan(k.request, Tile(k.request.queries(), 1)));
+          row.kernel =
+              KernelKey(*engine_, *k.model, ResolvedPlan(k.request, Tile(k.request.queries(), 1)));
         } catch (const std::exception &) {
           // Time reports it.
         }
@@ -1177,7 +1192,8 @@ int Main(int argc, char **argv) {
                  "[--lights probe,directional_point,quad,four_quads] [--precisions fp32,fp64] "
                  "[--paths device,host,end_to_end,shared_memory] [--repeat R] [--min-time S] "
                  "[--error-seeds S] [--note TEXT] [--cache-dir DIR] [--compile-jobs N] "
-                 "[--shm-direct-output]\n");
+                 "[--shm-direct-output] [--area-programs ltc-only|shared] "
+                 "[--warm-up-only]\n");
     return 2;
   };
   int repeat = 0, error_seeds = 0;
@@ -1225,13 +1241,19 @@ int Main(int argc, char **argv) {
     } else if (has_value && a == "--compile-worker") {
       o.compile_worker = argv[++i];
       shown.clear();
+    } else if (has_value && a == "--area-programs" &&
+               (std::string(argv[i + 1]) == "ltc-only" || std::string(argv[i + 1]) == "shared")) {
+      o.area_programs = argv[++i];
+      shown += " " + o.area_programs;
+    } else if (a == "--warm-up-only") {
+      o.warm_up_only = true;
     } else {
       return usage();
     }
     if (!shown.empty()) o.command += " " + shown;
     // What selects the variants (and so the kernels), forwarded to the compile children.
     if (a == "--quick" || a == "--tiny" || a == "--models" || a == "--lights" ||
-        a == "--precisions" || a == "--paths")
+        a == "--precisions" || a == "--paths" || a == "--area-programs")
       for (int k = first_arg; k <= i; ++k) o.selection_args.push_back(argv[k]);
   }
   // Refuse unknown names in the filters instead of silently measuring nothing.
@@ -1267,8 +1289,9 @@ int Main(int argc, char **argv) {
   if (error_seeds) o.error_seeds = error_seeds;
   if (min_time >= 0) o.min_time = min_time;
 
+  if (o.area_programs.empty()) o.area_programs = o.mode == "full" ? "shared" : "ltc-only";
   std::unique_ptr<DeviceEngine> engine;
-  Status s = CreateEngine(o.cache_dir, &engine);
+  Status s = CreateEngine(o.cache_dir, &engine, o.area_programs == "ltc-only");
   if (!s.ok()) {
     std::fprintf(stderr, "bench_models: %s\n", s.message().c_str());
     return 1;
@@ -1284,6 +1307,14 @@ int Main(int argc, char **argv) {
   const double cpu0 = CpuSeconds(), children_cpu0 = CpuSeconds(RUSAGE_CHILDREN);
   Driver driver(o, engine.get());
   driver.WarmUp();
+  if (o.warm_up_only) {
+    std::fprintf(stderr,
+                 "warm-up: %.1f s, %d variants in %d processes, CPU %.1f s here + %.1f s "
+                 "in the compile processes\n",
+                 driver.warm_up_seconds(), driver.warm_up_variants(), driver.warm_up_processes(),
+                 driver.warm_up_cpu(), driver.warm_up_children_cpu());
+    return 0;
+  }
   driver.Run();
   const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
   // This process and its compile children (process start and the engine's creation excluded,
@@ -1369,7 +1400,8 @@ int Main(int argc, char **argv) {
                      {"max_batch", o.max_batch},
                      {"min_time_s", o.min_time},
                      {"repeat", o.repeat},
-                     {"error_seeds", o.error_seeds}};
+                     {"error_seeds", o.error_seeds},
+                     {"area_programs", o.area_programs}};
     nlohmann::ordered_json rows = nlohmann::ordered_json::array();
     for (const Row &r : driver.rows()) {
       rows.push_back({{"model", r.model},

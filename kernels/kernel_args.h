@@ -101,7 +101,18 @@ GLINT_FN KernelInputs kernel_inputs_make(
   in.n_polygon = n_polygon;
   in.ltc_table = ltc_table;
   in.model_table = model_table;
+  /* GLINT_AREA_ONLY (KernelSpec::area_only, set only by a caller that asked for a program
+   * specialised to one area method, never by glintd): the method is a constant, so the compiler
+   * drops the other methods' code (AUTO's choice, REFERENCE's quadrature, ...) from the program
+   * and the build takes less time. The engine binds such a program only to plans whose
+   * area_method is that method, so the constant equals the argument: same code path, same
+   * results (tests/service/area_only_test.cpp). */
+#ifdef GLINT_AREA_ONLY
+  (void)area_method;
+  in.area_method = GLINT_AREA_ONLY;
+#else
   in.area_method = area_method;
+#endif
   in.area_samples = area_samples;
   in.seed_lo = seed_lo;
   in.seed_hi = seed_hi;

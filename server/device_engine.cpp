@@ -249,10 +249,22 @@ bool DeviceEngine::Ready(int worker, const EvalPlan &plan, bool sample) const {
         model->sample.kernel_file, model->sample.entry, 1, nullptr, nullptr, nullptr};
     return queue.kernels.count(PassKey(pass, plan.spec)) > 0;
   }
+  const KernelSpec spec = ProgramSpec(plan);
   for (const ModelPass &pass : model->passes)
-    if ((!pass.needed || pass.needed(plan)) && !queue.kernels.count(PassKey(pass, plan.spec)))
+    if ((!pass.needed || pass.needed(plan)) && !queue.kernels.count(PassKey(pass, spec)))
       return false;
   return true;
+}
+
+KernelSpec DeviceEngine::ProgramSpec(const EvalPlan &plan) const {
+  // Decided here alone, from the argument the kernels get (plan.area_method), so a program's
+  // constant always equals it.
+  KernelSpec spec = plan.spec;
+  spec.area_only =
+      options_.ltc_only_programs && spec.has_polygon && plan.area_method == GLINT_AREA_LTC
+          ? plan.area_method
+          : -1;
+  return spec;
 }
 
 Status DeviceEngine::Prepare(int worker, const EvalPlan &plan, const QueryView &queries,
@@ -345,8 +357,9 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const QueryView 
   // guard of the shared-memory regions the kernels may read in place; the guard goes back in
   // front before they run (one system call; server/shm_guard.h).
   std::vector<cl_kernel> kernels(passes.size());
+  const KernelSpec spec = ProgramSpec(plan);
   for (size_t k = 0; k < passes.size(); ++k) {
-    s = KernelFor(queue, *passes[k], plan.spec, &kernels[k]);
+    s = KernelFor(queue, *passes[k], spec, &kernels[k]);
     if (!s.ok()) return s;
   }
   KeepSigbusGuardFirst();

@@ -31,6 +31,16 @@ struct DeviceEngineOptions {
   // Work-group size: explicit, because PoCL picks the largest divisor of the
   // global size otherwise (size 1 for a prime count). Global sizes are padded.
   size_t local_size = 128;
+  // Build an LTC polygon plan's programs for LTC alone (KernelSpec::area_only, -DGLINT_AREA_ONLY)
+  // instead of the one program with every area method behind the runtime switch: the glint
+  // models' one-query-per-item polygon programs then carry none of the per-query integrators
+  // (AUTO's choice, REFERENCE, MONTE_CARLO, LECOCQ), about half their cold compile; results
+  // unchanged. Plans of the other methods keep the shared program: a program per method costs
+  // more than the shared one when a run uses several (SMOOTH's four in bench_models --quick:
+  // 29 CPU-s in all against 17.5 for the shared one, fp32, loaded). Off in glintd (one polygon
+  // program per spec, whatever method a request names); on in bench_models --quick, which compiles
+  // each of its rows' programs cold (bench/README.md).
+  bool ltc_only_programs = false;
 };
 
 class DeviceEngine {
@@ -74,6 +84,10 @@ class DeviceEngine {
   // worker >= 0: on that queue only (concurrent calls with different workers
   // may run in parallel, as for Evaluate; server/warmup.h).
   Status Warm(const KernelSpec &spec, int worker = -1);
+
+  // The spec the plan's programs are built for: plan.spec, with area_only = LTC when
+  // DeviceEngineOptions::ltc_only_programs asks for it.
+  KernelSpec ProgramSpec(const EvalPlan &plan) const;
 
  private:
   struct Queue;

@@ -31,6 +31,7 @@ std::string KernelSpec::BuildOptions() const {
   // Literals such as GLINT_R(0.5) must not promote fp32 arithmetic to double.
   if (!fp64) o << " -cl-single-precision-constant";
   if (sample_uv) o << " -DGLINT_SAMPLE_UV=1";
+  if (area_only >= 0) o << " -DGLINT_AREA_ONLY=" << area_only;
   return o.str();
 }
 
@@ -50,6 +51,7 @@ std::string KernelSpec::Describe() const {
   if (has_polygon) o << "/polygon";
   if (has_frame) o << "/frame";
   if (sample_uv) o << "/uv";
+  if (area_only >= 0) o << "/area" << area_only;
   o << (fp64 ? "/fp64" : "/fp32");
   return o.str();
 }

@@ -31,6 +31,12 @@ struct KernelSpec {
   // Sample only (server/sample.cpp): the queries carry uv (kernels/kernel_args.h sample_uv). A
   // build option only when set, so Evaluate's programs and their cache keys are unchanged.
   bool sample_uv = false;
+  // A program for one area method only (GLINT_AREA_ONLY, kernels/kernel_args.h): the GLINT_AREA_*
+  // value every plan run with it has as area_method, -1 for none (every method behind the
+  // kernel's runtime switch, what glintd builds). A build option only when set, like sample_uv.
+  // Set by DeviceEngine::ProgramSpec (DeviceEngineOptions::ltc_only_programs), not by
+  // MakeEvalPlan.
+  int area_only = -1;
 
   bool operator==(const KernelSpec &) const = default;
   // "-DGLINT_NDF=1 ..." for clBuildProgram.

@@ -115,10 +115,12 @@ std::string DefaultCacheDir() {
   return "";
 }
 
-Status CreateEngine(const std::string &cache_dir, std::unique_ptr<DeviceEngine> *engine) {
+Status CreateEngine(const std::string &cache_dir, std::unique_ptr<DeviceEngine> *engine,
+                    bool ltc_only_programs) {
   DeviceEngineOptions options;
   options.workers = 1;
   options.cache_dir = cache_dir;
+  options.ltc_only_programs = ltc_only_programs;
   return DeviceEngine::Create(options, engine);
 }
 

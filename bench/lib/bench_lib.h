@@ -61,7 +61,9 @@ Status Validate(const glint::v1::EvaluateRequest &request, bool fp64_available);
 // ~/.cache/glint.
 std::string DefaultCacheDir();
 // A device engine with one command queue (one worker), the kernel cache in `cache_dir`.
-Status CreateEngine(const std::string &cache_dir, std::unique_ptr<DeviceEngine> *engine);
+// ltc_only_programs: DeviceEngineOptions::ltc_only_programs (bench_models --quick).
+Status CreateEngine(const std::string &cache_dir, std::unique_ptr<DeviceEngine> *engine,
+                    bool ltc_only_programs = false);
 
 // Mean, 95th percentile and max of a set of errors (NaN when empty).
 struct ErrorStats {

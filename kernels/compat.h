@@ -83,10 +83,11 @@ typedef int16 glint_mask;
  * on the device only changes the rounding in the cancellation-prone spots
  * (dot products of nearly orthogonal vectors in frame_to_local) and breaks
  * the device-vs-host agreement the tests ask for.
- * Except in kernels that ask for it (GLINT_CONTRACT_FMA: the smooth model's
- * probe/punctual entry, models/smooth/smooth.cl) on a 16-lane fp32 AVX-512
- * device, for queries in the local frame: that kernel's speed is its count of
- * vector instructions (issue 13, README "The smooth kernel against Mitsuba
+ * Except in kernels that ask for it (GLINT_CONTRACT_FMA: the 16-lane entries
+ * of the smooth and Kemppinen models, models/smooth/smooth.cl and
+ * models/kemppinen/kemppinen.cl) on a 16-lane fp32 AVX-512 device, for
+ * queries in the local frame: those kernels' speed is their count of vector
+ * instructions (issues 9 and 13, README "The smooth kernel against Mitsuba
  * 3"), and a fused a * b + c is one instruction instead of two (and one
  * rounding instead of two). With a world frame (GLINT_HAS_FRAME) the frame's
  * dot products of nearly orthogonal vectors cancel, and a grazing light's
@@ -330,19 +331,20 @@ typedef real real_scalar;
 
 /* sqrt(x) and 1 / sqrt(x) for finite x >= 0 (x > 0 for the reciprocal), and 1 / x
  * (glint_recip_nn below). In kernels that ask for
- * them (GLINT_FAST_ROOTS: the smooth model's probe/punctual entry, models/smooth/smooth.cl) on a
- * 16-lane fp32 AVX-512 device they are AVX-512's 14-bit reciprocal square root estimate refined
- * by one Newton step, r' = r (3/2 - x r^2 / 2), whose relative error is (3/2) e^2 + e^3 / 2 for
- * an estimate error e < 2^-14 (Intel SDM, VRSQRT14PS), plus the rounding of the step: at most
- * 4 2^-24 relative, 2-4 ulp (tests/kernels/fast_roots_device_test.cpp measures it against long
- * double over every binade). Why: vsqrtps and vdivps on 16 lanes share one unit that takes 10-12
- * cycles per instruction on this device (Skylake-X), and the conductor probe kernel's 11 square
- * roots and 6 divisions per block kept it busy for most of the block (issue 13); the estimate is
- * a pipelined 2-cycle instruction. Everywhere else (host, fp64, 8 lanes, other devices, the other
- * models' kernels) they are sqrt and 1 / sqrt, correctly rounded on PoCL: the host path, and the
- * device on a CPU without AVX-512, then differ from the AVX-512 device by these few ulp (inside
- * the device-vs-host tolerance); replicas that must agree bit for bit need the same CPU kind, as
- * they already do for PoCL's code generation. GLINT_FAST_ROOTS_ACTIVE says which is compiled. */
+ * them (GLINT_FAST_ROOTS: the 16-lane entries models/smooth/smooth.cl,
+ * models/kemppinen/kemppinen.cl) on a 16-lane fp32 AVX-512 device they are AVX-512's 14-bit
+ * reciprocal square root estimate refined by one Newton step, r' = r (3/2 - x r^2 / 2), whose
+ * relative error is (3/2) e^2 + e^3 / 2 for an estimate error e < 2^-14 (Intel SDM, VRSQRT14PS),
+ * plus the rounding of the step: at most 4 2^-24 relative, 2-4 ulp
+ * (tests/kernels/fast_roots_device_test.cpp measures it against long double over every binade).
+ * Why: vsqrtps and vdivps on 16 lanes share one unit that takes 10-12 cycles per instruction on
+ * this device (Skylake-X), and the conductor probe kernel's 11 square roots and 6 divisions per
+ * block kept it busy for most of the block (issue 13); the estimate is a pipelined 2-cycle
+ * instruction. Everywhere else (host, fp64, 8 lanes, other devices, the other models' kernels) they
+ * are sqrt and 1 / sqrt, correctly rounded on PoCL: the host path, and the device on a CPU without
+ * AVX-512, then differ from the AVX-512 device by these few ulp (inside the device-vs-host
+ * tolerance); replicas that must agree bit for bit need the same CPU kind, as they already do for
+ * PoCL's code generation. GLINT_FAST_ROOTS_ACTIVE says which is compiled. */
 #if defined(GLINT_FAST_ROOTS) && defined(__OPENCL_VERSION__) && GLINT_LANES == 16 && \
     !GLINT_USE_DOUBLE && defined(__AVX512F__)
 #define GLINT_FAST_ROOTS_ACTIVE 1

@@ -12,6 +12,8 @@
 #define GLINT_FAST_ROOTS 1
 /* Uniform light set-up in scalars, the same bits (kernels/punctual_lights.h). */
 #define GLINT_SCALAR_LIGHTS 1
+/* a * b + c fused where the compiler finds it, as the smooth entry does (kernels/compat.h). */
+#define GLINT_CONTRACT_FMA 1
 #include "kernels/kernel_args.h"
 #include "kernels/simd_io.h"
 #include "kernels/work_item.h"

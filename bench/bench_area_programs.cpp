@@ -25,7 +25,6 @@
 #include <map>
 #include <memory>
 #include <set>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -39,14 +38,6 @@ namespace glint::bench {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-std::set<std::string> SplitList(const std::string &s) {
-  std::set<std::string> out;
-  std::stringstream ss(s);
-  for (std::string item; std::getline(ss, item, ',');)
-    if (!item.empty()) out.insert(item);
-  return out;
-}
 
 struct Row {
   std::string name;

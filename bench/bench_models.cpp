@@ -88,7 +88,6 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -131,14 +130,6 @@ struct Options {
 
 bool Selected(const std::set<std::string> &filter, const std::string &name) {
   return filter.empty() || filter.count(name);
-}
-
-std::set<std::string> SplitList(const std::string &s) {
-  std::set<std::string> out;
-  std::stringstream ss(s);
-  for (std::string item; std::getline(ss, item, ',');)
-    if (!item.empty()) out.insert(item);
-  return out;
 }
 
 struct Row {

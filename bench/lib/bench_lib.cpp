@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <ctime>
+#include <sstream>
 
 #include "client/lib/glint_client.h"
 #include "server/validation.h"
@@ -106,6 +107,14 @@ Status Validate(const glint::v1::EvaluateRequest &request, bool fp64_available) 
   if (s.ok()) s = ValidateQueries(request.queries(), request.lights_size() > 0, limits);
   if (s.ok()) s = ValidateQueriesForModel(request.queries(), request);
   return s;
+}
+
+std::set<std::string> SplitList(const std::string &s) {
+  std::set<std::string> out;
+  std::stringstream ss(s);
+  for (std::string item; std::getline(ss, item, ',');)
+    if (!item.empty()) out.insert(item);
+  return out;
 }
 
 std::string DefaultCacheDir() {

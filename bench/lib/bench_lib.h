@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -56,6 +57,9 @@ void AddLights(Lights lights, glint::v1::EvaluateRequest *request);
 // The server's checks (ValidateSettings, ValidateQueries, ValidateQueriesForModel): a request
 // the service would refuse is not measured.
 Status Validate(const glint::v1::EvaluateRequest &request, bool fp64_available);
+
+// The non-empty items of a comma-separated command-line list ("SMOOTH,KEMPPINEN").
+std::set<std::string> SplitList(const std::string &s);
 
 // glintd's default kernel cache: $GLINT_CACHE_DIR, else $XDG_CACHE_HOME/glint, else
 // ~/.cache/glint.

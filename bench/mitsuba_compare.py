@@ -20,7 +20,7 @@ Timings: wall M/s on this (shared) machine, and M per CPU-second (all threads of
 which another process's load changes much less.
   /tmp/mitsuba-venv/bin/python bench/mitsuba_compare.py [--n 1048576] [--rounds 7] [--per-round 5]
       [--driver build/bench/smooth_probe_driver] [--bench-models build/bench/bench_models]
-      [--host] [--json PATH]
+      [--host] [--settle 0.2] [--json PATH]
 --host adds a second comparison: Mitsuba on one thread against glint's host path (one thread).
 --bench-models (default on when the binary exists; --bench-models '' skips it) also runs, once per
 round between Mitsuba's evals, `bench_models --quick --models SMOOTH --lights probe --precisions
@@ -118,6 +118,10 @@ def main():
                     help="bench_models binary for the interleaved SMOOTH probe rows ('' skips)")
     ap.add_argument("--host", action="store_true",
                     help="also Mitsuba on one thread against glint's host path")
+    ap.add_argument("--settle", type=float, default=0.2,
+                    help="seconds of pause before each side's evaluations: Dr.Jit's worker "
+                         "threads keep spinning after an eval and took ~24%% of the cores from "
+                         "the glint evaluations that followed at once (0 measures that)")
     ap.add_argument("--json")
     args = ap.parse_args()
 
@@ -190,8 +194,10 @@ def main():
             mitsuba_eval_numpy()
             t_mi, t_mi_np, t_gl = [], [], []
             for _ in range(args.rounds):  # interleaved rounds
+                time.sleep(args.settle)
                 for _ in range(args.per_round):
                     t_mi.append(mitsuba_eval()[0])
+                time.sleep(args.settle)
                 t_gl += glint.round(args.per_round)
                 for _ in range(max(1, args.per_round // 2)):
                     t_mi_np.append(mitsuba_eval_numpy()[0])

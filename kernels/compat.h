@@ -83,16 +83,18 @@ typedef int16 glint_mask;
  * on the device only changes the rounding in the cancellation-prone spots
  * (dot products of nearly orthogonal vectors in frame_to_local) and breaks
  * the device-vs-host agreement the tests ask for.
- * Except in kernels that ask for it (GLINT_CONTRACT_FMA: the 16-lane entries
- * of the smooth and Kemppinen models, models/smooth/smooth.cl and
- * models/kemppinen/kemppinen.cl) on a 16-lane fp32 AVX-512 device, for
+ * Except in kernels that ask for it (GLINT_CONTRACT_FMA: the lane entries
+ * models/smooth/smooth.cl, models/smooth/smooth_area_lanes.cl (LTC) and
+ * models/kemppinen/kemppinen.cl) on an 8- or 16-lane fp32 AVX-512 device, for
  * queries in the local frame: those kernels' speed is their count of vector
  * instructions (issues 9 and 13, README "The smooth kernel against Mitsuba
  * 3"), and a fused a * b + c is one instruction instead of two (and one
- * rounding instead of two). With a world frame (GLINT_HAS_FRAME) the frame's
- * dot products of nearly orthogonal vectors cancel, and a grazing light's
- * cosine moved by 7e-4 relative against the host (engine_test): off there. */
-#if defined(GLINT_CONTRACT_FMA) && GLINT_LANES == 16 && !GLINT_USE_DOUBLE && \
+ * rounding instead of two). A branch taken when all lanes of a block agree
+ * must then round each lane as the other branch does (fusion is within one
+ * expression: models/kemppinen/kemppinen_ndf.h kemppinen_compensation_with). With a world frame
+ * (GLINT_HAS_FRAME) the frame's dot products of nearly orthogonal vectors cancel, and a grazing
+ * light's cosine moved by 7e-4 relative against the host (engine_test): off there. */
+#if defined(GLINT_CONTRACT_FMA) && GLINT_LANES >= 8 && !GLINT_USE_DOUBLE && \
     defined(__AVX512F__) && !GLINT_HAS_FRAME
 #define GLINT_CONTRACT_FMA_ACTIVE 1
 #pragma OPENCL FP_CONTRACT ON

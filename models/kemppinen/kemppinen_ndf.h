@@ -874,7 +874,12 @@ GLINT_FN real kemppinen_compensation_with(real ta_x, real ta_y, real ba_x, real 
     real xsq = kemppinen_mass_e(x0, x3, es.a, es.b);
     real xout = kemppinen_mass_e(x0, x1, es.a, eb.a) + kemppinen_mass_e(x2, x3, eb.b, es.b);
     real yout = kemppinen_mass_e(y0, y1, es.c, eb.c) + kemppinen_mass_e(y2, y3, eb.d, es.d);
-    square_minus_block = xsq * yout + yb * xout;
+    /* yb * xout rounded in a statement of its own, in both branches: kernels that fuse
+     * multiply-adds (GLINT_CONTRACT_FMA) fuse within one expression only, and xsq * yout + yb *
+     * xout with xsq = 1 would round differently from the branch below, whose choice depends on
+     * the block's other lanes (a lane's bits must not). */
+    real yb_xout = yb * xout;
+    square_minus_block = xsq * yout + yb_xout;
   } else {
     /* Every lane's square edges lie beyond the cut on their own side (x0, y0 <= -6 <= 6 <= x3,
      * y3): the branch above with its erfc at those edges 0, folded. There xsq = mass_e(x0, x3,
@@ -890,7 +895,8 @@ GLINT_FN real kemppinen_compensation_with(real ta_x, real ta_y, real ba_x, real 
                 glint_select(GLINT_R(1.0) - hx2, hx2, x2 >= GLINT_R(0.0));
     real yout = glint_select(GLINT_R(1.0) - hy1, hy1, y1 <= GLINT_R(0.0)) +
                 glint_select(GLINT_R(1.0) - hy2, hy2, y2 >= GLINT_R(0.0));
-    square_minus_block = yout + yb * xout;
+    real yb_xout = yb * xout;
+    square_minus_block = yout + yb_xout;
   }
   return glint_fmax_nn(square_minus_block + outside * xb * yb, GLINT_R(0.0));
 }

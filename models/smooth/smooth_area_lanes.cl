@@ -5,6 +5,8 @@
  * branch per query and run one query per work-item (smooth_area.cl). Runs
  * after glint_smooth when the request also has probes or other lights, and
  * then adds to its output. */
+/* a * b + c fused where the compiler finds it (kernels/compat.h). */
+#define GLINT_CONTRACT_FMA 1
 #include "kernels/kernel_args.h"
 #include "kernels/simd_io.h"
 #include "kernels/work_item.h"

@@ -189,26 +189,33 @@ TEST_F(KemppinenEngineTest, DeviceMatchesHostPath) {
 }
 
 // Bit-identical however the batch is split (facets hash (seed, level, cell), never the query's
-// index), and a new seed is a new pattern.
+// index), and a new seed is a new pattern. With and without a world frame: local-frame fp32
+// variants fuse multiply-adds (compat.h GLINT_CONTRACT_FMA), and a branch taken when every lane
+// of a block agrees (the compensation's far-square shortcut) must give a lane the bits the other
+// branch gives it, or chunks of 1 and 7 (other block neighbours) would differ.
 TEST_F(KemppinenEngineTest, BitIdenticalUnderChunkingAndFollowsTheSeed) {
   EvaluateRequest settings = MakeSettings(v1::GGX, true, true, false, 4);
-  v1::QueryBatch q = test::RandomQueries(1000, false, true, 31);
-  EvalPlan plan = MakeEvalPlan(settings, q);
-  auto whole = Device(plan, q);
-  auto again = Device(plan, q, 1);
-  EXPECT_EQ(0, std::memcmp(again.data(), whole.data(), whole.size() * sizeof(float)));
-  for (uint32_t chunk : {1u, 7u, 333u}) {
-    std::vector<float> pieces;
-    for (uint32_t first = 0; first < q.count(); first += chunk) {
-      v1::QueryBatch part =
-          client::SliceQueries(q, first, first + std::min(chunk, q.count() - first));
-      auto out = Device(MakeEvalPlan(settings, part), part, int(first / chunk) % 2);
-      pieces.insert(pieces.end(), out.begin(), out.end());
+  for (bool framed : {false, true}) {
+    v1::QueryBatch q = test::RandomQueries(1000, false, framed, 31);
+    EvalPlan plan = MakeEvalPlan(settings, q);
+    auto whole = Device(plan, q);
+    auto again = Device(plan, q, 1);
+    EXPECT_EQ(0, std::memcmp(again.data(), whole.data(), whole.size() * sizeof(float)));
+    for (uint32_t chunk : {1u, 7u, 333u}) {
+      std::vector<float> pieces;
+      for (uint32_t first = 0; first < q.count(); first += chunk) {
+        v1::QueryBatch part =
+            client::SliceQueries(q, first, first + std::min(chunk, q.count() - first));
+        auto out = Device(MakeEvalPlan(settings, part), part, int(first / chunk) % 2);
+        pieces.insert(pieces.end(), out.begin(), out.end());
+      }
+      ASSERT_EQ(pieces.size(), whole.size());
+      EXPECT_EQ(0, std::memcmp(pieces.data(), whole.data(), whole.size() * sizeof(float)))
+          << "chunks of " << chunk << (framed ? ", framed" : ", local frame");
     }
-    ASSERT_EQ(pieces.size(), whole.size());
-    EXPECT_EQ(0, std::memcmp(pieces.data(), whole.data(), whole.size() * sizeof(float)))
-        << "chunks of " << chunk;
   }
+  v1::QueryBatch q = test::RandomQueries(1000, false, true, 31);
+  auto whole = Device(MakeEvalPlan(settings, q), q);
   settings.set_seed(6);
   auto reseeded = Device(MakeEvalPlan(settings, q), q);
   int differ = 0, lit = 0;
@@ -222,8 +229,10 @@ TEST_F(KemppinenEngineTest, BitIdenticalUnderChunkingAndFollowsTheSeed) {
 
 // The 16-lane pass (models/kemppinen/kemppinen.cl) against the host path without colours at
 // k = 1 and 16 (the extremes of the facet loop's trip count), fp32 and fp64. Both sides run
-// the same operations in the same order (no contraction to FMA on the device, compat.h), so
-// they differ only where PoCL's vector exp / log2 / exp2 differ from glibc's by their ulps:
+// the same operations in the same order (local-frame fp32 on an AVX-512 device fuses
+// multiply-adds and takes roots by estimate + Newton, compat.h: a few ulps per operation more,
+// inside the fp32 bound below), so they differ only where PoCL's vector exp / log2 / exp2 differ
+// from glibc's by their ulps:
 //  - fp64: those ulps are ~1e-16 relative, far below the one rounding to float of the output,
 //    so a value agrees within 2 float ulps (2.4e-7 relative) unless a floor() of a cell index
 //    or of the level lands on the other integer (the inputs differ by ~1e-16 from an

@@ -7,6 +7,8 @@
 #include <mutex>
 #include <sstream>
 
+#include "server/pocl_affinity.h"
+
 namespace glint {
 namespace {
 
@@ -44,6 +46,7 @@ std::string &PoclCacheDirAtInit() {
 std::vector<DeviceHandle> EnumerateDevices() {
   static std::once_flag first;
   std::call_once(first, [] {
+    DefaultPoclAffinity();
     const char *dir = std::getenv("POCL_CACHE_DIR");
     PoclCacheDirAtInit() = dir ? dir : "";
   });

@@ -74,7 +74,12 @@ GLINT_FN SmoothView smooth_view(SmoothMaterial m, real3 wo) {
   return v;
 }
 
-GLINT_FN SmoothReflect smooth_reflect_cos_parts_view(SmoothMaterial m, SmoothView v, real3 wi) {
+/* has_view (a constant): 1 when v was prepared by smooth_view, 0 when only v.wo is set and the
+ * rest is computed here, after the early exit, in the order the single-direction callers (probes,
+ * the glint models) had before smooth_view existed (llvm-mca: the probe block's schedule moved
+ * 256 -> 283 cycles when r_o came first). */
+GLINT_FN SmoothReflect smooth_reflect_cos_parts_with(SmoothMaterial m, SmoothView v, real3 wi,
+                                                     int has_view) {
   real3 wo = v.wo;
   SmoothReflect r;
   real3 h = r3_add(wi, wo);
@@ -96,6 +101,7 @@ GLINT_FN SmoothReflect smooth_reflect_cos_parts_view(SmoothMaterial m, SmoothVie
   h = r3_scale(h, glint_rsqrt_nn(glint_select(hh, GLINT_R(1.0), dead))); /* no division */
   /* D is returned for callers that reuse it (the SMOOTH kernels do not: the compiler drops it). */
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
+  if (!has_view) v = smooth_view(m, wo);
   /* D V cos_i: V alone overflows fp32 at cosines ~1e-36 (see ndf.h); GGX in one division. */
   real DV_cos_i = m.ndf == GLINT_NDF_BECKMANN
                       ? D * smith_visibility_cos_i_view(m.ndf, wo, v.zlo, wi, m.alpha_x, m.alpha_y)
@@ -108,7 +114,12 @@ GLINT_FN SmoothReflect smooth_reflect_cos_parts_view(SmoothMaterial m, SmoothVie
 }
 
 GLINT_FN SmoothReflect smooth_reflect_cos_parts(SmoothMaterial m, real3 wi, real3 wo) {
-  return smooth_reflect_cos_parts_view(m, smooth_view(m, wo), wi);
+  SmoothView v;
+  v.wo = wo;
+  v.zo = GLINT_R(0.0);
+  v.r_o = GLINT_R(0.0);
+  v.zlo = GLINT_R(0.0);
+  return smooth_reflect_cos_parts_with(m, v, wi, 0);
 }
 
 /* f(wi, wo) * cos(theta_i): the radiance reflected towards wo under unit
@@ -121,7 +132,7 @@ GLINT_FN real3 smooth_reflect_cos(SmoothMaterial m, real3 wi, real3 wo) {
 
 /* smooth_reflect_cos for a view prepared once (smooth_view): the same bits. */
 GLINT_FN real3 smooth_reflect_cos_view(SmoothMaterial m, SmoothView v, real3 wi) {
-  return smooth_reflect_cos_parts_view(m, v, wi).fc;
+  return smooth_reflect_cos_parts_with(m, v, wi, 1).fc;
 }
 
 #endif /* GLINT_SMOOTH_BRDF_H */

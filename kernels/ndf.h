@@ -127,6 +127,14 @@ GLINT_FN real smith_visibility_cos_i_ggx(real3 wo, real3 wi, real alpha_x, real 
   return glint_select(v, GLINT_R(0.0), dead);
 }
 
+GLINT_FN real ggx_view_root(real3 wo, real alpha_x, real alpha_y) {
+  /* r_o = sqrt(zo^2 + s_o^2), zo = max(wo.z, 0): the part of ggx_D_visibility_cos_i that depends on
+   * wo alone (a light loop computes it once per query: ggx_D_visibility_cos_i_view). */
+  real xo = alpha_x * wo.x, yo = alpha_y * wo.y;
+  real zo = glint_fmax_nn(wo.z, GLINT_R(0.0));
+  return glint_sqrt_nn(zo * zo + (xo * xo + yo * yo));
+}
+
 /* D(h) V cos_i for GGX in one division, the product smooth_reflect_cos needs. With q and r_o, r_i
  * as in D_ggx_aniso and smith_visibility_cos_i_ggx above,
  *   D V zi = zi / (pi ax ay q^2 * 2 (r_o zi + zo r_i)),
@@ -136,19 +144,25 @@ GLINT_FN real smith_visibility_cos_i_ggx(real3 wo, real3 wi, real alpha_x, real 
  * so the denominator stays in [6e-22, 2e17], far inside fp32: no overflow or subnormal where the
  * separate factors had none. For a subnormal zi the separate form gave 0 (r_i / zi overflowed);
  * this one the finite limit. h must have h.z > 0 and wo, wi be above the horizon: callers drop
- * other lanes (the result there is finite or 0, never used). */
-GLINT_FN real ggx_D_visibility_cos_i(real3 h, real3 wo, real3 wi, real alpha_x, real alpha_y) {
+ * other lanes (the result there is finite or 0, never used).
+ * Here with zo = max(wo.z, 0) and r_o = ggx_view_root(wo) given (ggx_D_visibility_cos_i below
+ * computes them; a light loop once per query, models/smooth/smooth_eval.h).*/
+GLINT_FN real ggx_D_visibility_cos_i_view(real3 h, real zo, real r_o, real3 wi, real alpha_x,
+                                          real alpha_y) {
   real sx = h.x * (GLINT_R(1.0) / alpha_x);
   real sy = h.y * (GLINT_R(1.0) / alpha_y);
   real q = sx * sx + sy * sy + h.z * h.z;
-  real xo = alpha_x * wo.x, yo = alpha_y * wo.y;
   real xi = alpha_x * wi.x, yi = alpha_y * wi.y;
-  real zo = glint_fmax_nn(wo.z, GLINT_R(0.0));
   real zi = glint_fmax_nn(wi.z, GLINT_R(0.0));
-  real r_o = glint_sqrt_nn(zo * zo + (xo * xo + yo * yo));
   real r_i = glint_sqrt_nn(zi * zi + (xi * xi + yi * yi));
   real denom = GLINT_R(2.0) * GLINT_PI * alpha_x * alpha_y * q * q * (r_o * zi + zo * r_i);
   return glint_select(GLINT_R(0.0), zi / denom, denom > GLINT_R(0.0));
+}
+
+/* The same operations in the same order as before the split, so the same bits. */
+GLINT_FN real ggx_D_visibility_cos_i(real3 h, real3 wo, real3 wi, real alpha_x, real alpha_y) {
+  return ggx_D_visibility_cos_i_view(h, glint_fmax_nn(wo.z, GLINT_R(0.0)),
+                                     ggx_view_root(wo, alpha_x, alpha_y), wi, alpha_x, alpha_y);
 }
 
 /* V cos_i = G2 / (4 cos_o), the factor smooth_reflect_cos needs. V itself overflows in fp32
@@ -157,15 +171,22 @@ GLINT_FN real ggx_D_visibility_cos_i(real3 h, real3 wo, real3 wi, real alpha_x, 
  *   V zi = 1 / (4 (zo + zo Lambda_o + zo Lambda_i)) = 1 / (4 (zo + zlo + zo (zli / zi))).
  * zli / zi overflows only for subnormal zi; the result is then 0, right unless zo is subnormal
  * too (outside the documented cos >= 1e-7 range). GGX takes the closed form above. */
-GLINT_FN real smith_visibility_cos_i(int ndf, real3 wo, real3 wi, real alpha_x, real alpha_y) {
+GLINT_FN real smith_visibility_cos_i_view(int ndf, real3 wo, real zlo, real3 wi, real alpha_x,
+                                          real alpha_y) {
+  /* zlo = ndf_z_lambda(ndf, wo): given, so that a light loop computes it once per query. */
   if (ndf != GLINT_NDF_BECKMANN) return smith_visibility_cos_i_ggx(wo, wi, alpha_x, alpha_y);
-  real zlo = ndf_z_lambda(ndf, wo, alpha_x, alpha_y);
   real zli = ndf_z_lambda(ndf, wi, alpha_x, alpha_y);
   glint_mask dead = (wo.z <= GLINT_R(0.0)) | (wi.z <= GLINT_R(0.0));
   real zi = glint_select(wi.z, GLINT_R(1.0), dead); /* dead lanes: no 0/0 */
   real denom = GLINT_R(4.0) * (wo.z + zlo + wo.z * (zli / zi));
   real v = glint_select(GLINT_R(0.0), GLINT_R(1.0) / denom, denom > GLINT_R(0.0));
   return glint_select(v, GLINT_R(0.0), dead);
+}
+
+GLINT_FN real smith_visibility_cos_i(int ndf, real3 wo, real3 wi, real alpha_x, real alpha_y) {
+  if (ndf != GLINT_NDF_BECKMANN) return smith_visibility_cos_i_ggx(wo, wi, alpha_x, alpha_y);
+  return smith_visibility_cos_i_view(ndf, wo, ndf_z_lambda(ndf, wo, alpha_x, alpha_y), wi, alpha_x,
+                                     alpha_y);
 }
 
 #endif /* GLINT_NDF_H */

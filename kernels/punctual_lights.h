@@ -36,7 +36,8 @@ GLINT_FN real cap_solid_angle(real s) {
          (GLINT_R(1.0) + sqrt(fmax(GLINT_R(1.0) - s * s, GLINT_R(0.0))));
 }
 
-/* GLINT_SCALAR_LIGHTS (opt-in per kernel entry: models/kemppinen/kemppinen.cl): what a light
+/* GLINT_SCALAR_LIGHTS (opt-in per kernel entry: models/kemppinen/kemppinen.cl,
+ * models/smooth/smooth.cl): what a light
  * gives every lane of a block alike, computed once in scalars and then broadcast. On a 16-lane
  * device a directional light's normalisation, and without a frame a point light's direction
  * and I / d^2 (the shading point is then the origin for every lane), otherwise run as vector
@@ -44,9 +45,9 @@ GLINT_FN real cap_solid_angle(real s) {
  * kernel: vsqrtps and 3 vdivps per light and block for the direction, 3 more for I / d^2), and
  * a 16-lane vdivps/vsqrtps occupies the divider ~10 cycles where the scalar one takes ~4. The
  * scalar operations are the same IEEE operations in the same order as each lane's
- * (r3_normalize, point_light_dir), so the result has the same bits. Not in the smooth model's
- * entry: it would speed up SMOOTH's punctual kernel too, the reference of the KEMPPINEN ratio
- * (issue 9), which the lead decides. Device only (the host's `real` is already a scalar). */
+ * (r3_normalize, point_light_dir), so the result has the same bits. The smooth model's entry
+ * takes it too since session 16 (issue 13), which makes SMOOTH's punctual kernel, the reference
+ * of the KEMPPINEN ratio (issue 9), faster. Device only (the host's `real` is already a scalar). */
 #if defined(GLINT_SCALAR_LIGHTS) && defined(__OPENCL_VERSION__) && GLINT_LANES > 1
 #define GLINT_SCALAR_LIGHTS_ACTIVE 1
 typedef real_scalar light_scalar; /* kernels/compat.h */

@@ -48,7 +48,39 @@ typedef struct {
   real D;
 } SmoothReflect;
 
-GLINT_FN SmoothReflect smooth_reflect_cos_parts(SmoothMaterial m, real3 wi, real3 wo) {
+/* What smooth_reflect_cos needs of wo alone: a query's light loop computes it once instead of
+ * once per light (models/smooth/smooth_eval.h; GGX's r_o is a square root per light and block,
+ * Beckmann's wo.z Lambda(wo) an exp and an erfc). The same operations as computed inside, so the
+ * same bits. */
+typedef struct {
+  real3 wo;
+  real zo;  /* GGX: max(wo.z, 0) */
+  real r_o; /* GGX: ggx_view_root(wo) */
+  real zlo; /* Beckmann: wo.z Lambda(wo) (ndf_z_lambda) */
+} SmoothView;
+
+GLINT_FN SmoothView smooth_view(SmoothMaterial m, real3 wo) {
+  SmoothView v;
+  v.wo = wo;
+  v.zo = GLINT_R(0.0);
+  v.r_o = GLINT_R(0.0);
+  v.zlo = GLINT_R(0.0);
+  if (m.ndf == GLINT_NDF_BECKMANN) {
+    v.zlo = ndf_z_lambda(m.ndf, wo, m.alpha_x, m.alpha_y);
+  } else {
+    v.zo = glint_fmax_nn(wo.z, GLINT_R(0.0));
+    v.r_o = ggx_view_root(wo, m.alpha_x, m.alpha_y);
+  }
+  return v;
+}
+
+/* has_view (a constant): 1 when v was prepared by smooth_view, 0 when only v.wo is set and the
+ * rest is computed here, after the early exit, in the order the single-direction callers (probes,
+ * the glint models) had before smooth_view existed (llvm-mca: the probe block's schedule moved
+ * 256 -> 283 cycles when r_o came first). */
+GLINT_FN SmoothReflect smooth_reflect_cos_parts_with(SmoothMaterial m, SmoothView v, real3 wi,
+                                                     int has_view) {
+  real3 wo = v.wo;
   SmoothReflect r;
   real3 h = r3_add(wi, wo);
   real hh = r3_dot(h, h);
@@ -69,15 +101,25 @@ GLINT_FN SmoothReflect smooth_reflect_cos_parts(SmoothMaterial m, real3 wi, real
   h = r3_scale(h, glint_rsqrt_nn(glint_select(hh, GLINT_R(1.0), dead))); /* no division */
   /* D is returned for callers that reuse it (the SMOOTH kernels do not: the compiler drops it). */
   real D = ndf_D(m.ndf, h, m.alpha_x, m.alpha_y);
+  if (!has_view) v = smooth_view(m, wo);
   /* D V cos_i: V alone overflows fp32 at cosines ~1e-36 (see ndf.h); GGX in one division. */
   real DV_cos_i = m.ndf == GLINT_NDF_BECKMANN
-                      ? D * smith_visibility_cos_i(m.ndf, wo, wi, m.alpha_x, m.alpha_y)
-                      : ggx_D_visibility_cos_i(h, wo, wi, m.alpha_x, m.alpha_y);
+                      ? D * smith_visibility_cos_i_view(m.ndf, wo, v.zlo, wi, m.alpha_x, m.alpha_y)
+                      : ggx_D_visibility_cos_i_view(h, v.zo, v.r_o, wi, m.alpha_x, m.alpha_y);
   real3 F = fresnel_eval(m.fresnel, r3_dot(wo, h));
   r.fc = r3_select(r3_scale(F, DV_cos_i), zero, dead);
   r.h = h;
   r.D = D;
   return r;
+}
+
+GLINT_FN SmoothReflect smooth_reflect_cos_parts(SmoothMaterial m, real3 wi, real3 wo) {
+  SmoothView v;
+  v.wo = wo;
+  v.zo = GLINT_R(0.0);
+  v.r_o = GLINT_R(0.0);
+  v.zlo = GLINT_R(0.0);
+  return smooth_reflect_cos_parts_with(m, v, wi, 0);
 }
 
 /* f(wi, wo) * cos(theta_i): the radiance reflected towards wo under unit
@@ -86,6 +128,11 @@ GLINT_FN SmoothReflect smooth_reflect_cos_parts(SmoothMaterial m, real3 wi, real
  * or below the horizon: a one-sided reflector has no transmission lobe. */
 GLINT_FN real3 smooth_reflect_cos(SmoothMaterial m, real3 wi, real3 wo) {
   return smooth_reflect_cos_parts(m, wi, wo).fc;
+}
+
+/* smooth_reflect_cos for a view prepared once (smooth_view): the same bits. */
+GLINT_FN real3 smooth_reflect_cos_view(SmoothMaterial m, SmoothView v, real3 wi) {
+  return smooth_reflect_cos_parts_with(m, v, wi, 1).fc;
 }
 
 #endif /* GLINT_SMOOTH_BRDF_H */

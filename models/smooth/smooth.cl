@@ -9,6 +9,10 @@
 #define GLINT_FAST_ROOTS 1
 /* and a * b + c fused where the compiler finds it (kernels/compat.h). */
 #define GLINT_CONTRACT_FMA 1
+/* Uniform light set-up (a directional light's normalisation; without a frame a point light's
+ * direction and I / d^2) once per block in scalars, the same IEEE operations, so the same bits
+ * (kernels/punctual_lights.h): 16-lane vdivps/vsqrtps of broadcast values otherwise. */
+#define GLINT_SCALAR_LIGHTS 1
 #include "kernels/kernel_args.h"
 #include "kernels/simd_io.h"
 #include "kernels/work_item.h"

@@ -34,9 +34,13 @@ GLINT_FN real3 smooth_shade(EvalSpec spec, KernelInputs in, QueryInputs q) {
   ShadingPoint sp = shading_point(spec, q);
   real3 radiance = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   uint n_lights = punctual_light_count(spec, in);
+  /* What depends on wo alone (GGX's r_o, Beckmann's Lambda(wo)) once per query, not per light:
+   * the same operations, the same bits (kernels/smooth_brdf.h smooth_view). */
+  SmoothView view = smooth_view(m, sp.wo);
   for (uint l = 0; l < n_lights; ++l) {
     PunctualLight light = punctual_light(spec, in, sp, l);
-    radiance = r3_add(radiance, r3_mul(smooth_reflect_cos(m, light.wi, sp.wo), light.irradiance));
+    radiance =
+        r3_add(radiance, r3_mul(smooth_reflect_cos_view(m, view, light.wi), light.irradiance));
   }
   return radiance;
 }

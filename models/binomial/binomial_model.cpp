@@ -1,7 +1,7 @@
 // The binomial model's entry in the model table (server/model.h): its
 // parameter block (glint.v1.BinomialParams), what it needs of lights and
-// queries, and its passes: 16 queries per work-item for directional, point and polygon lights
-// by LTC, one per work-item for polygon lights by the other area methods.
+// queries, and its passes: 16 queries per work-item (8 in fp64) for directional, point and
+// polygon lights by LTC, one per work-item for polygon lights by the other area methods.
 #include <sstream>
 
 #include "models/binomial/binomial_params.h"
@@ -155,8 +155,9 @@ const Model kBinomialModel = {
     .id = glint::v1::BINOMIAL,
     .name = "BINOMIAL",
     .params_field = "binomial",
+    // 16 fp32 lanes, 8 fp64 lanes: double16 spills (models/binomial/README.md "fp64 lanes").
     .passes = {{"models/binomial/binomial_lanes.cl", "glint_binomial_lanes", 16, BinomialInLanes,
-                BinomialF32, BinomialF64},
+                BinomialF32, BinomialF64, 8},
                {"models/binomial/binomial.cl", "glint_binomial", 1, BinomialOneQueryPerItem,
                 BinomialF32, BinomialF64}},
     .validate_params = ValidateBinomialParams,

@@ -33,8 +33,9 @@ struct ModelPass {
   bool (*needed)(const EvalPlan &plan);
   HostPassFn host_f32, host_f64;  // the same pass on the host (--device host, tests)
   // Queries per work-item for fp64 requests, 0 = simd_width. A double16 value takes two zmm
-  // registers, so a kernel that is fastest with 16 fp32 lanes can spill with 16 fp64 ones
-  // (BINOMIAL: 8, models/binomial/README.md "fp64 lanes").
+  // registers, so a kernel that is fastest with 16 fp32 lanes may be faster with 8 fp64 ones;
+  // measure before setting it (BINOMIAL measured 8 no faster, models/binomial/README.md "fp64
+  // lanes (session 16)").
   int simd_width_fp64 = 0;
 
   // The width the pass compiles and launches with for a request of this precision.

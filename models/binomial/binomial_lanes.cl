@@ -1,6 +1,6 @@
 /* Entry of the binomial glint model (models/binomial/binomial_eval.h) for
  * directional, point and polygon lights by LTC: each work-item evaluates
- * GLINT_LANES (16 in fp32, 8 in fp64: binomial_model.cpp) queries as the lanes of OpenCL vectors,
+ * GLINT_LANES (16, binomial_model.cpp) queries as the lanes of OpenCL vectors,
  * the footprint grids, the LTC clips and the count draws per lane with selects (binomial_count.h
  * says what diverges). Polygon lights by the other area methods run one query
  * per work-item (binomial.cl). Light kinds the request lacks are compiled out

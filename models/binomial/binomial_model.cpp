@@ -1,7 +1,7 @@
 // The binomial model's entry in the model table (server/model.h): its
 // parameter block (glint.v1.BinomialParams), what it needs of lights and
-// queries, and its passes: 16 queries per work-item (8 in fp64) for directional, point and
-// polygon lights by LTC, one per work-item for polygon lights by the other area methods.
+// queries, and its passes: 16 queries per work-item for directional, point and polygon lights
+// by LTC, one per work-item for polygon lights by the other area methods.
 #include <sstream>
 
 #include "models/binomial/binomial_params.h"
@@ -155,9 +155,11 @@ const Model kBinomialModel = {
     .id = glint::v1::BINOMIAL,
     .name = "BINOMIAL",
     .params_field = "binomial",
-    // 16 fp32 lanes, 8 fp64 lanes: double16 spills (models/binomial/README.md "fp64 lanes").
+    // 16 lanes in both precisions: 8 fp64 lanes (ModelPass::simd_width_fp64) measured no faster
+    // with one quad and 0.83-0.89 of 16 with directional + point (models/binomial/README.md
+    // "fp64 lanes (session 16)").
     .passes = {{"models/binomial/binomial_lanes.cl", "glint_binomial_lanes", 16, BinomialInLanes,
-                BinomialF32, BinomialF64, 8},
+                BinomialF32, BinomialF64},
                {"models/binomial/binomial.cl", "glint_binomial", 1, BinomialOneQueryPerItem,
                 BinomialF32, BinomialF64}},
     .validate_params = ValidateBinomialParams,

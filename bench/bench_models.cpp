@@ -846,8 +846,8 @@ std::vector<Driver::WarmItem> Driver::WarmItems() const {
     item.lanes_min = 1 << 30, item.lanes_max = 1;
     for (const ModelPass &pass : k.model->passes)
       if (!pass.needed || pass.needed(plan)) {
-        item.lanes_min = std::min(item.lanes_min, pass.simd_width);
-        item.lanes_max = std::max(item.lanes_max, pass.simd_width);
+        item.lanes_min = std::min(item.lanes_min, pass.Width(plan.spec.fp64));
+        item.lanes_max = std::max(item.lanes_max, pass.Width(plan.spec.fp64));
       }
     item.lanes_min = std::min(item.lanes_min, item.lanes_max);
     // Expected compile cost, for the order: seen cold on this machine (loaded), a SMOOTH

@@ -62,7 +62,7 @@ std::vector<Program> WarmPrograms() {
     for (const ModelPass &pass : model->passes) {
       if (pass.needed && !pass.needed(plan)) continue;
       Program p{spec.Describe() + " " + pass.entry, pass.kernel_file,
-                spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(pass.simd_width)};
+                spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(pass.Width(spec.fp64))};
       if (seen.insert(p.kernel_file + '\n' + p.options).second) out.push_back(p);
     }
   }

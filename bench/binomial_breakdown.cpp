@@ -10,7 +10,9 @@
 //
 //   binomial_breakdown [--n 262144] [--rounds 7] [--lights directional_point,quad]
 //                      [--np 1e2,1e4,1e6] [--threshold 9]
-//                      [--interpolation trilinear,tetrahedral,stochastic]
+//                      [--interpolation trilinear,tetrahedral,stochastic] [--precision fp32]
+// --precision fp64 evaluates the BINOMIAL requests in fp64 (SMOOTH directional_point, the
+// reference of every ratio, and SMOOTH LTC stay fp32).
 #include <time.h>
 
 #include <algorithm>
@@ -50,6 +52,7 @@ int main(int argc, char **argv) {
   float threshold = 9.0f;
   std::vector<std::string> lights = {"directional_point", "quad"}, nps = {"1e2", "1e4", "1e6"};
   std::vector<std::string> interpolations = {"trilinear"};  // footprint_interpolation
+  bool fp64 = false;                                        // the BINOMIAL requests' precision
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i], v = argv[i + 1];
     if (a == "--n") {
@@ -64,6 +67,13 @@ int main(int argc, char **argv) {
       threshold = std::stof(v);
     } else if (a == "--interpolation") {
       interpolations = Split(v);
+    } else if (a == "--precision") {
+      if (v != "fp32" && v != "fp64") {
+        std::fprintf(stderr, "binomial_breakdown: --precision %s; expected fp32 or fp64\n",
+                     v.c_str());
+        return 2;
+      }
+      fp64 = v == "fp64";
     } else {
       std::fprintf(stderr, "binomial_breakdown: unknown flag %s\n", a.c_str());
       return 2;
@@ -111,6 +121,7 @@ int main(int argc, char **argv) {
         b->set_normal_threshold(threshold);
         if (interp == "tetrahedral") b->set_footprint_interpolation(glint::v1::TETRAHEDRAL);
         if (interp == "stochastic") b->set_footprint_interpolation(glint::v1::STOCHASTIC);
+        if (fp64) c.request.set_precision(glint::v1::FP64);
         cases.push_back(c);
       }
   }
@@ -142,9 +153,9 @@ int main(int argc, char **argv) {
       }
     }
   std::printf(
-      "%u queries, %d interleaved rounds, device fp32; ratios: median over rounds of the "
-      "rate / SMOOTH directional_point's in the same round\n\n",
-      n, rounds);
+      "%u queries, %d interleaved rounds, device, BINOMIAL %s, SMOOTH fp32; ratios: median over "
+      "rounds of the rate / SMOOTH directional_point's in the same round\n\n",
+      n, rounds, fp64 ? "fp64" : "fp32");
   std::printf("mean footprint area %.4g uv units (N_P = density x area)\n\n",
               stats.mean_footprint_area);
   std::printf(

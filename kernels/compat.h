@@ -138,6 +138,7 @@ using std::exp2;
 using std::expm1;
 using std::fabs;
 using std::floor;
+using std::fma; /* the float overload for floats (::fma would round the sum in double first) */
 using std::fmax;
 using std::fmin;
 using std::isfinite;

@@ -25,12 +25,21 @@ struct KernelSpec;
 struct ModelPass {
   const char *kernel_file;  // root-relative, e.g. "models/smooth/smooth.cl"
   const char *entry;        // __kernel function name
-  // Queries per work-item (GLINT_LANES): 8 for branch-free SIMD code (`real`
-  // is float8/double8, kernels/simd_io.h), 1 for code that branches per query.
+  // Queries per work-item (GLINT_LANES): 8 or 16 for branch-free SIMD code (`real`
+  // is float8/double8 or float16/double16, kernels/simd_io.h), 1 for code that branches per
+  // query.
   int simd_width;
   // Whether the plan has work for this pass (nullptr: always).
   bool (*needed)(const EvalPlan &plan);
   HostPassFn host_f32, host_f64;  // the same pass on the host (--device host, tests)
+  // Queries per work-item for fp64 requests, 0 = simd_width. A double16 value takes two zmm
+  // registers, so a kernel that is fastest with 16 fp32 lanes may be faster with 8 fp64 ones;
+  // measure before setting it (BINOMIAL measured 8 no faster, models/binomial/README.md "fp64
+  // lanes (session 16)").
+  int simd_width_fp64 = 0;
+
+  // The width the pass compiles and launches with for a request of this precision.
+  int Width(bool fp64) const { return fp64 && simd_width_fp64 > 0 ? simd_width_fp64 : simd_width; }
 };
 
 // A model's optional importance sampling (the Sample RPC, server/sample.h): an OpenCL entry

@@ -51,6 +51,32 @@
 #endif
 #endif
 
+#if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
+/* out[c] = component c of the 8 entries r[0..7] (an 8 x 8 transpose) in three rounds of
+ * shuffles: pairs of lanes, then quadruples, then halves. */
+GLINT_FN void area_ltc_transpose8(const GLINT_PRIVATE GLINT_ENTRY_VEC *r,
+                                  GLINT_PRIVATE GLINT_ENTRY_VEC *out) {
+  GLINT_ENTRY_VEC p[8], q[8];
+  GLINT_UNROLL for (int j = 0; j < 8; j += 2) {
+    p[j] = shuffle2(r[j], r[j + 1], (GLINT_SHUFFLE_MASK)(0, 8, 2, 10, 4, 12, 6, 14));
+    p[j + 1] = shuffle2(r[j], r[j + 1], (GLINT_SHUFFLE_MASK)(1, 9, 3, 11, 5, 13, 7, 15));
+  }
+  /* p[0] = components 0,2,4,6 of lanes 0,1; p[1] = 1,3,5,7 of lanes 0,1; ... */
+  GLINT_UNROLL for (int h = 0; h < 8; h += 4) {
+    GLINT_UNROLL for (int o = 0; o < 2; ++o) {
+      q[h + o] = shuffle2(p[h + o], p[h + 2 + o], (GLINT_SHUFFLE_MASK)(0, 1, 8, 9, 4, 5, 12, 13));
+      q[h + 2 + o] =
+          shuffle2(p[h + o], p[h + 2 + o], (GLINT_SHUFFLE_MASK)(2, 3, 10, 11, 6, 7, 14, 15));
+    }
+  }
+  /* q[h + c] = components c and c + 4 (c = 0 .. 3) of lanes h .. h + 3. */
+  GLINT_UNROLL for (int c = 0; c < 4; ++c) {
+    out[c] = shuffle2(q[c], q[4 + c], (GLINT_SHUFFLE_MASK)(0, 1, 2, 3, 8, 9, 10, 11));
+    out[c + 4] = shuffle2(q[c], q[4 + c], (GLINT_SHUFFLE_MASK)(4, 5, 6, 7, 12, 13, 14, 15));
+  }
+}
+#endif
+
 /* Bilinear lookup of one LTC table entry (data/ltc/ltc_table.h lookup):
  * x = sqrt(alpha) * 63, y = sqrt(1 - cos(theta_o)) * 63, clamped to the grid. */
 GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real cos_o,
@@ -78,34 +104,18 @@ GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real 
     GLINT_LANE_SCALAR one = (GLINT_LANE_SCALAR)1.0;
     r[j] = (one - fy) * ((one - fx) * c00 + fx * c10) + fy * ((one - fx) * c01 + fx * c11);
   }
+  /* r[j] holds lane j's entry; e[k] wants component k of every lane: 8 x 8 transposes in
+   * shuffles (area_ltc_transpose8), for 16 lanes one per half joined by a concatenation,
+   * instead of scalar stores to a private array read back as vectors, whose store-to-load
+   * forwarding stalls (the 16-lane path did that until session 16: ~10% of the binomial lane
+   * kernel's samples with one quad, perf annotate). Data movement only: the same bits. */
 #if GLINT_LANES == 8
-  /* r[j] holds lane j's entry; e[k] wants component k of every lane: an
-   * 8 x 8 transpose in three rounds of shuffles (pairs of lanes, then
-   * quadruples, then halves) instead of scalar stores to a private array
-   * read back as vectors, whose store-to-load forwarding stalls. */
-  GLINT_ENTRY_VEC p[8], q[8];
-  GLINT_UNROLL for (int j = 0; j < 8; j += 2) {
-    p[j] = shuffle2(r[j], r[j + 1], (GLINT_SHUFFLE_MASK)(0, 8, 2, 10, 4, 12, 6, 14));
-    p[j + 1] = shuffle2(r[j], r[j + 1], (GLINT_SHUFFLE_MASK)(1, 9, 3, 11, 5, 13, 7, 15));
-  }
-  /* p[0] = components 0,2,4,6 of lanes 0,1; p[1] = 1,3,5,7 of lanes 0,1; ... */
-  GLINT_UNROLL for (int h = 0; h < 8; h += 4) {
-    GLINT_UNROLL for (int o = 0; o < 2; ++o) {
-      q[h + o] = shuffle2(p[h + o], p[h + 2 + o], (GLINT_SHUFFLE_MASK)(0, 1, 8, 9, 4, 5, 12, 13));
-      q[h + 2 + o] =
-          shuffle2(p[h + o], p[h + 2 + o], (GLINT_SHUFFLE_MASK)(2, 3, 10, 11, 6, 7, 14, 15));
-    }
-  }
-  /* q[h + c] = components c and c + 4 (c = 0 .. 3) of lanes h .. h + 3. */
-  GLINT_UNROLL for (int c = 0; c < 4; ++c) {
-    e[c] = shuffle2(q[c], q[4 + c], (GLINT_SHUFFLE_MASK)(0, 1, 2, 3, 8, 9, 10, 11));
-    e[c + 4] = shuffle2(q[c], q[4 + c], (GLINT_SHUFFLE_MASK)(4, 5, 6, 7, 12, 13, 14, 15));
-  }
+  area_ltc_transpose8(r, e);
 #else
-  GLINT_LANE_SCALAR t[GLINT_LTC_ENTRY][GLINT_LANES];
-  for (int j = 0; j < GLINT_LANES; ++j)
-    for (int k = 0; k < GLINT_LTC_ENTRY; ++k) t[k][j] = r[j][k];
-  for (int k = 0; k < GLINT_LTC_ENTRY; ++k) e[k] = GLINT_LANE_VLOAD(0, t[k]);
+  GLINT_ENTRY_VEC lo[8], hi[8];
+  area_ltc_transpose8(r, lo);
+  area_ltc_transpose8(r + 8, hi);
+  GLINT_UNROLL for (int c = 0; c < 8; ++c) e[c] = (real)(lo[c], hi[c]);
 #endif
 #else
   int a0 = (int)x, t0 = (int)y;

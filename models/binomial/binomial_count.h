@@ -244,6 +244,42 @@ GLINT_FN real binomial_eps(void) {
   return GLINT_USE_DOUBLE ? GLINT_R(1.1102230246251565e-16) : GLINT_R(5.9604644775390625e-8);
 }
 
+/* (n - i) / (i + 1), the recurrence's factor pmf(i + 1) / pmf(i) before q / (1 - q), for the
+ * search's step count i, which is the same in every lane (`real_scalar`, kernels/compat.h).
+ * Correctly rounded everywhere, so the same bits as the division. On the fp32 AVX-512 device
+ * it is Markstein's correction of a product by the reciprocal (P. Markstein 1990, "Computation
+ * of elementary functions on the IBM RISC System/6000 processor"; Muller et al., Handbook of
+ * Floating-Point Arithmetic, 2nd ed., Sec. 4.9.2): y = RN(1 / b) as ONE scalar division shared
+ * by all lanes, q0 = RN(a y), r = a - b q0 (exact with a fused multiply-add), RN(q0 + r y) =
+ * RN(a / b). Why: a vdivps of 16 lanes keeps the divider busy 10-12 cycles (kernels/compat.h
+ * glint_recip_nn) and a search trip took 4; the product and two FMAs are pipelined (a few
+ * percent at N_P = 1e2, models/binomial/README.md "Quad throughput (session 16)"). That RN(q0 + r
+ * y) is RN(a / b) holds when q0 is within one ulp of a / b, which RN(a RN(1 / b)) need not be in
+ * general; checked instead for every fp32 significand of a and every integer b <= 4096 (a / b
+ * depends only on a's significand; 2^23 x 4096 quotients, none differs;
+ * BinomialDraw.MarksteinQuotientIsTheDivision checks b <= 128 for every integer a < 2^17 and a
+ * sample of significands, GLINT_EXHAUSTIVE=1 all of them), and a searching lane has b = i + 1 <=
+ * cap + 3 <= 127 (binomial_exact_cap <= n q + 43.3 + 1 with n q <= 2 threshold <= 80 in the exact
+ * regime). fp64, the host and other devices divide. */
+GLINT_FN real binomial_markstein_quotient(real a, real_scalar b) {
+  real y = (real)((real_scalar)1.0f / b);
+  real q0 = a * y;
+  real r = fma(-(real)b, q0, a);
+  return fma(r, y, q0);
+}
+
+#if defined(__OPENCL_VERSION__) && GLINT_LANES >= 8 && !GLINT_USE_DOUBLE && defined(__AVX512F__)
+#define GLINT_BINOMIAL_MARKSTEIN_STEP 1
+GLINT_FN real binomial_step_quotient(real n, real_scalar i) {
+  return binomial_markstein_quotient(n - (real)i, i + (real_scalar)1.0f);
+}
+#else
+#define GLINT_BINOMIAL_MARKSTEIN_STEP 0
+GLINT_FN real binomial_step_quotient(real n, real_scalar i) {
+  return (n - i) / (i + (real_scalar)1.0);
+}
+#endif
+
 /* Whether the quantile of binomial_exact lies beyond k, decided with the tail
  * S = sum_{k < j <= cap} pmf(j) (continuing the recurrence from pmf(k)) and the total
  * T = cdf + S: F(k) = cdf / T = 1 - S / T. Both sums carry the same rounding of pmf(0), which
@@ -317,18 +353,20 @@ GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mas
    * previous comparison, and the loop control (a horizontal `any`, a branch) is paid once per
    * 4 steps (models/binomial/README.md "Cost"). */
   real k = GLINT_R(0.0);
-  real i = GLINT_R(0.0);
+  /* The step count, the same in every lane: a scalar, so that its reciprocals are scalar
+   * divisions (binomial_step_quotient). */
+  real_scalar i = (real_scalar)0.0f;
   glint_mask searching = active & (k < cap);
   while (glint_any(searching)) {
-    real i1 = i + GLINT_R(1.0), i2 = i + GLINT_R(2.0), i3 = i + GLINT_R(3.0);
-    real i4 = i + GLINT_R(4.0);
-    real pmf1 = pmf * ((n - i) / i1 * ratio);
+    real_scalar i1 = i + (real_scalar)1.0f, i2 = i + (real_scalar)2.0f;
+    real_scalar i3 = i + (real_scalar)3.0f, i4 = i + (real_scalar)4.0f;
+    real pmf1 = pmf * (binomial_step_quotient(n, i) * ratio);
     real cdf1 = cdf + pmf1;
-    real pmf2 = pmf1 * ((n - i1) / i2 * ratio);
+    real pmf2 = pmf1 * (binomial_step_quotient(n, i1) * ratio);
     real cdf2 = cdf1 + pmf2;
-    real pmf3 = pmf2 * ((n - i2) / i3 * ratio);
+    real pmf3 = pmf2 * (binomial_step_quotient(n, i2) * ratio);
     real cdf3 = cdf2 + pmf3;
-    real pmf4 = pmf3 * ((n - i3) / i4 * ratio);
+    real pmf4 = pmf3 * (binomial_step_quotient(n, i3) * ratio);
     real cdf4 = cdf3 + pmf4;
     glint_mask near = !(fabs(vs - cdf) > (rel_error + GLINT_R(14.0) * eps * i) * cdf);
     glint_mask near_later = !(fabs(vs - cdf1) > (rel_error + GLINT_R(14.0) * eps * i1) * cdf1) |
@@ -339,14 +377,14 @@ GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mas
       glint_mask beyond = vs > cdf;
       if (glint_any(searching & near)) {
         glint_mask tail_says =
-            binomial_exact_beyond(n, i, cap, pmf, cdf, ratio, v, flip, searching & near);
+            binomial_exact_beyond(n, (real)i, cap, pmf, cdf, ratio, v, flip, searching & near);
         beyond = ((!near) & beyond) | (near & tail_says);
       }
       searching = searching & beyond;
       pmf = pmf1;
       cdf = cdf1;
       i = i1;
-      k = glint_select(k, i, searching);
+      k = glint_select(k, (real)i, searching);
       searching = searching & (i < cap);
       continue;
     }
@@ -354,10 +392,10 @@ GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mas
     glint_mask s2 = s1 & (i1 < cap) & (vs > cdf1);
     glint_mask s3 = s2 & (i2 < cap) & (vs > cdf2);
     glint_mask s4 = s3 & (i3 < cap) & (vs > cdf3);
-    k = glint_select(k, i1, s1);
-    k = glint_select(k, i2, s2);
-    k = glint_select(k, i3, s3);
-    k = glint_select(k, i4, s4);
+    k = glint_select(k, (real)i1, s1);
+    k = glint_select(k, (real)i2, s2);
+    k = glint_select(k, (real)i3, s3);
+    k = glint_select(k, (real)i4, s4);
     searching = s4 & (i4 < cap);
     pmf = pmf4;
     cdf = cdf4;

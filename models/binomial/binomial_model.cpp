@@ -155,6 +155,9 @@ const Model kBinomialModel = {
     .id = glint::v1::BINOMIAL,
     .name = "BINOMIAL",
     .params_field = "binomial",
+    // 16 lanes in both precisions: 8 fp64 lanes (ModelPass::simd_width_fp64) measured no faster
+    // with one quad and 0.83-0.89 of 16 with directional + point (models/binomial/README.md
+    // "fp64 lanes (session 16)").
     .passes = {{"models/binomial/binomial_lanes.cl", "glint_binomial_lanes", 16, BinomialInLanes,
                 BinomialF32, BinomialF64},
                {"models/binomial/binomial.cl", "glint_binomial", 1, BinomialOneQueryPerItem,

@@ -46,6 +46,7 @@ GLINT_FN real kemppinen_exp_neg(real x) {
   return as_float16(as_int16(u) + (convert_int16(qf) << 23));
 }
 #else
+#undef GLINT_KEMPPINEN_FAST_EXP
 #define GLINT_KEMPPINEN_FAST_EXP 0
 GLINT_FN real kemppinen_exp_neg(real x) {
   return exp(-x);

@@ -12,13 +12,14 @@
  *    instructions, 3 of them shifts on the one port that also does the hash's multiplies). For
  *    x in [-86, 86], q = rint(-x / ln 2) is in [-125, 125] and u in [2^-1/2, 2^1/2], so u 2^q is a
  *    normal float: both of SLEEF's products are exact, and so is adding q to u's exponent field,
- *    one shift and one integer add. The same value, 6 instructions fewer per exp; the point
+ *    one shift and one integer add. The same value, ~8 instructions fewer per exp; the point
  *    pass takes one exp per facet (16 per query at k = 1 with two lights) and one per erfc.
  *  - Read from PoCL's compiled kernel (objdump of glint_kemppinen.so, the constants at the
  *    exp's operands): -ln 2 split as 0.693145751953125 + 1.428606765330187919e-6, 1 / ln 2,
- *    the six coefficients below, vcvtps2dq (round to nearest even) for rint. Checked bit for bit
- *    against the library exp on the device by the bench's output (README "Throughput, session
- *    16") and by the device-vs-host tests' unchanged results.
+ *    the six coefficients below, vcvtps2dq (round to nearest even) for rint. Tested bit for bit
+ *    against the device library's exp over the domain
+ *    (models/kemppinen/tests/kemppinen_exp_device_test.cpp); the bench's outputs are unchanged
+ *    (models/kemppinen/README.md "Throughput, session 16").
  * Elsewhere (host, fp64, other entries) the library's exp. */
 #ifndef GLINT_KEMPPINEN_EXP_H
 #define GLINT_KEMPPINEN_EXP_H

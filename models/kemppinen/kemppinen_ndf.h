@@ -60,6 +60,7 @@
 #include "kernels/compat.h"
 #include "kernels/ndf.h"
 #include "kernels/rng.h"
+#include "models/kemppinen/kemppinen_exp.h"
 #include "models/kemppinen/kemppinen_params.h"
 
 /* Unsigned hash keys of one query (uint) or of a block of GLINT_LANES queries
@@ -123,6 +124,9 @@ typedef struct {
    * keep E[S] = 1). */
   int one_level;
   int one_cell;
+  /* One colour, (1, 1, 1) (no `colors`: the usual case): the point pass sums the facets'
+   * weights in one channel (kemppinen_level_facet_add); 1 * w = w, so the same bits. */
+  int white;
 } KemppinenParams;
 
 GLINT_FN KemppinenParams kemppinen_params_unpack(const GLINT_GLOBAL float *packed) {
@@ -156,6 +160,7 @@ GLINT_FN KemppinenParams kemppinen_params_unpack(const GLINT_GLOBAL float *packe
   int hood = (int)packed[GLINT_KEMPPINEN_NEIGHBORHOOD];
   p.one_level = hood >= GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL;
   p.one_cell = hood >= GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL;
+  p.white = p.n_colors == 1 && p.colors[0] == 1.0f && p.colors[1] == 1.0f && p.colors[2] == 1.0f;
   return p;
 }
 
@@ -267,6 +272,14 @@ GLINT_FN real kemppinen_erfc_abs_poly(real x) {
 GLINT_FN real kemppinen_erfc_abs(real x) {
   real y = fabs(x) * GLINT_R(0.70710678118654752440);
   return kemppinen_erfc_abs_poly(x) * exp(-y * y);
+}
+
+/* The same for |x| <= 6 (kemppinen_erfc4_with clamps at its cut): y^2 <= 18, inside
+ * kemppinen_exp_neg's domain (models/kemppinen/kemppinen_exp.h: the same bits as exp in the
+ * point pass's device entry, with fewer instructions). */
+GLINT_FN real kemppinen_erfc_abs_cut(real x) {
+  real y = fabs(x) * GLINT_R(0.70710678118654752440);
+  return kemppinen_erfc_abs_poly(x) * kemppinen_exp_neg(y * y);
 }
 
 /* The same by Abramowitz & Stegun 7.1.27: erfc(y) = (1 + a1 y + a2 y^2 +
@@ -637,10 +650,10 @@ GLINT_FN KemppinenErfc4 kemppinen_erfc4_with(real a, real b, real c, real d, int
      * far beyond it exp(-y^2) is subnormal in fp32, which costs a microcode
      * assist per instruction on x86 (kemppinen_lobe_cut). Lanes inside: the
      * same bits. */
-    e.a = glint_select(zero, kemppinen_erfc_abs(glint_fmin_nn(fabs(a), cut)), na);
-    e.b = glint_select(zero, kemppinen_erfc_abs(glint_fmin_nn(fabs(b), cut)), nb);
-    e.c = glint_select(zero, kemppinen_erfc_abs(glint_fmin_nn(fabs(c), cut)), nc);
-    e.d = glint_select(zero, kemppinen_erfc_abs(glint_fmin_nn(fabs(d), cut)), nd);
+    e.a = glint_select(zero, kemppinen_erfc_abs_cut(glint_fmin_nn(fabs(a), cut)), na);
+    e.b = glint_select(zero, kemppinen_erfc_abs_cut(glint_fmin_nn(fabs(b), cut)), nb);
+    e.c = glint_select(zero, kemppinen_erfc_abs_cut(glint_fmin_nn(fabs(c), cut)), nc);
+    e.d = glint_select(zero, kemppinen_erfc_abs_cut(glint_fmin_nn(fabs(d), cut)), nd);
   }
   return e;
 }
@@ -806,7 +819,8 @@ GLINT_FN real kemppinen_facet_lobe_at(real inv_res_a, real ta_x, real ta_y, real
   real e = GLINT_R(0.5) * (ux * ux + uy * uy) + (qxx * dx * dx + qxy * dx * dy + qyy * dy * dy);
   /* Beyond e_lim (kemppinen_lobe_cut) the lobe is 0: the exp's argument is
    * clamped there, so neither exp(-e) nor its product with norm is subnormal. */
-  return glint_select(exp(-glint_fmin_nn(e, e_lim)) * norm, GLINT_R(0.0), outside | (e > e_lim));
+  return glint_select(kemppinen_exp_neg(glint_fmin_nn(e, e_lim)) * norm, GLINT_R(0.0),
+                      outside | (e > e_lim));
 }
 
 /* The exponent beyond which a facet's lobe exp(-e) norm is taken as 0:
@@ -837,10 +851,17 @@ GLINT_FN real kemppinen_lobe_cut(real norm) {
 
 GLINT_FN real kemppinen_facet_lobe(KemppinenBlocks b, real cx, real cy, real ix, real iy,
                                    KemppinenFacet g) {
-  /* No cut (the tests' explicit sums and the sampler's pdf take every lobe). */
+  /* No cut (the tests' explicit sums and the sampler's pdf take every lobe). With the point
+   * pass's exp (models/kemppinen/kemppinen_exp.h, domain x <= 86) a cut at 86 instead: no entry
+   * that compiles it calls this today, and exp(-86) = 4e-38 is 0 to any sum of lobes. */
+#if GLINT_KEMPPINEN_FAST_EXP
+  real e_lim = GLINT_R(86.0);
+#else
+  real e_lim = GLINT_R(INFINITY);
+#endif
   return kemppinen_facet_lobe_at(GLINT_R(1.0) / b.res_a, b.ta_x, b.ta_y, b.inv_sax, b.inv_say,
-                                 b.ts_x - cx, b.ts_y - cy, b.qxx, b.qxy, b.qyy, b.norm,
-                                 GLINT_R(INFINITY), ix, iy, g);
+                                 b.ts_x - cx, b.ts_y - cy, b.qxx, b.qxy, b.qyy, b.norm, e_lim, ix,
+                                 iy, g);
 }
 
 /* 1 - P_s of the blocks (the polygon pass). */
@@ -975,13 +996,18 @@ GLINT_FN KemppinenLevelLobe kemppinen_level_lobe(const GLINT_PRIVATE KemppinenPa
   return o;
 }
 
-/* One explicit facet of the lobe (Algorithm 1 lines 13-18): its roulette-weighted lobe in its
- * colour, 0 past the grid's end. (dxc, dyc): the query in cells of spatial cell j; `column`:
- * that cell's key absorbed with the column ix. */
-GLINT_FN real3 kemppinen_level_facet(const GLINT_PRIVATE KemppinenParams *p,
-                                     const GLINT_PRIVATE KemppinenLevelQuery *q,
-                                     const GLINT_PRIVATE KemppinenLevelLobe *o, real dxc, real dyc,
-                                     kemp_uint column, real ix, real iy, real w) {
+/* One explicit facet of the lobe (Algorithm 1 lines 13-18): its roulette-weighted lobe, 0 past
+ * the grid's end, added to `sum` in its colour (K25 3.3.6, from its cell's hash). (dxc, dyc): the
+ * query in cells of spatial cell j; `column`: that cell's key absorbed with the column ix. A
+ * white material (p->white) adds the weight to sum->x only, and kemppinen_level_sum_white copies
+ * it to y and z after the loops: the colour (1, 1, 1) times the weight is the weight exactly, so
+ * each channel is the same sum in the same order as before, the same bits, without 3 products
+ * and 2 sums per facet and light (the facet loop is ~125 instructions per 16 lanes). */
+GLINT_FN void kemppinen_level_facet_add(const GLINT_PRIVATE KemppinenParams *p,
+                                        const GLINT_PRIVATE KemppinenLevelQuery *q,
+                                        const GLINT_PRIVATE KemppinenLevelLobe *o, real dxc,
+                                        real dyc, kemp_uint column, real ix, real iy, real w,
+                                        GLINT_PRIVATE real3 *sum) {
   /* Cells past the grid's end (res_a < n at the coarsest levels) drop. */
   glint_mask valid = (ix < o->ea_x) & (iy < o->ea_y);
   KemppinenFacet g = kemppinen_facet_in_column(column, iy);
@@ -994,8 +1020,15 @@ GLINT_FN real3 kemppinen_level_facet(const GLINT_PRIVATE KemppinenParams *p,
       kemppinen_facet_lobe_at(q->s.inv_res_a, o->ta_x, o->ta_y, o->inv_sax, o->inv_say, dxc, dyc,
                               q->s.qxx, q->s.qxy, q->s.qyy, o->norm, o->e_lim, ix, iy, g);
   real wt = glint_select(GLINT_R(0.0), keep * lobe, valid & (keep > GLINT_R(0.0)));
-  /* K25 3.3.6: the facet's colour from its cell's hash. */
-  return r3_scale(kemppinen_facet_color_of(p, g), wt);
+  if (p->white) /* uniform */
+    sum->x = sum->x + wt;
+  else
+    *sum = r3_add(*sum, r3_scale(kemppinen_facet_color_of(p, g), wt));
+}
+
+/* After kemppinen_level_facet_add's loop: a white material's sum is in x only. */
+GLINT_FN real3 kemppinen_level_sum_white(const GLINT_PRIVATE KemppinenParams *p, real3 sum) {
+  return p->white ? make_real3(sum.x, sum.x, sum.x) : sum;
 }
 
 /* The lobe's compensation (line 20) in the mean colour (each colour has probability 1/n),
@@ -1031,11 +1064,10 @@ GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
     for (int my = 0; my < n; ++my) {
       real iy = o.ba_y + (real)my;
       for (int mx = 0; mx < n; ++mx)
-        sum = r3_add(
-            sum, kemppinen_level_facet(p, q, &o, dxc, dyc, column[mx], o.ba_x + (real)mx, iy, w));
+        kemppinen_level_facet_add(p, q, &o, dxc, dyc, column[mx], o.ba_x + (real)mx, iy, w, &sum);
     }
   }
-  return r3_add(sum, kemppinen_level_compensation(p, q, &o, w));
+  return r3_add(kemppinen_level_sum_white(p, sum), kemppinen_level_compensation(p, q, &o, w));
 }
 
 /* kemppinen_level_at for two lobes (two lights of the query) in one pass over the cells: per
@@ -1064,15 +1096,13 @@ GLINT_FN void kemppinen_level_at2(const GLINT_PRIVATE KemppinenParams *p,
     for (int my = 0; my < n; ++my) {
       real iya = oa.ba_y + (real)my, iyb = ob.ba_y + (real)my;
       for (int mx = 0; mx < n; ++mx) {
-        suma = r3_add(
-            suma, kemppinen_level_facet(p, q, &oa, dxc, dyc, cola[mx], oa.ba_x + (real)mx, iya, w));
-        sumb = r3_add(
-            sumb, kemppinen_level_facet(p, q, &ob, dxc, dyc, colb[mx], ob.ba_x + (real)mx, iyb, w));
+        kemppinen_level_facet_add(p, q, &oa, dxc, dyc, cola[mx], oa.ba_x + (real)mx, iya, w, &suma);
+        kemppinen_level_facet_add(p, q, &ob, dxc, dyc, colb[mx], ob.ba_x + (real)mx, iyb, w, &sumb);
       }
     }
   }
-  *sa = r3_add(suma, kemppinen_level_compensation(p, q, &oa, w));
-  *sb = r3_add(sumb, kemppinen_level_compensation(p, q, &ob, w));
+  *sa = r3_add(kemppinen_level_sum_white(p, suma), kemppinen_level_compensation(p, q, &oa, w));
+  *sb = r3_add(kemppinen_level_sum_white(p, sumb), kemppinen_level_compensation(p, q, &ob, w));
 }
 
 /* The same for one level of a footprint and angular query (the tests' entry). */

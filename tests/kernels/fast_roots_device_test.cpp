@@ -26,6 +26,7 @@
 #include "server/cl_handle.h"
 #include "server/cl_runtime.h"
 #include "server/kernel_source.h"
+#include "tests/support/device_int_flag.h"
 
 namespace glint {
 namespace {
@@ -131,21 +132,7 @@ TEST(FastRootsDevice, WithinTheNewtonStepsBoundOfLongDouble) {
   }
   EXPECT_GT(checked_q, 252 * 64);  // every binade of the domain
   int active = -1;
-  {
-    ClBuffer flag(clCreateBuffer(rt->context(), CL_MEM_WRITE_ONLY, sizeof active, nullptr, &err));
-    ASSERT_EQ(err, CL_SUCCESS);
-    ClKernel probe(clCreateKernel(program, "fast_roots_active", &err));
-    ASSERT_EQ(err, CL_SUCCESS);
-    cl_mem m = flag.get();
-    ASSERT_EQ(clSetKernelArg(probe.get(), 0, sizeof m, &m), CL_SUCCESS);
-    const size_t one = 1;
-    ASSERT_EQ(clEnqueueNDRangeKernel(queue.get(), probe.get(), 1, nullptr, &one, nullptr, 0,
-                                     nullptr, nullptr),
-              CL_SUCCESS);
-    ASSERT_EQ(clEnqueueReadBuffer(queue.get(), flag.get(), CL_TRUE, 0, sizeof active, &active, 0,
-                                  nullptr, nullptr),
-              CL_SUCCESS);
-  }
+  ASSERT_TRUE(test::ReadDeviceIntFlag(*rt, program, queue.get(), "fast_roots_active", &active));
   std::printf(
       "device %s: worst relative error sqrt %.3g (bound %.3g), rsqrt %.3g (bound %.3g), "
       "reciprocal %.3g (bound %.3g); %d of %zu square roots correctly rounded\n",

@@ -18,6 +18,7 @@
 #include "server/cl_handle.h"
 #include "server/cl_runtime.h"
 #include "server/kernel_source.h"
+#include "tests/support/device_int_flag.h"
 
 namespace glint {
 namespace {
@@ -109,21 +110,7 @@ TEST(KemppinenExpDevice, SameBitsAsTheLibraryExpOnItsDomain) {
   EXPECT_EQ(differ, 0u) << "of " << x.size() << " arguments";
 
   int active = -1;
-  {
-    ClBuffer flag(clCreateBuffer(rt->context(), CL_MEM_WRITE_ONLY, sizeof active, nullptr, &err));
-    ASSERT_EQ(err, CL_SUCCESS);
-    ClKernel probe(clCreateKernel(program, "exp_active", &err));
-    ASSERT_EQ(err, CL_SUCCESS);
-    cl_mem m = flag.get();
-    ASSERT_EQ(clSetKernelArg(probe.get(), 0, sizeof m, &m), CL_SUCCESS);
-    const size_t one = 1;
-    ASSERT_EQ(clEnqueueNDRangeKernel(queue.get(), probe.get(), 1, nullptr, &one, nullptr, 0,
-                                     nullptr, nullptr),
-              CL_SUCCESS);
-    ASSERT_EQ(clEnqueueReadBuffer(queue.get(), flag.get(), CL_TRUE, 0, sizeof active, &active, 0,
-                                  nullptr, nullptr),
-              CL_SUCCESS);
-  }
+  ASSERT_TRUE(test::ReadDeviceIntFlag(*rt, program, queue.get(), "exp_active", &active));
   std::printf(
       "device %s: %zu arguments in [-86, 86], %zu differ from the library exp, worst %.3g "
       "ulp from long double\n",

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <initializer_list>
 
 namespace glint {
 
@@ -15,6 +16,12 @@ bool PoclAffinityIsSafe(const cpu_set_t &allowed, long online_cpus) {
 
 bool DefaultPoclAffinity() {
   if (std::getenv("POCL_AFFINITY") != nullptr) return false;
+  // PoCL's worker count can be set apart from the CPU count (POCL_PTHREAD_MIN_THREADS=4 on 2 CPUs
+  // oversubscribes); pinning worker i >= online CPUs would fail and abort, so a user who sets the
+  // count keeps PoCL's unpinned default.
+  for (const char *count : {"POCL_MAX_PTHREAD_COUNT", "POCL_PTHREAD_MIN_THREADS",
+                            "POCL_CPU_MAX_CU_COUNT", "POCL_CPU_MIN_CU_COUNT"})
+    if (std::getenv(count) != nullptr) return false;
   cpu_set_t allowed;
   CPU_ZERO(&allowed);
   if (sched_getaffinity(0, sizeof(allowed), &allowed) != 0) return false;

@@ -156,8 +156,8 @@ const Model kBinomialModel = {
     .name = "BINOMIAL",
     .params_field = "binomial",
     // 16 lanes in both precisions: 8 fp64 lanes (ModelPass::simd_width_fp64) measured no faster
-    // with one quad and 0.83-0.89 of 16 with directional + point (models/binomial/README.md
-    // "fp64 lanes (session 16)").
+    // with one quad (0.88-1.08 of 16) and 0.75-0.98 with directional + point
+    // (models/binomial/README.md "fp64 lanes (session 16)").
     .passes = {{"models/binomial/binomial_lanes.cl", "glint_binomial_lanes", 16, BinomialInLanes,
                 BinomialF32, BinomialF64},
                {"models/binomial/binomial.cl", "glint_binomial", 1, BinomialOneQueryPerItem,

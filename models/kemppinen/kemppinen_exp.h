@@ -44,7 +44,9 @@ GLINT_FN real kemppinen_exp_neg(real x) {
   real ss = s * s; /* rounded on its own, as SLEEF's s * s argument */
   u = 1.0f + fma(ss, u, s);
   /* u 2^q: q into the exponent field (exact: the result is normal on the domain). */
-  return as_float16(as_int16(u) + (convert_int16(qf) << 23));
+  /* In unsigned arithmetic: q < 0 is common, and a negative signed int shifted left is undefined
+   * in C99/OpenCL C; modulo 2^32 the sum has the same bits. */
+  return as_float16(as_uint16(u) + (as_uint16(convert_int16(qf)) << 23));
 }
 #else
 #undef GLINT_KEMPPINEN_FAST_EXP

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <initializer_list>
 #include <string>
 
 namespace glint {
@@ -34,6 +35,19 @@ TEST(PoclAffinity, TheUsersSettingWins) {
     ASSERT_EQ(setenv("POCL_AFFINITY", user, 1), 0);
     EXPECT_FALSE(DefaultPoclAffinity()) << "POCL_AFFINITY=" << user;
     EXPECT_EQ(std::string(std::getenv("POCL_AFFINITY")), user);
+  }
+}
+
+// PoCL's worker count set apart from the CPU count: worker i >= CPUs would be pinned to a CPU that
+// does not exist and PoCL would abort, so no default.
+TEST(PoclAffinity, NoDefaultWhenTheWorkerCountIsSet) {
+  ASSERT_EQ(unsetenv("POCL_AFFINITY"), 0);
+  for (const char *count : {"POCL_MAX_PTHREAD_COUNT", "POCL_PTHREAD_MIN_THREADS",
+                            "POCL_CPU_MAX_CU_COUNT", "POCL_CPU_MIN_CU_COUNT"}) {
+    ASSERT_EQ(setenv(count, "4", 1), 0);
+    EXPECT_FALSE(DefaultPoclAffinity()) << count;
+    EXPECT_EQ(std::getenv("POCL_AFFINITY"), nullptr) << count;
+    unsetenv(count);
   }
 }
 

@@ -438,15 +438,16 @@ TEST(BinomialDraw, FourStepSearchEqualsTheOneStepSearchBitForBit) {
 // The fp32 AVX-512 device computes the search's factor (n - i) / (i + 1) as Markstein's
 // correction of a product by the reciprocal (binomial_markstein_quotient); the counts are the
 // division's bit for bit only if that is the correctly rounded quotient. Reference: the IEEE
-// division. Divisors 1 .. 128 (a searching lane's i + 1 <= cap + 3 <= 127, binomial_count.h),
+// division. Divisors 1 .. 256 (a searching lane's i + 1 <= cap + 3 <= 127, binomial_count.h; twice
+// that, so a change of the cap or the threshold limit that moves it stays tested),
 // every integer numerator below 2^17 (n - i for the trial counts searched) and every 61st fp32
 // significand in [2^23, 2^24) (the quotient's rounding depends on the significand alone);
-// GLINT_EXHAUSTIVE=1 checks every significand (2^23 x 128 quotients, ~minutes). Without the
+// GLINT_EXHAUSTIVE=1 checks every significand (2^23 x 256 quotients, ~minutes). Without the
 // correction (q0 = RN(a RN(1 / b)) alone) 27% of these quotients differ.
 TEST(BinomialDraw, MarksteinQuotientIsTheDivision) {
   const bool exhaustive = std::getenv("GLINT_EXHAUSTIVE") != nullptr;
   long compared = 0, mismatches = 0, uncorrected = 0;
-  for (int b = 1; b <= 128; ++b) {
+  for (int b = 1; b <= 256; ++b) {
     const float fb = float(b);
     auto check = [&](float a) {
       const float q = k32::binomial_markstein_quotient(a, fb);

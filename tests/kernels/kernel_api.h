@@ -58,6 +58,8 @@ inline std::ostream &operator<<(std::ostream &os, const Material &m) {
 #define GLINT_TEST_DECLARE_KERNEL_API                                            \
   /* smooth_reflect_cos: f(wi, wo) cos(theta_i), RGB */                          \
   Vec3 reflect_cos(const Material &m, Vec3 wi, Vec3 wo);                         \
+  /* smooth_reflect_cos_view(m, smooth_view(m, wo), wi): the per-light path */   \
+  Vec3 reflect_cos_view(const Material &m, Vec3 wi, Vec3 wo);                    \
   double ndf_D(int ndf, Vec3 h, double alpha_x, double alpha_y);                 \
   /* ndf_z_lambda: w.z * Lambda(w) */                                            \
   double z_lambda(int ndf, Vec3 w, double alpha_x, double alpha_y);              \

@@ -46,6 +46,11 @@ Vec3 reflect_cos(const Material &m, Vec3 wi, Vec3 wo) {
   return to_vec3(kn::smooth_reflect_cos(to_material(m), to_real3(wi), to_real3(wo)));
 }
 
+Vec3 reflect_cos_view(const Material &m, Vec3 wi, Vec3 wo) {
+  const kn::SmoothMaterial km = to_material(m);
+  return to_vec3(kn::smooth_reflect_cos_view(km, kn::smooth_view(km, to_real3(wo)), to_real3(wi)));
+}
+
 double ndf_D(int ndf, Vec3 h, double alpha_x, double alpha_y) {
   return kn::ndf_D(ndf, to_real3(h), to_real(alpha_x), to_real(alpha_y));
 }

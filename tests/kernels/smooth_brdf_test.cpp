@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <utility>
 #include <vector>
 
@@ -15,7 +16,6 @@ namespace glint_test {
 namespace {
 
 using ref::kPi;
-
 
 constexpr Alphas kAlphas[] = {{0.05, 0.05}, {0.2, 0.2}, {0.5, 0.5},  {1.0, 1.0},
                               {0.1, 0.6},   {0.6, 0.1}, {0.02, 0.3}, {0.01, 0.01}};
@@ -102,6 +102,38 @@ TEST(KernelSmoothBrdf, MatchesIndependentImplementation) {
 
 // Below either horizon the one-sided reflector returns exactly 0 (no transmission lobe), also
 // with the reference; the kernel must not produce -0 or NaN from the rejected branch.
+// The punctual-light kernels prepare the view's terms once per query (smooth_view) and evaluate
+// each light with smooth_reflect_cos_view; probes and the glint models call smooth_reflect_cos.
+// The claim is the same bits, in both precisions, for every NDF and Fresnel kind, including
+// grazing and below-horizon directions (memcmp, so -0 against +0 would count). A regression guard
+// on the host path: both paths build the view with smooth_view; it fails if evaluating a prepared
+// view stops being a pure reordering of the single-direction call.
+TEST(KernelSmoothBrdf, ViewPreparedOncePerQueryGivesTheSameBits) {
+  ref::Rng rng(16);
+  long compared = 0;
+  for (int ndf : kNdfs)
+    for (const Alphas &a : kAlphas)
+      for (const Material &m : materials(ndf, a)) {
+        auto pairs = direction_pairs(rng, a, 64, 0.05);
+        for (double z : {1e-7, 1e-3, -1e-3, -0.5}) {  // grazing and under the horizon
+          pairs.emplace_back(rng.direction(0.05, 1.0), ref::from_angles(std::acos(0.0), 0.3));
+          Vec3 g = rng.direction(0.05, 1.0);
+          pairs.emplace_back(Vec3{g.x, g.y, z}, rng.direction(0.05, 1.0));
+          pairs.emplace_back(rng.direction(0.05, 1.0), Vec3{g.x, g.y, z});
+        }
+        for (const auto &[wi, wo] : pairs) {
+          const Vec3 a32 = f32::reflect_cos(m, wi, wo), b32 = f32::reflect_cos_view(m, wi, wo);
+          const Vec3 a64 = f64::reflect_cos(m, wi, wo), b64 = f64::reflect_cos_view(m, wi, wo);
+          ASSERT_EQ(std::memcmp(&a32, &b32, sizeof a32), 0)
+              << m << " wi " << wi << " wo " << wo << ": " << a32 << " vs " << b32;
+          ASSERT_EQ(std::memcmp(&a64, &b64, sizeof a64), 0)
+              << m << " wi " << wi << " wo " << wo << ": " << a64 << " vs " << b64;
+          compared += 2;
+        }
+      }
+  EXPECT_GT(compared, 2 * 2 * 8 * 4 * 64);
+}
+
 TEST(KernelSmoothBrdf, ZeroBelowTheHorizon) {
   ref::Rng rng(5);
   for (int ndf : kNdfs) {

@@ -100,8 +100,6 @@ TEST(KernelSmoothBrdf, MatchesIndependentImplementation) {
   EXPECT_GT(compared, 4 * flushed);
 }
 
-// Below either horizon the one-sided reflector returns exactly 0 (no transmission lobe), also
-// with the reference; the kernel must not produce -0 or NaN from the rejected branch.
 // The punctual-light kernels prepare the view's terms once per query (smooth_view) and evaluate
 // each light with smooth_reflect_cos_view; probes and the glint models call smooth_reflect_cos.
 // The claim is the same bits, in both precisions, for every NDF and Fresnel kind, including
@@ -134,6 +132,8 @@ TEST(KernelSmoothBrdf, ViewPreparedOncePerQueryGivesTheSameBits) {
   EXPECT_GT(compared, 2 * 2 * 8 * 4 * 64);
 }
 
+// Below either horizon the one-sided reflector returns exactly 0 (no transmission lobe), also
+// with the reference; the kernel must not produce -0 or NaN from the rejected branch.
 TEST(KernelSmoothBrdf, ZeroBelowTheHorizon) {
   ref::Rng rng(5);
   for (int ndf : kNdfs) {

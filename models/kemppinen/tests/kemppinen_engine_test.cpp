@@ -188,6 +188,31 @@ TEST_F(KemppinenEngineTest, DeviceMatchesHostPath) {
   }
 }
 
+// White materials (no `colors`) sum each facet's weight in one channel (kemppinen_ndf.h, session
+// 16); a palette of two white colours takes the per-channel colour path. 1 * w = w and the mean
+// colour is exactly 1, so both must give the same bits, on the device (16-lane pass) and on the
+// host, for probes and for directional + point lights.
+TEST_F(KemppinenEngineTest, WhiteSumsGiveTheBitsOfAnExplicitWhitePalette) {
+  for (bool probe : {false, true}) {
+    EvaluateRequest white = MakeSettings(v1::GGX, !probe, false, false, 4);
+    white.mutable_material()->mutable_kemppinen()->clear_colors();
+    EvaluateRequest palette = white;
+    for (int c = 0; c < 6; ++c) palette.mutable_material()->mutable_kemppinen()->add_colors(1.0f);
+    ASSERT_TRUE(ValidateSettings(palette, {}).ok());
+    v1::QueryBatch q = test::RandomQueries(2000, probe, false, 41);
+    const EvalPlan pw = MakeEvalPlan(white, q), pp = MakeEvalPlan(palette, q);
+    const auto dw = Device(pw, q), dp = Device(pp, q);
+    const auto hw = Host(pw, q), hp = Host(pp, q);
+    EXPECT_EQ(0, std::memcmp(dw.data(), dp.data(), dw.size() * sizeof(float)))
+        << (probe ? "probes" : "lights") << ", device";
+    EXPECT_EQ(0, std::memcmp(hw.data(), hp.data(), hw.size() * sizeof(float)))
+        << (probe ? "probes" : "lights") << ", host";
+    int lit = 0;
+    for (float v : dw) lit += v > 0.0f;
+    EXPECT_GT(lit, int(dw.size()) / 20);  // glints present, not an all-zero comparison
+  }
+}
+
 // Bit-identical however the batch is split (facets hash (seed, level, cell), never the query's
 // index), and a new seed is a new pattern. With and without a world frame: local-frame fp32
 // variants fuse multiply-adds (compat.h GLINT_CONTRACT_FMA), and a branch taken when every lane

@@ -27,6 +27,7 @@
 #include "server/cl_runtime.h"
 #include "server/kernel_source.h"
 #include "tests/support/device_int_flag.h"
+#include "tests/support/device_lane_kernel.h"
 
 namespace glint {
 namespace {
@@ -77,37 +78,11 @@ TEST(FastRootsDevice, WithinTheNewtonStepsBoundOfLongDouble) {
   while (x.size() % 16) x.push_back(1.0f);
 
   cl_int err = CL_SUCCESS;
-  const size_t bytes = x.size() * sizeof(float);
-  ClBuffer in(clCreateBuffer(rt->context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
-                             x.data(), &err));
-  ASSERT_EQ(err, CL_SUCCESS);
-  ClBuffer out_s(clCreateBuffer(rt->context(), CL_MEM_WRITE_ONLY, bytes, nullptr, &err));
-  ASSERT_EQ(err, CL_SUCCESS);
-  ClBuffer out_r(clCreateBuffer(rt->context(), CL_MEM_WRITE_ONLY, bytes, nullptr, &err));
-  ASSERT_EQ(err, CL_SUCCESS);
-  ClBuffer out_q(clCreateBuffer(rt->context(), CL_MEM_WRITE_ONLY, bytes, nullptr, &err));
-  ASSERT_EQ(err, CL_SUCCESS);
-  ClKernel kernel(clCreateKernel(program, "fast_roots", &err));
-  ASSERT_EQ(err, CL_SUCCESS);
-  cl_mem args[4] = {in.get(), out_s.get(), out_r.get(), out_q.get()};
-  for (cl_uint a = 0; a < 4; ++a)
-    ASSERT_EQ(clSetKernelArg(kernel.get(), a, sizeof(cl_mem), &args[a]), CL_SUCCESS);
   ClQueue queue(clCreateCommandQueue(rt->context(), rt->device(), 0, &err));
   ASSERT_EQ(err, CL_SUCCESS);
-  const size_t global = x.size() / 16;
-  ASSERT_EQ(clEnqueueNDRangeKernel(queue.get(), kernel.get(), 1, nullptr, &global, nullptr, 0,
-                                   nullptr, nullptr),
-            CL_SUCCESS);
-  std::vector<float> s(x.size()), r(x.size()), q(x.size());
-  ASSERT_EQ(clEnqueueReadBuffer(queue.get(), out_s.get(), CL_TRUE, 0, bytes, s.data(), 0, nullptr,
-                                nullptr),
-            CL_SUCCESS);
-  ASSERT_EQ(clEnqueueReadBuffer(queue.get(), out_r.get(), CL_TRUE, 0, bytes, r.data(), 0, nullptr,
-                                nullptr),
-            CL_SUCCESS);
-  ASSERT_EQ(clEnqueueReadBuffer(queue.get(), out_q.get(), CL_TRUE, 0, bytes, q.data(), 0, nullptr,
-                                nullptr),
-            CL_SUCCESS);
+  std::vector<float> s, r, q;
+  ASSERT_TRUE(
+      test::RunFloatLaneKernel(*rt, program, queue.get(), "fast_roots", 16, x, {&s, &r, &q}));
 
   EXPECT_EQ(s[0], 0.0f) << "sqrt(0) must be exactly 0, not 0 * inf";
   double worst_s = 0, worst_r = 0, worst_q = 0;

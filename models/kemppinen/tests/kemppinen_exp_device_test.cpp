@@ -19,6 +19,7 @@
 #include "server/cl_runtime.h"
 #include "server/kernel_source.h"
 #include "tests/support/device_int_flag.h"
+#include "tests/support/device_lane_kernel.h"
 
 namespace glint {
 namespace {
@@ -67,32 +68,11 @@ TEST(KemppinenExpDevice, SameBitsAsTheLibraryExpOnItsDomain) {
   while (x.size() % 16) x.push_back(1.0f);
 
   cl_int err = CL_SUCCESS;
-  const size_t bytes = x.size() * sizeof(float);
-  ClBuffer in(clCreateBuffer(rt->context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
-                             x.data(), &err));
-  ASSERT_EQ(err, CL_SUCCESS);
-  ClBuffer out_fast(clCreateBuffer(rt->context(), CL_MEM_WRITE_ONLY, bytes, nullptr, &err));
-  ASSERT_EQ(err, CL_SUCCESS);
-  ClBuffer out_lib(clCreateBuffer(rt->context(), CL_MEM_WRITE_ONLY, bytes, nullptr, &err));
-  ASSERT_EQ(err, CL_SUCCESS);
-  ClKernel kernel(clCreateKernel(program, "exp_both", &err));
-  ASSERT_EQ(err, CL_SUCCESS);
-  cl_mem args[3] = {in.get(), out_fast.get(), out_lib.get()};
-  for (cl_uint a = 0; a < 3; ++a)
-    ASSERT_EQ(clSetKernelArg(kernel.get(), a, sizeof(cl_mem), &args[a]), CL_SUCCESS);
   ClQueue queue(clCreateCommandQueue(rt->context(), rt->device(), 0, &err));
   ASSERT_EQ(err, CL_SUCCESS);
-  const size_t global = x.size() / 16;
-  ASSERT_EQ(clEnqueueNDRangeKernel(queue.get(), kernel.get(), 1, nullptr, &global, nullptr, 0,
-                                   nullptr, nullptr),
-            CL_SUCCESS);
-  std::vector<float> fast(x.size()), lib(x.size());
-  ASSERT_EQ(clEnqueueReadBuffer(queue.get(), out_fast.get(), CL_TRUE, 0, bytes, fast.data(), 0,
-                                nullptr, nullptr),
-            CL_SUCCESS);
-  ASSERT_EQ(clEnqueueReadBuffer(queue.get(), out_lib.get(), CL_TRUE, 0, bytes, lib.data(), 0,
-                                nullptr, nullptr),
-            CL_SUCCESS);
+  std::vector<float> fast, lib;
+  ASSERT_TRUE(
+      test::RunFloatLaneKernel(*rt, program, queue.get(), "exp_both", 16, x, {&fast, &lib}));
 
   size_t differ = 0;
   double worst_ulp = 0;

@@ -87,8 +87,8 @@ typedef int16 glint_mask;
  * models/smooth/smooth.cl, models/smooth/smooth_area_lanes.cl (LTC) and
  * models/kemppinen/kemppinen.cl) on an 8- or 16-lane fp32 AVX-512 device, for
  * queries in the local frame: those kernels' speed is their count of vector
- * instructions (issues 9 and 13, README "The smooth kernel against Mitsuba
- * 3"), and a fused a * b + c is one instruction instead of two (and one
+ * instructions (issues 9 and 13, docs/performance-history.md "The smooth kernel against
+ * Mitsuba 3"), and a fused a * b + c is one instruction instead of two (and one
  * rounding instead of two). A branch taken when all lanes of a block agree
  * must then round each lane as the other branch does (fusion is within one
  * expression: models/kemppinen/kemppinen_ndf.h kemppinen_compensation_with). With a world frame

@@ -54,7 +54,6 @@
 #include "kernels/compat.h"
 #include "kernels/rng.h"
 #include "models/binomial/binomial_params.h"
-#include "models/binomial/binomial_trig.h"
 
 /* Trials up to this count are always sampled exactly (CDF inversion, O(count of the rarer
  * outcome)); above it only while the variance is below the normal threshold. */
@@ -502,7 +501,7 @@ GLINT_FN real binomial_normal_of_uniform(real u) {
 GLINT_FN real binomial_arcsine_theta(real n, real p, real theta, real z) {
   real phi =
       glint_clamp_nn(theta + GLINT_R(0.5) * z / sqrt(n), GLINT_R(0.0), GLINT_R(0.5) * GLINT_PI);
-  real s = binomial_sin_quarter_turn(phi); /* not sin(): binomial_trig.h */
+  real s = sin(phi);
   /* 1 - exp(-x) for x = 1/(2n) < 1/128 (n > 64 here): the series to x^3, relative error x^3/24 */
   real x = GLINT_R(0.5) / n;
   real mean_excess = GLINT_R(0.5) * (GLINT_R(1.0) - GLINT_R(2.0) * p) * x *

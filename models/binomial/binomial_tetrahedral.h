@@ -2,8 +2,7 @@
  * TETRAHEDRAL): the footprint's facets split between 4 grids by barycentric weights instead of
  * the 8 trilinear ones of binomial_footprint_grids (binomial_count.h, step 2), so every light
  * costs 4 binomial draws instead of 8 and the footprint 3 rotations instead of 4, whose cosines
- * and sines come from a short polynomial instead of the library's sin and cos
- * (binomial_cos_sin_pi, binomial_trig.h).
+ * and sines come from a short polynomial instead of the library's sin and cos.
  *
  * DEPARTURE from Kneiphof & Klein 2024 (KK24 Eq. 11 and 16 count with our trilinear grids) and
  * from Deliot & Belcour 2023 (DB23 Sec. 4 also evaluates 4 grids, but on their prism split
@@ -40,6 +39,43 @@
 #include "models/binomial/binomial_count.h"
 
 #define GLINT_BINOMIAL_TETRAHEDRAL_GRIDS 4
+
+/* cos(pi f) and sin(pi f) for f in [0, 1] with no library call: the rotation angles here are
+ * pi f with f = bin / bins (exact, bins a power of two), so the reduction is exact too: f -> 1 - f
+ * (cos changes sign), then g -> 1/2 - g (cos and sin swap) leave x = pi g in [0, pi/4], where
+ * the Taylor series to x^16 and x^17 has a remainder below x^18 / 18! < 2e-18 (below half an
+ * ulp in fp64). PoCL's sin and cos (SLEEF, with a general range reduction) were the trilinear
+ * grids' largest single cost (models/binomial/README.md "Cost"); this is a few FMAs per lane and
+ * the same arithmetic on host and device. */
+GLINT_FN void binomial_cos_sin_pi(real f, GLINT_PRIVATE real *c, GLINT_PRIVATE real *s) {
+  glint_mask upper = f > GLINT_R(0.5);
+  real g = glint_select(f, GLINT_R(1.0) - f, upper);
+  glint_mask swap = g > GLINT_R(0.25);
+  g = glint_select(g, GLINT_R(0.5) - g, swap);
+  real x = GLINT_PI * g, x2 = x * x;
+  /* Horner in x^2: cos = sum (-1)^j x^2j / (2j)!, sin = x sum (-1)^j x^2j / (2j + 1)! */
+  real cp = GLINT_R(4.779477332387385e-14);  /* 1 / 16! */
+  real sp = GLINT_R(2.8114572543455206e-15); /* 1 / 17! */
+  cp = cp * x2 - GLINT_R(1.1470745597729725e-11);
+  sp = sp * x2 - GLINT_R(7.647163731819816e-13);
+  cp = cp * x2 + GLINT_R(2.08767569878681e-09);
+  sp = sp * x2 + GLINT_R(1.6059043836821613e-10);
+  cp = cp * x2 - GLINT_R(2.755731922398589e-07);
+  sp = sp * x2 - GLINT_R(2.505210838544172e-08);
+  cp = cp * x2 + GLINT_R(2.48015873015873e-05);
+  sp = sp * x2 + GLINT_R(2.7557319223985893e-06);
+  cp = cp * x2 - GLINT_R(0.001388888888888889);
+  sp = sp * x2 - GLINT_R(0.0001984126984126984);
+  cp = cp * x2 + GLINT_R(0.041666666666666664);
+  sp = sp * x2 + GLINT_R(0.008333333333333333);
+  cp = cp * x2 - GLINT_R(0.5);
+  sp = sp * x2 - GLINT_R(0.16666666666666666);
+  cp = cp * x2 + GLINT_R(1.0);
+  sp = (sp * x2 + GLINT_R(1.0)) * x;
+  real co = glint_select(cp, sp, swap), si = glint_select(sp, cp, swap);
+  *c = glint_select(co, -co, upper);
+  *s = si;
+}
 
 /* The cell key of uv in the grid (level, anisotropy level, rotation bin): the chain of
  * binomial_footprint_grids (seed, level, anisotropy level, bin wrapped at pi, cell), with the

@@ -20,7 +20,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <functional>
 #include <limits>
 #include <map>
@@ -171,12 +170,11 @@ std::vector<double> RegimeSwitches(double n, double threshold) {
 
 // Total variation distance between the histogram of M draws and the binomial pmf (explicit
 // sums). For M = 200k and up to ~25 bins of mass its sampling noise is ~sqrt(bins / M) ~ 0.01.
-double DrawTotalVariation(double n, double p, double threshold, unsigned salt, bool fp32 = false) {
+double DrawTotalVariation(double n, double p, double threshold, unsigned salt) {
   const int M = 200000;
   std::vector<double> hist(size_t(n) + 1, 0.0);
   for (int i = 0; i < M; ++i) {
-    const unsigned key = k64::rng_hash2(unsigned(i), salt);
-    double k = fp32 ? k32::Draw(n, p, threshold, key) : k64::Draw(n, p, threshold, key);
+    double k = k64::Draw(n, p, threshold, k64::rng_hash2(unsigned(i), salt));
     EXPECT_EQ(k, std::floor(k));
     EXPECT_GE(k, 0.0);
     EXPECT_LE(k, n);
@@ -212,64 +210,6 @@ TEST(BinomialDraw, ApproximationMatchesThePmf) {
     std::printf("n %g p %g: total variation %.4f\n", n, p, tv);
     EXPECT_LT(tv, 0.012) << "n " << n << " p " << p;
   }
-}
-
-// The device's precision: fp32 computes the arcsine count's sine by a polynomial
-// (binomial_sin_quarter_turn), fp64 by the library. The same cases and bound as above.
-TEST(BinomialDraw, ApproximationMatchesThePmfInFp32) {
-  const double p1 = RegimeSwitches(1000, 9)[0];
-  for (auto [n, p] : {std::pair{65.0, 0.3}, std::pair{65.0, 0.5}, std::pair{1000.0, p1},
-                      std::pair{1000.0, 1.2 * p1}, std::pair{1000.0, 1 - p1}}) {
-    double tv = DrawTotalVariation(n, p, 9.0, 37u, true);
-    std::printf("fp32 n %g p %g: total variation %.4f\n", n, p, tv);
-    EXPECT_LT(tv, 0.012) << "n " << n << " p " << p;
-  }
-}
-
-// The fp32 arcsine count (binomial_arcsine_theta) against the same formula with the sine in long
-// double (the kernel's fp32 phi, theta, z): the count may differ only where the reference value
-// n (sin^2 - excess) - skew + 1/2 lies within the sine's and the fp32 arithmetic's error of an
-// integer. Bound: sin within 4 eps relative (BinomialTrig.SinQuarterTurn*) makes sin^2 within
-// 9 eps (with the square's rounding), times n; the difference with the excess, the product by n,
-// the skew and the 1/2 round once each: |value - reference| <= 12 eps (n sin^2 + n excess +
-// |skew| + 1).
-TEST(BinomialDraw, Fp32ArcsineCountIsTheLongDoubleSinesUpToRounding) {
-  const float eps = std::numeric_limits<float>::epsilon();
-  long compared = 0, near_integer = 0, differ = 0, compared_small = 0, near_small = 0;
-  for (float n : {65.0f, 100.0f, 450.0f, 1000.0f, 1e4f, 1e5f, 1e6f})
-    for (int ip = 1; ip < 400; ++ip)
-      for (int iz = -60; iz <= 60; ++iz) {
-        const float p = float(ip) / 400.0f, z = float(iz) / 11.0f;
-        const float theta = std::asin(std::sqrt(p));
-        const float count = k32::binomial_arcsine_theta(n, p, theta, z);
-        // The kernel's steps in fp32 up to the sine, then long double.
-        const float phi = std::clamp(theta + 0.5f * z / std::sqrt(n), 0.0f, 0.5f * float(M_PI));
-        const long double sn = std::sin((long double)phi);
-        const float x = 0.5f / n;
-        const float excess = 0.5f * (1.0f - 2.0f * p) * x * (1.0f - 0.5f * x * (1.0f - x / 3.0f));
-        const float skew = (1.0f - 2.0f * p) * (z * z - 1.0f) / 12.0f;
-        const long double ref = n * (sn * sn - excess) - skew + 0.5L;
-        const long double bound =
-            12 * eps * (n * sn * sn + n * std::fabs(excess) + std::fabs(skew) + 1);
-        const long double nearest = std::round(ref);
-        ++compared;
-        compared_small += n <= 1e4f;
-        if (std::fabs(ref - nearest) <= bound) {
-          ++near_integer;
-          near_small += n <= 1e4f;
-          continue;
-        }
-        const float expect = float(std::clamp(std::floor(ref), 0.0L, (long double)n));
-        if (count != expect && ++differ <= 5)
-          ADD_FAILURE() << "n " << n << " p " << p << " z " << z << ": " << count
-                        << ", long double sine " << expect;
-      }
-  std::printf("%ld counts, %ld within the bound of an integer, %ld differ elsewhere\n", compared,
-              near_integer, differ);
-  EXPECT_EQ(differ, 0);
-  // The bound is not so loose that it tests nothing: up to 1e4 trials its band is <= 0.01 wide
-  // (at 1e6 it spans most of the unit interval, and those counts are tested only loosely).
-  EXPECT_LT(near_small, compared_small / 20);
 }
 
 TEST(BinomialDraw, MomentsMatchTheBinomialLawInEveryRegime) {
@@ -604,58 +544,6 @@ TEST(TetrahedralGrids, CosSinPiMatchesLongDoubleInBothPrecisions) {
       ASSERT_NEAR(c32, c_ref, 2 * eps32) << k << " / " << bins;
       ASSERT_NEAR(s32, s_ref, 2 * eps32) << k << " / " << bins;
     }
-}
-
-// binomial_sin_quarter_turn (binomial_trig.h) replaces the library sin in the fp32 arcsine count
-// approximation, whose count must never fall as p grows (binomial_arcsine_theta): the sine must be
-// non-decreasing over consecutive fp32 inputs, and accurate. Monotonicity: every pair of
-// consecutive fp32 inputs in [0, pi/2] under GLINT_EXHAUSTIVE=1 (~1.07e9 pairs, ~8 min with the
-// long double reference), otherwise every pair among the 2^16 inputs around the polynomials'
-// switch (phi = pi/4), the 2^15 at each end, and at every 4099th input. Accuracy against long
-// double sin: f = phi / pi and x = pi g each round once (<= eps relative, |x cot x| <= 1 carries
-// it to the sine), the Horner sums ~1 eps: < 4 eps relative (plus an absolute 1e-44 where f is
-// subnormal, phi < ~4e-38). fp64 calls the library sin (binomial_trig.h says why): equal to it.
-TEST(BinomialTrig, SinQuarterTurnNeverFallsAndMatchesLongDouble) {
-  const bool exhaustive = std::getenv("GLINT_EXHAUSTIVE") != nullptr;
-  auto bits_of = [](float x) {
-    uint32_t b;
-    std::memcpy(&b, &x, sizeof b);
-    return b;
-  };
-  auto float_of = [](uint32_t b) {
-    float x;
-    std::memcpy(&x, &b, sizeof x);
-    return x;
-  };
-  const uint32_t top = bits_of(float(M_PI / 2));  // RN(pi / 2), the clamp's upper end
-  long pairs = 0, falls = 0, inaccurate = 0;
-  auto check32 = [&](uint32_t b) {  // the pair (b, b + 1)
-    const float x0 = float_of(b), x1 = float_of(b + 1);
-    const float s0 = k32::binomial_sin_quarter_turn(x0), s1 = k32::binomial_sin_quarter_turn(x1);
-    ++pairs;
-    if (s1 < s0 && ++falls <= 5) ADD_FAILURE() << "fp32 sin falls: " << x0 << " -> " << x1;
-    const double ref = double(std::sin((long double)x0));
-    if (!(std::fabs(s0 - ref) <= 4 * std::numeric_limits<float>::epsilon() * ref + 1e-44) &&
-        ++inaccurate <= 5)
-      ADD_FAILURE() << "fp32 sin(" << x0 << ") = " << s0 << ", long double " << ref;
-  };
-  const uint32_t mid = bits_of(float(M_PI / 4));
-  if (exhaustive) {
-    for (uint32_t b = 0; b < top; ++b) check32(b);
-  } else {
-    for (uint32_t b = 0; b < top; b += 4099) check32(b);
-    for (uint32_t b = mid - 32768; b < mid + 32768; ++b) check32(b);
-    for (uint32_t b = 0; b < 32768; ++b) check32(b);
-    for (uint32_t b = top - 32768; b < top; ++b) check32(b);
-  }
-  for (double x : {0.0, 1e-300, 0.25, 0.785, 1.0, 1.5, M_PI / 2})
-    EXPECT_EQ(k64::binomial_sin_quarter_turn(x), std::sin(x)) << x;
-  std::printf("%ld consecutive pairs, %ld falls, %ld beyond 4 eps (long double)\n", pairs, falls,
-              inaccurate);
-  EXPECT_EQ(falls, 0);
-  EXPECT_EQ(inaccurate, 0);
-  EXPECT_FLOAT_EQ(k32::binomial_sin_quarter_turn(float(M_PI / 2)), 1.0f);
-  EXPECT_EQ(k32::binomial_sin_quarter_turn(0.0f), 0.0f);
 }
 
 // The footprint (du/dx, dv/dx, du/dy, dv/dy) of the ellipse with semi-axes a (major) and b at

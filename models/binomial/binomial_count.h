@@ -517,19 +517,43 @@ GLINT_FN real binomial_arcsine(real n, real p, real z) {
 }
 
 /* What the draws of one light at probability p (clamped to 1) share: asin(sqrt(p)) and
- * log(1 - q). Each draw would compute the same values; computed once per light. */
+ * log(1 - q). Each draw would compute the same values; computed once per light, and only when
+ * a draw first needs it (has_theta, has_log1m_q: uniform flags, as the glint_any branches that
+ * set them): at N_P >= 1e4 nearly no work-item searches, and its log1p was paid for nothing
+ * (models/binomial/README.md "Quad throughput (session 17)"). The same operations on the same
+ * p, so the same bits as computing both up front. */
 typedef struct {
   real p;
-  real theta;   /* asin(sqrt(p)), binomial_arcsine */
-  real log1m_q; /* binomial_log1m_rarer(p), binomial_exact */
+  real theta;      /* asin(sqrt(p)), binomial_arcsine */
+  real log1m_q;    /* binomial_log1m_rarer(p), binomial_exact */
+  int has_theta;   /* theta is set */
+  int has_log1m_q; /* log1m_q is set */
 } BinomialProb;
 
 GLINT_FN BinomialProb binomial_prob(real p) {
   BinomialProb b;
   b.p = glint_fmin_nn(p, GLINT_R(1.0));
-  b.theta = asin(sqrt(b.p));
-  b.log1m_q = binomial_log1m_rarer(b.p);
+  b.theta = GLINT_R(0.0);
+  b.log1m_q = GLINT_R(0.0);
+  b.has_theta = 0;
+  b.has_log1m_q = 0;
   return b;
+}
+
+GLINT_FN real binomial_prob_theta(GLINT_PRIVATE BinomialProb *b) {
+  if (!b->has_theta) {
+    b->theta = asin(sqrt(b->p));
+    b->has_theta = 1;
+  }
+  return b->theta;
+}
+
+GLINT_FN real binomial_prob_log1m_q(GLINT_PRIVATE BinomialProb *b) {
+  if (!b->has_log1m_q) {
+    b->log1m_q = binomial_log1m_rarer(b->p);
+    b->has_log1m_q = 1;
+  }
+  return b->log1m_q;
 }
 
 /* Binomial(n, p) for integer n >= 1 and p in (0, 1] from one uniform u, monotone
@@ -551,9 +575,9 @@ GLINT_FN BinomialProb binomial_prob(real p) {
  * within a few counts of p1's: elsewhere the draw costs one A.
  * In lanes: the approximation runs when any lane of `active` is between the switches, the
  * search E(p) once for the lanes below p1 and above p2 together. */
-GLINT_FN real binomial_whole_prob(real n, BinomialProb prob, real threshold, real u,
+GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real threshold, real u,
                                   glint_mask active) {
-  real p = prob.p;
+  real p = prob->p;
   /* Clearly exact (variance below half the threshold, so p < p1 or p > p2 whatever the
    * rounding of p1): skip computing p1. */
   glint_mask clearly_exact = (n <= GLINT_R(GLINT_BINOMIAL_EXACT_MAX)) |
@@ -573,7 +597,7 @@ GLINT_FN real binomial_whole_prob(real n, BinomialProb prob, real threshold, rea
   glint_mask near_p1 = approx & !approx; /* no lane */
   if (glint_any(approx)) {
     /* asin(sqrt(fmin(p, p2))): the light's theta unless p > p2 */
-    real theta = prob.theta;
+    real theta = binomial_prob_theta(prob);
     glint_mask above_p2 = approx & (p > p2);
     if (glint_any(above_p2)) theta = glint_select(theta, asin(sqrt(p2)), above_p2);
     x = binomial_arcsine_theta(n, glint_fmin_nn(p, p2), theta, binomial_normal_of_uniform(u));
@@ -598,24 +622,29 @@ GLINT_FN real binomial_whole_prob(real n, BinomialProb prob, real threshold, rea
    * gets its E(p) in a second search. The maxima commute, so the order does not matter. */
   glint_mask first = near_p1 | search;
   if (glint_any(first)) {
-    real p_first = p, log1m_first = prob.log1m_q;
+    real p_first = p, log1m_first;
     if (glint_any(near_p1)) {
       p_first = glint_select(p, p1, near_p1);
-      log1m_first = glint_select(prob.log1m_q, binomial_log1m_rarer(p1), near_p1);
+      /* E(p) in no lane: p's logarithm is not needed */
+      log1m_first = glint_any(search) ? binomial_prob_log1m_q(prob) : GLINT_R(0.0);
+      log1m_first = glint_select(log1m_first, binomial_log1m_rarer(p1), near_p1);
+    } else {
+      log1m_first = binomial_prob_log1m_q(prob);
     }
     real e = binomial_exact_log(n, p_first, u, log1m_first, first);
     x = glint_select(x, glint_select(e, fmax(x, e), approx), first);
   }
   glint_mask both = near_p1 & search;
   if (glint_any(both)) {
-    real e = binomial_exact_log(n, p, u, prob.log1m_q, both);
+    real e = binomial_exact_log(n, p, u, binomial_prob_log1m_q(prob), both);
     x = glint_select(x, fmax(x, e), both);
   }
   return x;
 }
 
 GLINT_FN real binomial_whole(real n, real p, real threshold, real u, glint_mask active) {
-  return binomial_whole_prob(n, binomial_prob(p), threshold, u, active);
+  BinomialProb prob = binomial_prob(p);
+  return binomial_whole_prob(n, &prob, threshold, u, active);
 }
 
 /* Whether the quantile of u of Binomial(n, p) (integer n >= 1, p in (0, 1]) is 0 for certain,
@@ -639,10 +668,10 @@ GLINT_FN glint_mask binomial_surely_zero(real n, real p, real u) {
  * regime (binomial_whole); the partial trial its own, succeeding when it is below frac(n) p.
  * Each part is non-decreasing in p for its fixed uniform, so their sum is: for a given cell,
  * light and view the count never falls as p grows. 0 in the lanes outside `active`. */
-GLINT_FN real binomial_draw_prob(real n, real p, BinomialProb prob, real threshold, glint_key key,
-                                 glint_mask active) {
+GLINT_FN real binomial_draw_prob(real n, real p, GLINT_PRIVATE BinomialProb *prob, real threshold,
+                                 glint_key key, glint_mask active) {
   glint_mask drawn = active & (n > GLINT_R(0.0)) & (p > GLINT_R(0.0));
-  p = prob.p; /* fmin(p, 1) */
+  p = prob->p; /* fmin(p, 1) */
   real whole = glint_floor(n);
   real part = n - whole;
   real k = GLINT_R(0.0);
@@ -657,7 +686,8 @@ GLINT_FN real binomial_draw_prob(real n, real p, BinomialProb prob, real thresho
 
 GLINT_FN real binomial_draw_lanes(real n, real p, real threshold, glint_key key,
                                   glint_mask active) {
-  return binomial_draw_prob(n, p, binomial_prob(p), threshold, key, active);
+  BinomialProb prob = binomial_prob(p);
+  return binomial_draw_prob(n, p, &prob, threshold, key, active);
 }
 
 /* sum_g k_g / N_P: the footprint's fraction of facets that reflect, whose
@@ -674,7 +704,7 @@ GLINT_FN real binomial_fraction_lanes(FootprintGrids g, real p, real threshold, 
     glint_mask in_grid = counted & (g.share[k] > GLINT_R(0.0));
     /* += 0 in the other lanes: the sum of the grids that hold facets, as before */
     if (glint_any(in_grid))
-      count += binomial_draw_prob(g.share[k] * g.n_facets, p, prob, threshold,
+      count += binomial_draw_prob(g.share[k] * g.n_facets, p, &prob, threshold,
                                   rng_absorb_key(g.cell_key[k], light_key), in_grid);
   }
   return glint_select(GLINT_R(0.0), count / g.n_facets, counted);

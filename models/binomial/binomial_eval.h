@@ -155,9 +155,12 @@ GLINT_FN real3 binomial_shade(EvalSpec spec, KernelInputs in, QueryInputs q, rea
       ndf_D(m.ndf, make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0)), m.alpha_x, m.alpha_y);
 
   uint n_lights = punctual_light_count(spec, in);
+  /* The wo-only terms of the smooth BRDF once per query, not per light (as SMOOTH's light loop,
+   * models/smooth/smooth_eval.h): the same operations, so the same bits (smooth_brdf.h). */
+  SmoothView view = smooth_view(m, wo);
   for (uint l = 0; l < n_lights; ++l) {
     PunctualLight light = punctual_light(spec, in, sp, l);
-    real3 ls = r3_mul(smooth_reflect_cos(m, light.wi, wo), light.irradiance);
+    real3 ls = r3_mul(smooth_reflect_cos_view(m, view, light.wi), light.irradiance);
     glint_mask lit = live & (ls.x + ls.y + ls.z > GLINT_R(0.0));
     if (!glint_any(lit)) continue;
     real prob = binomial_p_cone(m, b, light.wi, wo, light.solid_angle, d_h, d_n);

@@ -170,11 +170,12 @@ std::vector<double> RegimeSwitches(double n, double threshold) {
 
 // Total variation distance between the histogram of M draws and the binomial pmf (explicit
 // sums). For M = 200k and up to ~25 bins of mass its sampling noise is ~sqrt(bins / M) ~ 0.01.
-double DrawTotalVariation(double n, double p, double threshold, unsigned salt) {
+double DrawTotalVariation(double n, double p, double threshold, unsigned salt, bool fp32 = false) {
   const int M = 200000;
   std::vector<double> hist(size_t(n) + 1, 0.0);
   for (int i = 0; i < M; ++i) {
-    double k = k64::Draw(n, p, threshold, k64::rng_hash2(unsigned(i), salt));
+    const unsigned key = k64::rng_hash2(unsigned(i), salt);
+    double k = fp32 ? k32::Draw(n, p, threshold, key) : k64::Draw(n, p, threshold, key);
     EXPECT_EQ(k, std::floor(k));
     EXPECT_GE(k, 0.0);
     EXPECT_LE(k, n);
@@ -208,6 +209,18 @@ TEST(BinomialDraw, ApproximationMatchesThePmf) {
                       std::pair{1000.0, 1.2 * p1}, std::pair{1000.0, 1 - p1}}) {
     double tv = DrawTotalVariation(n, p, 9.0, 37u);
     std::printf("n %g p %g: total variation %.4f\n", n, p, tv);
+    EXPECT_LT(tv, 0.012) << "n " << n << " p " << p;
+  }
+}
+
+// The device's precision (fp32 draws: its own roundings of pmf(0), the arcsine and the normal
+// quantile). The same cases and bound as above.
+TEST(BinomialDraw, ApproximationMatchesThePmfInFp32) {
+  const double p1 = RegimeSwitches(1000, 9)[0];
+  for (auto [n, p] : {std::pair{65.0, 0.3}, std::pair{65.0, 0.5}, std::pair{1000.0, p1},
+                      std::pair{1000.0, 1.2 * p1}, std::pair{1000.0, 1 - p1}}) {
+    double tv = DrawTotalVariation(n, p, 9.0, 37u, true);
+    std::printf("fp32 n %g p %g: total variation %.4f\n", n, p, tv);
     EXPECT_LT(tv, 0.012) << "n " << n << " p " << p;
   }
 }

@@ -223,7 +223,13 @@ typedef struct {
 GLINT_FN AreaLtcView area_ltc_view(SmoothMaterial m, const GLINT_GLOBAL float *table, real3 wo) {
   AreaLtcView w;
   area_ltc_view_tangent(wo, &w.tx, &w.ty);
+#if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
+  /* The material is the request's, the same in every lane: alpha once, as a
+   * scalar (the same bits as the lanes' product and square root). */
+  area_ltc_lookup_uniform_alpha(table, sqrt(m.alpha_x.s0 * m.alpha_y.s0), wo.z, w.e);
+#else
   area_ltc_lookup(table, sqrt(m.alpha_x * m.alpha_y), wo.z, w.e);
+#endif
   w.albedo = area_ltc_albedo(m, w.e);
   return w;
 }

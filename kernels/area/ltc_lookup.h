@@ -77,22 +77,16 @@ GLINT_FN void area_ltc_transpose8(const GLINT_PRIVATE GLINT_ENTRY_VEC *r,
 }
 #endif
 
-/* Bilinear lookup of one LTC table entry (data/ltc/ltc_table.h lookup):
- * x = sqrt(alpha) * 63, y = sqrt(1 - cos(theta_o)) * 63, clamped to the grid. */
-GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real cos_o,
-                              GLINT_PRIVATE real *e) {
-  const real last = (real)(GLINT_LTC_GRID - 1);
-  real x = clamp(sqrt(fmax(alpha, GLINT_R(0.0))), GLINT_R(0.0), GLINT_R(1.0)) * last;
-  real y = clamp(sqrt(fmax(GLINT_R(1.0) - cos_o, GLINT_R(0.0))), GLINT_R(0.0), GLINT_R(1.0)) * last;
 #if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
-  /* Lanes: the cells and weights of every lane at once (vector ops); each
-   * lane's four entries are a gather, interpolated per lane with the same
-   * arithmetic as below (so lanes equal the scalar path) over the 8 floats of
-   * an entry at once (vload8), then transposed into one vector per entry
-   * component. */
-  glint_mask a0v = min(GLINT_LANE_TO_INT(x), (glint_mask)(GLINT_LTC_GRID - 2));
+/* The lanes' lookup from their alpha cells a0v and weights fxv and their
+ * grid coordinate y (area_ltc_lookup below): each lane's four entries are a
+ * gather, interpolated per lane with the same arithmetic as the scalar path
+ * (so lanes equal it) over the 8 floats of an entry at once (vload8), then
+ * transposed into one vector per entry component. */
+GLINT_FN void area_ltc_lookup_cells(const GLINT_GLOBAL float *table, glint_mask a0v, real fxv,
+                                    real y, GLINT_PRIVATE real *e) {
   glint_mask t0v = min(GLINT_LANE_TO_INT(y), (glint_mask)(GLINT_LTC_GRID - 2));
-  real fxv = x - GLINT_LANE_FROM_INT(a0v), fyv = y - GLINT_LANE_FROM_INT(t0v);
+  real fyv = y - GLINT_LANE_FROM_INT(t0v);
   glint_mask off = (t0v * GLINT_LTC_GRID + a0v) * GLINT_LTC_ENTRY;
   GLINT_ENTRY_VEC r[GLINT_LANES];
   GLINT_UNROLL for (int j = 0; j < GLINT_LANES; ++j) {
@@ -117,6 +111,20 @@ GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real 
   area_ltc_transpose8(r + 8, hi);
   GLINT_UNROLL for (int c = 0; c < 8; ++c) e[c] = (real)(lo[c], hi[c]);
 #endif
+}
+#endif
+
+/* Bilinear lookup of one LTC table entry (data/ltc/ltc_table.h lookup):
+ * x = sqrt(alpha) * 63, y = sqrt(1 - cos(theta_o)) * 63, clamped to the grid. */
+GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real cos_o,
+                              GLINT_PRIVATE real *e) {
+  const real last = (real)(GLINT_LTC_GRID - 1);
+  real x = clamp(sqrt(fmax(alpha, GLINT_R(0.0))), GLINT_R(0.0), GLINT_R(1.0)) * last;
+  real y = clamp(sqrt(fmax(GLINT_R(1.0) - cos_o, GLINT_R(0.0))), GLINT_R(0.0), GLINT_R(1.0)) * last;
+#if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
+  /* Lanes: the cells and weights of every lane at once (vector ops). */
+  glint_mask a0v = min(GLINT_LANE_TO_INT(x), (glint_mask)(GLINT_LTC_GRID - 2));
+  area_ltc_lookup_cells(table, a0v, x - GLINT_LANE_FROM_INT(a0v), y, e);
 #else
   int a0 = (int)x, t0 = (int)y;
   a0 = a0 > GLINT_LTC_GRID - 2 ? GLINT_LTC_GRID - 2 : a0;
@@ -132,6 +140,34 @@ GLINT_FN void area_ltc_lookup(const GLINT_GLOBAL float *table, real alpha, real 
   }
 #endif
 }
+
+/* area_ltc_lookup for an alpha that is the same in every lane (a material's:
+ * the smooth model's LTC pass), given once as a scalar. Lanes: the alpha
+ * cell and weight are computed once as scalars, with the same operations as
+ * area_ltc_lookup's vector ones (sqrt, clamp, truncation, subtraction are
+ * exact or correctly rounded alike on a scalar and a vector), so every lane
+ * gets the same bits; then the compiler sees a uniform weight, and the
+ * per-lane blend broadcasts only the cos theta_o weight (it extracted and
+ * broadcast both per lane: the x cell came from a vector square root it did
+ * not scalarise). Without lanes it is area_ltc_lookup. */
+#if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
+GLINT_FN void area_ltc_lookup_uniform_alpha(const GLINT_GLOBAL float *table,
+                                            GLINT_LANE_SCALAR alpha, real cos_o,
+                                            GLINT_PRIVATE real *e) {
+  const GLINT_LANE_SCALAR last = (GLINT_LANE_SCALAR)(GLINT_LTC_GRID - 1);
+  GLINT_LANE_SCALAR x = clamp(sqrt(fmax(alpha, (GLINT_LANE_SCALAR)0.0)), (GLINT_LANE_SCALAR)0.0,
+                              (GLINT_LANE_SCALAR)1.0) *
+                        last;
+  int a0 = min((int)x, GLINT_LTC_GRID - 2);
+  real y = clamp(sqrt(fmax(GLINT_R(1.0) - cos_o, GLINT_R(0.0))), GLINT_R(0.0), GLINT_R(1.0)) * last;
+  area_ltc_lookup_cells(table, (glint_mask)a0, (real)(x - (GLINT_LANE_SCALAR)a0), y, e);
+}
+#else
+GLINT_FN void area_ltc_lookup_uniform_alpha(const GLINT_GLOBAL float *table, real alpha, real cos_o,
+                                            GLINT_PRIVATE real *e) {
+  area_ltc_lookup(table, alpha, cos_o, e);
+}
+#endif
 
 /* The Fresnel-weighted albedo int f cos_i F dwi of table entry e: Schlick
  * f0 * magnitude + (1 - f0) * moment (exact for the albedo). Conductor and

@@ -26,7 +26,16 @@ __kernel void glint_smooth(GLINT_KERNEL_ARGS) {
   KernelInputs in = GLINT_KERNEL_INPUTS();
 
   QueryInputs q = block_load_queries(spec, in, base);
+#if GLINT_PROBE
+  /* Probes take the material by value (kernels/kernel_args.h `material_values`): PoCL then
+   * computes what depends on it alone once per work-group instead of once per block. The same
+   * floats and operations as from the buffer, so the same bits. The light pass keeps reading
+   * the buffer (not measured with by-value; other models' ratios are relative to it). */
+  real3 L = smooth_shade_material(
+      spec, in, smooth_material_from_values(material_values, spec.ndf, spec.fresnel), q);
+#else
   real3 L = smooth_shade(spec, in, q);
+#endif
   /* Only when an earlier pass wrote `out`; the smooth model runs this pass first. */
   if (accumulate) L = r3_add(block_load3(out, base, n), L);
   block_store3(out, base, n, L);

@@ -12,7 +12,7 @@
 //
 //   smooth_probe_breakdown [--n 1048576] [--rounds 7] [--local 32,128,512] [--lanes 8,16]
 //                          [--material conductor|schlick] [--options "..."]
-//                          [--kernel-file EXPANDED.cl[,B.cl,...] [--queries-per-item K]]
+//                          [--kernel-file EXPANDED.cl[:K][,B.cl[:K],...] [--queries-per-item K]]
 // Several --kernel-file entries (comma-separated) each get their own kernel rows, tagged with the
 // file's position (K0, K1, ...), timed in the same interleaved rounds: an A/B of two variants of
 // the entry in one process, under the same load.
@@ -36,6 +36,7 @@
 #include "server/cl_runtime.h"
 #include "server/kernel_source.h"
 #include "server/launch_grid.h"
+#include "server/model_table.h"
 
 namespace {
 
@@ -150,10 +151,16 @@ int main(int argc, char **argv) {
   CHECK_CL(err);
   // --kernel-file: self-contained (include-free) variants of the entry for experiments.
   std::vector<std::string> sources;
+  std::vector<int> file_per_item;  // queries per work-item of each --kernel-file variant
   if (kernel_file.empty()) sources.push_back(glint::ExpandKernelSource("models/smooth/smooth.cl"));
   for (size_t pos = 0; !kernel_file.empty() && pos <= kernel_file.size();) {
     const size_t comma = std::min(kernel_file.find(',', pos), kernel_file.size());
-    const std::string file = kernel_file.substr(pos, comma - pos);
+    std::string file = kernel_file.substr(pos, comma - pos);
+    // FILE:K: this variant evaluates K queries per work-item (else --queries-per-item).
+    const size_t colon = file.rfind(':');
+    file_per_item.push_back(colon == std::string::npos ? per_item
+                                                       : std::stoi(file.substr(colon + 1)));
+    if (colon != std::string::npos) file.resize(colon);
     std::ifstream f(file);
     if (!f) return Fail("--kernel-file " + file + ": cannot read");
     sources.emplace_back(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
@@ -218,6 +225,8 @@ int main(int argc, char **argv) {
   (void)rgb_probe;
   add("engine (service path)", [&] { return engine->Evaluate(0, plan, *q, out2.data()).ok(); });
   std::vector<cl_kernel> kernels;
+  const glint::Model *smooth = glint::FindModel(glint::v1::SMOOTH);
+  const int engine_blocks = smooth ? smooth->passes[0].Blocks(false, true) : 1;
   std::vector<size_t> checks;  // the configs that run a kernel into `out`
   for (size_t si = 0; si < sources.size(); ++si)
     for (int lanes : lanes_list) {
@@ -225,8 +234,12 @@ int main(int argc, char **argv) {
       std::string ktag;  // (appended, not "K" + ...: GCC 12's -Wrestrict false positive)
       if (sources.size() > 1) ktag.append("K").append(std::to_string(si)).append(" ");
       glint::KernelSpec spec = plan.spec;
-      const std::string options = spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(lanes) +
-                                  (extra.empty() ? "" : " " + extra);
+      // The service's blocks per work-item (server/model.h probe_blocks_fp32) for this build's
+      // entry; a --kernel-file variant says its own (FILE:K, GLINT_BLOCKS in --options).
+      const int blocks = kernel_file.empty() ? engine_blocks : 1;
+      std::string options = spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(lanes) +
+                            (extra.empty() ? "" : " " + extra);
+      if (blocks > 1) options += " -DGLINT_BLOCKS=" + std::to_string(blocks);
       cl_program program = nullptr;
       if (glint::Status s = rt->GetProgram(source, options, &program); !s.ok())
         return Fail(s.message());
@@ -234,7 +247,8 @@ int main(int argc, char **argv) {
       CHECK_CL(err);
       kernels.push_back(k);
       for (int local : locals) {
-        const size_t q_per = size_t(per_item > 0 ? per_item : lanes);
+        const int k_per = si < file_per_item.size() ? file_per_item[si] : per_item;
+        const size_t q_per = size_t(k_per > 0 ? k_per : lanes * blocks);
         const size_t wis = (n + q_per - 1) / q_per;
         // The device engine's 2D grid (server/launch_grid.h): no large-grid recompile in a round.
         const glint::LaunchGrid grid = glint::GridFor(wis, size_t(local));

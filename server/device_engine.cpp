@@ -229,7 +229,12 @@ namespace {
 // The spec's options plus the SIMD width, which only the pass decides. Also (with the source)
 // the key of the program cache.
 std::string PassOptions(const ModelPass &pass, const KernelSpec &spec) {
-  return spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(pass.Width(spec.fp64));
+  std::string options =
+      spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(pass.Width(spec.fp64));
+  // Only when above 1, so that every other program keeps its options (and its cache key).
+  const int blocks = pass.Blocks(spec.fp64, spec.probe);
+  if (blocks > 1) options += " -DGLINT_BLOCKS=" + std::to_string(blocks);
+  return options;
 }
 
 // The key of a queue's kernel map.
@@ -374,7 +379,8 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const QueryView 
     if (!s.ok()) return s;
     // A 2D grid below PoCL's small-grid limit: the work-group function the one-query warm-up
     // compiled runs every batch (server/launch_grid.h).
-    const size_t width = size_t(passes[k]->Width(spec.fp64));
+    const size_t width =
+        size_t(passes[k]->Width(spec.fp64)) * size_t(passes[k]->Blocks(spec.fp64, spec.probe));
     const LaunchGrid grid = GridFor((size_t(n) + width - 1) / width, options_.local_size);
     GLINT_CL_CHECK(clEnqueueNDRangeKernel(queue.queue.get(), kernel, 2, nullptr, grid.global,
                                           grid.local, 0, nullptr, nullptr));

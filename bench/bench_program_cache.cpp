@@ -61,8 +61,12 @@ std::vector<Program> WarmPrograms() {
     plan.n_polygon = spec.has_polygon;
     for (const ModelPass &pass : model->passes) {
       if (pass.needed && !pass.needed(plan)) continue;
-      Program p{spec.Describe() + " " + pass.entry, pass.kernel_file,
-                spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(pass.Width(spec.fp64))};
+      // The options DeviceEngine builds with (server/device_engine.cpp PassOptions).
+      std::string options =
+          spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(pass.Width(spec.fp64));
+      if (pass.Blocks(spec.fp64, spec.probe) > 1)
+        options += " -DGLINT_BLOCKS=" + std::to_string(pass.Blocks(spec.fp64, spec.probe));
+      Program p{spec.Describe() + " " + pass.entry, pass.kernel_file, options};
       if (seen.insert(p.kernel_file + '\n' + p.options).second) out.push_back(p);
     }
   }

@@ -20,7 +20,11 @@ Timings: wall M/s on this (shared) machine, and M per CPU-second (all threads of
 which another process's load changes much less.
   /tmp/mitsuba-venv/bin/python bench/mitsuba_compare.py [--n 1048576] [--rounds 7] [--per-round 5]
       [--driver build/bench/smooth_probe_driver] [--bench-models build/bench/bench_models]
-      [--host] [--settle 0.2] [--json PATH]
+      [--host] [--settle 0.2] [--json PATH] [--driver-b OTHER/smooth_probe_driver]
+--driver-b times a second glint driver (e.g. main's build copied to /tmp) in the same rounds,
+alternating which of the two goes first, and prints its rates, the median of the per-round
+ratios --driver / --driver-b (wall and CPU) and whether the two outputs are bit-identical: an
+interleaved A/B of two builds under the same load.
 --host adds a second comparison: Mitsuba on one thread against glint's host path (one thread).
 --bench-models (default on when the binary exists; --bench-models '' skips it) also runs, once per
 round between Mitsuba's evals, `bench_models --quick --models SMOOTH --lights probe --precisions
@@ -123,6 +127,8 @@ def main():
                          "threads keep spinning after an eval and took ~24%% of the cores from "
                          "the glint evaluations that followed at once (0 measures that)")
     ap.add_argument("--json")
+    ap.add_argument("--driver-b", default="",
+                    help="a second smooth_probe_driver timed in the same rounds (A/B)")
     args = ap.parse_args()
 
     # Bookworm's default libLLVM (14/15) cannot compile Dr.Jit 1.5's kernels ("LLVM ERROR:
@@ -190,6 +196,10 @@ def main():
             if threads:
                 dr.set_thread_count(threads)
             glint = GlintDriver(args.driver, wo_path, wi_path, out_path, path)
+            out_b_path = os.path.join(tmp, "out_b.f32")
+            glint_b = (GlintDriver(args.driver_b, wo_path, wi_path, out_b_path, path)
+                       if args.driver_b else None)
+            t_gb, ab_ratios = [], []
             _, value = mitsuba_eval()  # JIT compile + warm
             mitsuba_eval_numpy()
             t_mi, t_mi_np, t_gl = [], [], []
@@ -198,7 +208,20 @@ def main():
                 for _ in range(args.per_round):
                     t_mi.append(mitsuba_eval()[0])
                 time.sleep(args.settle)
-                t_gl += glint.round(args.per_round)
+                if glint_b is None:
+                    t_gl += glint.round(args.per_round)
+                else:
+                    # Alternate which build goes first; per-round ratios of the medians.
+                    first_a = len(ab_ratios) % 2 == 0
+                    ra = glint.round(args.per_round) if first_a else None
+                    rb = glint_b.round(args.per_round)
+                    if not first_a:
+                        ra = glint.round(args.per_round)
+                    t_gl += ra
+                    t_gb += rb
+                    ab_ratios.append(tuple(
+                        statistics.median(t[j] for t in rb) / statistics.median(t[j] for t in ra)
+                        for j in (0, 1)))
                 for _ in range(max(1, args.per_round // 2)):
                     t_mi_np.append(mitsuba_eval_numpy()[0])
                 if use_bench_models and path == "device":
@@ -210,6 +233,21 @@ def main():
             glint.write()
             glint.close()
             ours = np.fromfile(out_path, dtype=np.float32).reshape(n, 3).astype(np.float64)
+            ab = None
+            if glint_b is not None:
+                glint_b.write()
+                glint_b.close()
+                out_b = np.fromfile(out_b_path, dtype=np.float32)
+                out_a = np.fromfile(out_path, dtype=np.float32)
+                ab = {
+                    "evals_per_s": n / statistics.median(t[0] for t in t_gb),
+                    "evals_per_cpu_s": n / statistics.median(t[1] for t in t_gb),
+                    "ratio_wall": statistics.median(r[0] for r in ab_ratios),
+                    "ratio_cpu": statistics.median(r[1] for r in ab_ratios),
+                    "ratios_cpu": [round(r[1], 3) for r in ab_ratios],
+                    "bit_identical": bool(out_a.tobytes() == out_b.tobytes()),
+                    "differing": int(np.sum(out_a.view(np.uint32) != out_b.view(np.uint32))),
+                }
             theirs = np.asarray(value.numpy(), dtype=np.float64).reshape(3, n).T \
                 if np.asarray(value.numpy()).shape[0] == 3 else \
                 np.asarray(value.numpy(), dtype=np.float64).reshape(n, 3)
@@ -231,6 +269,7 @@ def main():
                 "rel_error_max": float(rel.max()),
                 "compared_channels": int(live.sum()),
                 "zero_both": int(np.sum((ours <= 0) & (theirs <= 0))),
+                "driver_b": ab,
             }
             results[label] = row
 
@@ -250,6 +289,16 @@ def main():
               f"{r['glint_evals_per_cpu_s'] / r['mitsuba_evals_per_cpu_s']:.2f} | "
               f"{r['rel_error_median']:.2g} | {r['rel_error_p99']:.2g} | "
               f"{r['rel_error_max']:.2g} |")
+    for label, r in results.items():
+        ab = r["driver_b"]
+        if ab:
+            print(f"\n{label}: --driver-b {args.driver_b}: {ab['evals_per_s'] / 1e6:.0f} M/s, "
+                  f"{ab['evals_per_cpu_s'] / 1e6:.0f} per CPU-s, "
+                  f"{ab['evals_per_s'] / r['mitsuba_evals_per_s']:.2f} of Mitsuba (wall); "
+                  f"--driver / --driver-b per round, median: wall {ab['ratio_wall']:.3f}, "
+                  f"CPU {ab['ratio_cpu']:.3f} (CPU each round: {ab['ratios_cpu']}); "
+                  f"outputs bit-identical: {ab['bit_identical']} ({ab['differing']} floats "
+                  f"differ)")
     mitsuba_rate = results["all cores"]["mitsuba_evals_per_s"]
     if bench_rows:
         print(f"\nbench_models SMOOTH fp32 device probe rows (median of {args.rounds} runs "

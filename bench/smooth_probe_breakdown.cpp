@@ -12,7 +12,10 @@
 //
 //   smooth_probe_breakdown [--n 1048576] [--rounds 7] [--local 32,128,512] [--lanes 8,16]
 //                          [--material conductor|schlick] [--options "..."]
-//                          [--kernel-file EXPANDED.cl [--queries-per-item K]]
+//                          [--kernel-file EXPANDED.cl[:K][,B.cl[:K],...] [--queries-per-item K]]
+// Several --kernel-file entries (comma-separated) each get their own kernel rows, tagged with the
+// file's position (K0, K1, ...), timed in the same interleaved rounds: an A/B of two variants of
+// the entry in one process, under the same load.
 #include <CL/cl.h>
 
 #include <algorithm>
@@ -33,6 +36,7 @@
 #include "server/cl_runtime.h"
 #include "server/kernel_source.h"
 #include "server/launch_grid.h"
+#include "server/model_table.h"
 
 namespace {
 
@@ -145,12 +149,22 @@ int main(int argc, char **argv) {
   cl_int err = CL_SUCCESS;
   cl_command_queue queue = clCreateCommandQueue(ctx, rt->device(), 0, &err);
   CHECK_CL(err);
-  // --kernel-file: a self-contained (include-free) variant of the entry for experiments.
-  std::string source = glint::ExpandKernelSource("models/smooth/smooth.cl");
-  if (!kernel_file.empty()) {
-    std::ifstream f(kernel_file);
-    if (!f) return Fail("--kernel-file " + kernel_file + ": cannot read");
-    source.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+  // --kernel-file: self-contained (include-free) variants of the entry for experiments.
+  std::vector<std::string> sources;
+  std::vector<int> file_per_item;  // queries per work-item of each --kernel-file variant
+  if (kernel_file.empty()) sources.push_back(glint::ExpandKernelSource("models/smooth/smooth.cl"));
+  for (size_t pos = 0; !kernel_file.empty() && pos <= kernel_file.size();) {
+    const size_t comma = std::min(kernel_file.find(',', pos), kernel_file.size());
+    std::string file = kernel_file.substr(pos, comma - pos);
+    // FILE:K: this variant evaluates K queries per work-item (else --queries-per-item).
+    const size_t colon = file.rfind(':');
+    file_per_item.push_back(colon == std::string::npos ? per_item
+                                                       : std::stoi(file.substr(colon + 1)));
+    if (colon != std::string::npos) file.resize(colon);
+    std::ifstream f(file);
+    if (!f) return Fail("--kernel-file " + file + ": cannot read");
+    sources.emplace_back(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+    pos = comma + 1;
   }
 
   auto make = [&](cl_mem_flags flags, void *host, size_t bytes) {
@@ -177,7 +191,11 @@ int main(int argc, char **argv) {
     const cl_uint zero = 0;
     const cl_int izero = 0;
     val(count);
-    for (cl_mem b : {dummy, dummy, w_o, w_i, dummy, dummy, dummy, b_mat, dummy, dummy}) val(b);
+    for (cl_mem b : {dummy, dummy, w_o, w_i, dummy, dummy, dummy, b_mat}) val(b);
+    cl_float8 mat_values{};  // the material again, by value (kernels/kernel_args.h)
+    std::copy(mat.begin(), mat.end(), mat_values.s);
+    val(mat_values);
+    for (cl_mem b : {dummy, dummy}) val(b);
     val(zero);
     val(dummy);
     val(zero);
@@ -207,47 +225,61 @@ int main(int argc, char **argv) {
   (void)rgb_probe;
   add("engine (service path)", [&] { return engine->Evaluate(0, plan, *q, out2.data()).ok(); });
   std::vector<cl_kernel> kernels;
-  for (int lanes : lanes_list) {
-    glint::KernelSpec spec = plan.spec;
-    const std::string options = spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(lanes) +
-                                (extra.empty() ? "" : " " + extra);
-    cl_program program = nullptr;
-    if (glint::Status s = rt->GetProgram(source, options, &program); !s.ok())
-      return Fail(s.message());
-    cl_kernel k = clCreateKernel(program, "glint_smooth", &err);
-    CHECK_CL(err);
-    kernels.push_back(k);
-    for (int local : locals) {
-      const size_t q_per = size_t(per_item > 0 ? per_item : lanes);
-      const size_t wis = (n + q_per - 1) / q_per;
-      // The device engine's 2D grid (server/launch_grid.h): no large-grid recompile in a round.
-      const glint::LaunchGrid grid = glint::GridFor(wis, size_t(local));
-      char tag_text[64];
-      std::snprintf(tag_text, sizeof tag_text, "L%d local %d", lanes, local);
-      const std::string tag = tag_text;
-      add("kernel " + tag, [=, &queue] {
-        if (bind(k, n, b_wo, b_wi, b_out) != CL_SUCCESS) return false;
-        if (clEnqueueNDRangeKernel(queue, k, 2, nullptr, grid.global, grid.local, 0, nullptr,
-                                   nullptr) != CL_SUCCESS)
-          return false;
+  const glint::Model *smooth = glint::FindModel(glint::v1::SMOOTH);
+  const int engine_blocks = smooth ? smooth->passes[0].Blocks(false, true) : 1;
+  std::vector<size_t> checks;  // the configs that run a kernel into `out`
+  for (size_t si = 0; si < sources.size(); ++si)
+    for (int lanes : lanes_list) {
+      const std::string &source = sources[si];
+      std::string ktag;  // (appended, not "K" + ...: GCC 12's -Wrestrict false positive)
+      if (sources.size() > 1) ktag.append("K").append(std::to_string(si)).append(" ");
+      glint::KernelSpec spec = plan.spec;
+      // The service's blocks per work-item (server/model.h probe_blocks_fp32) for this build's
+      // entry; a --kernel-file variant says its own (FILE:K, GLINT_BLOCKS in --options).
+      const int blocks = kernel_file.empty() ? engine_blocks : 1;
+      std::string options = spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(lanes) +
+                            (extra.empty() ? "" : " " + extra);
+      if (blocks > 1) options += " -DGLINT_BLOCKS=" + std::to_string(blocks);
+      cl_program program = nullptr;
+      if (glint::Status s = rt->GetProgram(source, options, &program); !s.ok())
+        return Fail(s.message());
+      cl_kernel k = clCreateKernel(program, "glint_smooth", &err);
+      CHECK_CL(err);
+      kernels.push_back(k);
+      for (int local : locals) {
+        const int k_per = si < file_per_item.size() ? file_per_item[si] : per_item;
+        const size_t q_per = size_t(k_per > 0 ? k_per : lanes * blocks);
+        const size_t wis = (n + q_per - 1) / q_per;
+        // The device engine's 2D grid (server/launch_grid.h): no large-grid recompile in a round.
+        const glint::LaunchGrid grid = glint::GridFor(wis, size_t(local));
+        char tag_text[64];
+        std::snprintf(tag_text, sizeof tag_text, "L%d local %d", lanes, local);
+        const std::string tag = ktag + tag_text;
+        checks.push_back(configs.size());
+        add("kernel " + tag, [=, &queue] {
+          if (bind(k, n, b_wo, b_wi, b_out) != CL_SUCCESS) return false;
+          if (clEnqueueNDRangeKernel(queue, k, 2, nullptr, grid.global, grid.local, 0, nullptr,
+                                     nullptr) != CL_SUCCESS)
+            return false;
+          return clFinish(queue) == CL_SUCCESS;
+        });
+        add("copy " + tag, [=, &queue, &wo, &wi, &out] {
+          clEnqueueWriteBuffer(queue, a_wo, CL_FALSE, 0, bytes, wo.data(), 0, nullptr, nullptr);
+          clEnqueueWriteBuffer(queue, a_wi, CL_FALSE, 0, bytes, wi.data(), 0, nullptr, nullptr);
+          if (bind(k, n, a_wo, a_wi, a_out) != CL_SUCCESS) return false;
+          clEnqueueNDRangeKernel(queue, k, 2, nullptr, grid.global, grid.local, 0, nullptr,
+                                 nullptr);
+          return clEnqueueReadBuffer(queue, a_out, CL_TRUE, 0, bytes, out.data(), 0, nullptr,
+                                     nullptr) == CL_SUCCESS;
+        });
+      }
+      const size_t one = 1;
+      add(ktag + "launch L" + std::to_string(lanes) + " (1 query)", [=, &queue] {
+        if (bind(k, 1, b_wo, b_wi, b_out) != CL_SUCCESS) return false;
+        clEnqueueNDRangeKernel(queue, k, 1, nullptr, &one, &one, 0, nullptr, nullptr);
         return clFinish(queue) == CL_SUCCESS;
       });
-      add("copy " + tag, [=, &queue, &wo, &wi, &out] {
-        clEnqueueWriteBuffer(queue, a_wo, CL_FALSE, 0, bytes, wo.data(), 0, nullptr, nullptr);
-        clEnqueueWriteBuffer(queue, a_wi, CL_FALSE, 0, bytes, wi.data(), 0, nullptr, nullptr);
-        if (bind(k, n, a_wo, a_wi, a_out) != CL_SUCCESS) return false;
-        clEnqueueNDRangeKernel(queue, k, 2, nullptr, grid.global, grid.local, 0, nullptr, nullptr);
-        return clEnqueueReadBuffer(queue, a_out, CL_TRUE, 0, bytes, out.data(), 0, nullptr,
-                                   nullptr) == CL_SUCCESS;
-      });
     }
-    const size_t one = 1;
-    add("launch L" + std::to_string(lanes) + " (1 query)", [=, &queue] {
-      if (bind(k, 1, b_wo, b_wi, b_out) != CL_SUCCESS) return false;
-      clEnqueueNDRangeKernel(queue, k, 1, nullptr, &one, &one, 0, nullptr, nullptr);
-      return clFinish(queue) == CL_SUCCESS;
-    });
-  }
   add("buffers (create + release 3)", [&] {
     cl_mem a = make(CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, wo.data(), bytes);
     cl_mem b = make(CL_MEM_READ_ONLY | CL_MEM_USE_HOST_PTR, wi.data(), bytes);
@@ -281,9 +313,16 @@ int main(int argc, char **argv) {
                 1e3 * cpu, cpu > 0 ? n / cpu / 1e6 : 0.0);
   }
   // The engine and the kernel agree (same program, same inputs): a sanity check of the set-up.
-  size_t differ = 0;
-  for (size_t i = 0; i < out.size(); ++i) differ += out[i] != out2[i];
-  std::printf("\nengine vs kernel outputs differing: %zu of %zu\n", differ, out.size());
+  // With several --kernel-file variants, whether each gives the service's bits.
+  std::printf("\n");
+  for (size_t c : checks) {
+    std::fill(out.begin(), out.end(), 0.0f);
+    if (!configs[c].run()) return Fail(configs[c].name + " failed");
+    size_t differ = 0;
+    for (size_t i = 0; i < out.size(); ++i) differ += out[i] != out2[i];
+    std::printf("engine vs %s outputs differing: %zu of %zu\n", configs[c].name.c_str(), differ,
+                out.size());
+  }
   for (cl_kernel k : kernels) clReleaseKernel(k);
   for (cl_mem b : {b_wo, b_wi, b_mat, b_out, dummy, a_wo, a_wi, a_out}) clReleaseMemObject(b);
   clReleaseCommandQueue(queue);

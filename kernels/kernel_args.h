@@ -58,14 +58,19 @@ typedef struct {
 
 #ifdef __OPENCL_VERSION__
 /* `accumulate`: add to `out` (an earlier pass of the same model wrote it)
- * instead of overwriting it. */
-#define GLINT_KERNEL_ARGS                                                                          \
-  uint n, __global const float *uv, __global const float *footprint, __global const float *wo,     \
-      __global const float *wi, __global const float *position, __global const float *normal,      \
-      __global const float *tangent, __global const float *material, __global const float *params, \
-      __global const float *directional, uint n_directional, __global const float *point,          \
-      uint n_point, __global const float *polygons, uint n_polygon,                                \
-      __global const float *ltc_table, __global const float *model_table, int area_method,         \
+ * instead of overwriting it. `material_values`: the same GLINT_MATERIAL_FLOATS floats as the
+ * `material` buffer, by value. PoCL loads by-value arguments once per work-group, before its loop
+ * over the work-items, so what a kernel computes from them (1 / alpha, the conductor's products
+ * of eta and k, and their 16-lane broadcasts) leaves that loop; a load from the buffer stays in
+ * every work-item (it follows the padding check, and `out` may alias it). The SMOOTH probe
+ * kernel reads it (models/smooth/smooth.cl); the buffer stays for every other reader. */
+#define GLINT_KERNEL_ARGS                                                                        \
+  uint n, __global const float *uv, __global const float *footprint, __global const float *wo,   \
+      __global const float *wi, __global const float *position, __global const float *normal,    \
+      __global const float *tangent, __global const float *material, float8 material_values,     \
+      __global const float *params, __global const float *directional, uint n_directional,       \
+      __global const float *point, uint n_point, __global const float *polygons, uint n_polygon, \
+      __global const float *ltc_table, __global const float *model_table, int area_method,       \
       int area_samples, uint seed_lo, uint seed_hi, int accumulate, __global float *out
 
 /* The struct from the arguments, inside a kernel declared with GLINT_KERNEL_ARGS. */

@@ -30,6 +30,21 @@ GLINT_FN SmoothMaterial smooth_material_unpack(const GLINT_GLOBAL float *packed,
   return m;
 }
 
+#ifdef __OPENCL_VERSION__
+/* The same block passed by value (kernels/kernel_args.h `material_values`): the same floats, so
+ * the same material as smooth_material_unpack of the buffer. */
+GLINT_FN SmoothMaterial smooth_material_from_values(float8 packed, int ndf, int fresnel_kind) {
+  SmoothMaterial m;
+  m.ndf = ndf;
+  m.alpha_x = (real)packed.s0;
+  m.alpha_y = (real)packed.s1;
+  m.fresnel.kind = fresnel_kind;
+  m.fresnel.a = make_real3((real)packed.s2, (real)packed.s3, (real)packed.s4);
+  m.fresnel.b = make_real3((real)packed.s5, (real)packed.s6, (real)packed.s7);
+  return m;
+}
+#endif
+
 /* smooth_reflect_cos with its unit half-vector h and D(h), for callers that
  * reuse them (the glint models' D_star = D S: models/kemppinen/kemppinen_eval.h
  * would otherwise normalise h and evaluate D a second time per light). In

@@ -27,6 +27,7 @@ namespace {
 struct KernelArguments {
   cl_uint n = 0;
   ClBuffer uv, footprint, wo, wi, position, normal, tangent, material, params;
+  cl_float8 material_values{};  // the material block again, by value (kernels/kernel_args.h)
   ClBuffer directional, point, polygons, out;
   cl_uint n_directional = 0, n_point = 0, n_polygon = 0;
   cl_mem ltc_table = nullptr;
@@ -69,6 +70,8 @@ Status MakeArguments(cl_context ctx, const EvalPlan &plan, const QueryView &q, c
         MakeInput(ctx, plan.directional, &a->directional), MakeInput(ctx, plan.point, &a->point),
         MakeInput(ctx, plan.polygon, &a->polygons)})
     if (!s.ok()) return s;
+  static_assert(sizeof(cl_float8) == sizeof(plan.material), "GLINT_MATERIAL_FLOATS is 8");
+  std::memcpy(&a->material_values, plan.material.data(), sizeof(cl_float8));
   a->n_directional = plan.n_directional;
   a->n_point = plan.n_point;
   a->n_polygon = plan.n_polygon;
@@ -89,7 +92,7 @@ Status MakeArguments(cl_context ctx, const EvalPlan &plan, const QueryView &q, c
 }
 
 // Arguments in GLINT_KERNEL_ARGS (kernels/kernel_args.h); a sample pass's K follows them.
-constexpr cl_uint kKernelArgCount = 24;
+constexpr cl_uint kKernelArgCount = 25;
 
 // The one place where kernel arguments are bound: GLINT_KERNEL_ARGS order.
 Status BindKernelArguments(cl_kernel kernel, const KernelArguments &a, cl_mem dummy,
@@ -111,6 +114,7 @@ Status BindKernelArguments(cl_kernel kernel, const KernelArguments &a, cl_mem du
                      buffer(a.normal),
                      buffer(a.tangent),
                      buffer(a.material),
+                     value(a.material_values),
                      buffer(a.params),
                      buffer(a.directional),
                      value(a.n_directional),
@@ -225,7 +229,12 @@ namespace {
 // The spec's options plus the SIMD width, which only the pass decides. Also (with the source)
 // the key of the program cache.
 std::string PassOptions(const ModelPass &pass, const KernelSpec &spec) {
-  return spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(pass.Width(spec.fp64));
+  std::string options =
+      spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(pass.Width(spec.fp64));
+  // Only when above 1, so that every other program keeps its options (and its cache key).
+  const int blocks = pass.Blocks(spec.fp64, spec.probe);
+  if (blocks > 1) options += " -DGLINT_BLOCKS=" + std::to_string(blocks);
+  return options;
 }
 
 // The key of a queue's kernel map.
@@ -370,7 +379,8 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const QueryView 
     if (!s.ok()) return s;
     // A 2D grid below PoCL's small-grid limit: the work-group function the one-query warm-up
     // compiled runs every batch (server/launch_grid.h).
-    const size_t width = size_t(passes[k]->Width(spec.fp64));
+    const size_t width =
+        size_t(passes[k]->Width(spec.fp64)) * size_t(passes[k]->Blocks(spec.fp64, spec.probe));
     const LaunchGrid grid = GridFor((size_t(n) + width - 1) / width, options_.local_size);
     GLINT_CL_CHECK(clEnqueueNDRangeKernel(queue.queue.get(), kernel, 2, nullptr, grid.global,
                                           grid.local, 0, nullptr, nullptr));

@@ -38,8 +38,19 @@ struct ModelPass {
   // lanes (session 16)").
   int simd_width_fp64 = 0;
 
+  // Blocks of Width() queries per work-item for fp32 probe requests (built with -DGLINT_BLOCKS=
+  // when above 1; the entry must evaluate that many blocks), 0 or 1 = one block. SMOOTH's probe
+  // kernel is bound by the latency of its longest chain (the conductor Fresnel's two dependent
+  // square roots and division), not its instruction count: two independent blocks in one
+  // work-item give the out-of-order core twice the independent work (models/smooth/README.md).
+  int probe_blocks_fp32 = 0;
+
   // The width the pass compiles and launches with for a request of this precision.
   int Width(bool fp64) const { return fp64 && simd_width_fp64 > 0 ? simd_width_fp64 : simd_width; }
+  // Blocks per work-item for a request of this precision and kind (probe or lights).
+  int Blocks(bool fp64, bool probe) const {
+    return !fp64 && probe && probe_blocks_fp32 > 1 ? probe_blocks_fp32 : 1;
+  }
 };
 
 // A model's optional importance sampling (the Sample RPC, server/sample.h): an OpenCL entry

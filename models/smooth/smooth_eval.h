@@ -18,9 +18,10 @@
 #include "kernels/smooth_brdf.h"
 
 /* Reflected radiance towards wo (RGB) from the probe direction or the
- * directional and point lights. */
-GLINT_FN real3 smooth_shade(EvalSpec spec, KernelInputs in, QueryInputs q) {
-  SmoothMaterial m = smooth_material_unpack(in.material, spec.ndf, spec.fresnel);
+ * directional and point lights, for material m (smooth_shade below unpacks it from
+ * in.material; the probe kernel passes the by-value copy, models/smooth/smooth.cl). */
+GLINT_FN real3 smooth_shade_material(EvalSpec spec, KernelInputs in, SmoothMaterial m,
+                                     QueryInputs q) {
   if (spec.probe) {
     /* Probes normalise both directions by a reciprocal square root each (no division: the
      * probe kernel is bound by its divider, which every division and square root of a 16-lane
@@ -43,6 +44,11 @@ GLINT_FN real3 smooth_shade(EvalSpec spec, KernelInputs in, QueryInputs q) {
         r3_add(radiance, r3_mul(smooth_reflect_cos_view(m, view, light.wi), light.irradiance));
   }
   return radiance;
+}
+
+GLINT_FN real3 smooth_shade(EvalSpec spec, KernelInputs in, QueryInputs q) {
+  return smooth_shade_material(spec, in,
+                               smooth_material_unpack(in.material, spec.ndf, spec.fresnel), q);
 }
 
 GLINT_FN real3 smooth_query(EvalSpec spec, KernelInputs in, uint i) {

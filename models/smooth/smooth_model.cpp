@@ -60,8 +60,9 @@ const Model kSmoothModel = {
     // unchanged, output bit-identical (issue 13; bench/mitsuba_compare.py, README "Performance").
     // The host path runs this pass with lanes too (host_lanes.cpp; bit-identical to the scalar
     // SmoothLights of host_passes.cpp, which tests/service/host_lanes_test.cpp compares it with).
+    // fp32 probes: two 16-lane blocks per work-item (models/smooth/README.md, session 17).
     .passes = {{"models/smooth/smooth.cl", "glint_smooth", 16, HasProbesOrPunctualLights,
-                SmoothLightsLanesF32, SmoothLightsLanesF64},
+                SmoothLightsLanesF32, SmoothLightsLanesF64, 0, 2},
                {"models/smooth/smooth_area_lanes.cl", "glint_smooth_area_lanes", 8, HasPolygonsLtc,
                 SmoothPolygonsF32, SmoothPolygonsF64},
                {"models/smooth/smooth_area.cl", "glint_smooth_area", 1, HasPolygonsOtherMethod,

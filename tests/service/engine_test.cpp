@@ -317,6 +317,36 @@ TEST_F(EngineTest, ChunkingIsBitIdentical) {
   }
 }
 
+// fp32 probes run two 16-lane blocks per work-item (models/smooth/smooth.cl GLINT_BLOCKS): a
+// batch whose end falls in the first block (the second block's loads past the end, its store
+// skipped), in the second, or on a block edge gives the whole batch's bits, conductor and
+// Schlick.
+TEST_F(EngineTest, ProbeChunkingIsBitIdenticalAcrossTwoBlockWorkItems) {
+  v1::QueryBatch q = test::RandomQueries(1003, true, false, 17);
+  for (int fresnel : {0, 1}) {
+    EvaluateRequest settings = MakeSettings(v1::GGX, fresnel, false, false);
+    EvalPlan plan = MakeEvalPlan(settings, q);
+    auto whole = Device(plan, q);
+    for (uint32_t chunk : {1u, 5u, 16u, 17u, 31u, 32u, 33u, 47u, 500u}) {
+      std::vector<float> pieces;
+      for (uint32_t begin = 0; begin < q.count(); begin += chunk) {
+        uint32_t end = std::min(q.count(), begin + chunk);
+        if (chunk == 1 && begin > 100) break;  // chunk size 1 is slow; 100 queries suffice
+        v1::QueryBatch part;
+        part.set_count(end - begin);
+        for (uint32_t i = 3 * begin; i < 3 * end; ++i) {
+          part.add_wo(q.wo(int(i)));
+          part.add_wi(q.wi(int(i)));
+        }
+        auto r = Device(plan, part, int(begin / chunk) % 2);
+        pieces.insert(pieces.end(), r.begin(), r.end());
+      }
+      ASSERT_EQ(0, std::memcmp(pieces.data(), whole.data(), pieces.size() * sizeof(float)))
+          << "fresnel " << fresnel << " chunk size " << chunk;
+    }
+  }
+}
+
 // Two workers (command queues) evaluating at once give the serial results.
 TEST_F(EngineTest, WorkersRunConcurrently) {
   v1::QueryBatch q = test::RandomQueries(50000, true, false, 11);

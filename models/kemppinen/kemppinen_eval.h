@@ -23,13 +23,13 @@
 
 /* f(wi, wo) cos_i with D_star, times `radiance` (RGB), for a query's MIP
  * levels prepared once for all of its lights (kemppinen_query_levels). */
-GLINT_FN real3 kemppinen_reflect_at_view(SmoothMaterial m, const GLINT_PRIVATE KemppinenParams *p,
-                                         const GLINT_PRIVATE KemppinenQueryLevels *levels,
-                                         SmoothView view, int has_view, real3 wi, real3 radiance) {
+GLINT_FN real3 kemppinen_reflect_at(SmoothMaterial m, const GLINT_PRIVATE KemppinenParams *p,
+                                    const GLINT_PRIVATE KemppinenQueryLevels *levels, real3 wi,
+                                    real3 wo, real3 radiance) {
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   /* The smooth term's unit h and D(h) serve the glint factor too (they were computed a
    * second time per light; the same operations, so the same bits in every live lane). */
-  SmoothReflect sr = smooth_reflect_cos_parts_with(m, view, wi, has_view);
+  SmoothReflect sr = smooth_reflect_cos_parts(m, wi, wo);
   real3 fc = sr.fc;
   real3 ls = r3_mul(fc, radiance);
   glint_mask live = ls.x + ls.y + ls.z > GLINT_R(0.0);
@@ -44,38 +44,24 @@ GLINT_FN real3 kemppinen_reflect_at_view(SmoothMaterial m, const GLINT_PRIVATE K
   return r3_select(zero, r3_mul(r3_mul(fc, s), radiance), live);
 }
 
-/* kemppinen_reflect_at_view with the view computed inside, after the early exit (probes, the
- * sampler: one direction per query; kernels/smooth_brdf.h says why that order). */
-GLINT_FN real3 kemppinen_reflect_at(SmoothMaterial m, const GLINT_PRIVATE KemppinenParams *p,
-                                    const GLINT_PRIVATE KemppinenQueryLevels *levels, real3 wi,
-                                    real3 wo, real3 radiance) {
-  SmoothView v;
-  v.wo = wo;
-  v.zo = GLINT_R(0.0);
-  v.r_o = GLINT_R(0.0);
-  v.zlo = GLINT_R(0.0);
-  return kemppinen_reflect_at_view(m, p, levels, v, 0, wi, radiance);
-}
-
 /* kemppinen_reflect_at for two lights (wi_a, radiance_a) and (wi_b, radiance_b) of the query,
  * the two glint factors in one pass (kemppinen_glint_factor_at2): the same bits as two calls of
  * kemppinen_reflect_at, returned separately so the caller sums them in the same order. A light
  * that no lane sees (a block behind it) takes kemppinen_reflect_at's early return. */
 GLINT_FN void kemppinen_reflect_at2(SmoothMaterial m, const GLINT_PRIVATE KemppinenParams *p,
-                                    const GLINT_PRIVATE KemppinenQueryLevels *levels,
-                                    SmoothView view, real3 wi_a, real3 wi_b, real3 radiance_a,
-                                    real3 radiance_b, GLINT_PRIVATE real3 *out_a,
-                                    GLINT_PRIVATE real3 *out_b) {
+                                    const GLINT_PRIVATE KemppinenQueryLevels *levels, real3 wi_a,
+                                    real3 wi_b, real3 wo, real3 radiance_a, real3 radiance_b,
+                                    GLINT_PRIVATE real3 *out_a, GLINT_PRIVATE real3 *out_b) {
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-  SmoothReflect ra = smooth_reflect_cos_parts_with(m, view, wi_a, 1);
-  SmoothReflect rb = smooth_reflect_cos_parts_with(m, view, wi_b, 1);
+  SmoothReflect ra = smooth_reflect_cos_parts(m, wi_a, wo);
+  SmoothReflect rb = smooth_reflect_cos_parts(m, wi_b, wo);
   real3 lsa = r3_mul(ra.fc, radiance_a), lsb = r3_mul(rb.fc, radiance_b);
   glint_mask live_a = lsa.x + lsa.y + lsa.z > GLINT_R(0.0);
   glint_mask live_b = lsb.x + lsb.y + lsb.z > GLINT_R(0.0);
   int any_a = glint_any(live_a), any_b = glint_any(live_b);
   if (!(any_a && any_b)) {
-    *out_a = any_a ? kemppinen_reflect_at_view(m, p, levels, view, 1, wi_a, radiance_a) : zero;
-    *out_b = any_b ? kemppinen_reflect_at_view(m, p, levels, view, 1, wi_b, radiance_b) : zero;
+    *out_a = any_a ? kemppinen_reflect_at(m, p, levels, wi_a, wo, radiance_a) : zero;
+    *out_b = any_b ? kemppinen_reflect_at(m, p, levels, wi_b, wo, radiance_b) : zero;
     return;
   }
   real3 sa, sb;
@@ -122,10 +108,6 @@ GLINT_FN real3 kemppinen_shade(EvalSpec spec, KernelInputs in, QueryInputs q, re
                                 make_real3(GLINT_R(1.0), GLINT_R(1.0), GLINT_R(1.0)));
   }
   real3 radiance = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
-  /* What the smooth term needs of wo alone (GGX's r_o, Beckmann's wo.z Lambda(wo)), once per
-   * query instead of once per light, as the smooth model's light loop does
-   * (models/smooth/smooth_eval.h): the same operations, so the same bits. */
-  SmoothView view = smooth_view(m, sp.wo);
   uint n_lights = punctual_light_count(spec, in);
   uint l = 0;
   /* Lights in pairs (kemppinen_reflect_at2: the same bits, summed in the same order). */
@@ -133,13 +115,13 @@ GLINT_FN real3 kemppinen_shade(EvalSpec spec, KernelInputs in, QueryInputs q, re
     PunctualLight a = punctual_light(spec, in, sp, l);
     PunctualLight b = punctual_light(spec, in, sp, l + 1u);
     real3 ra, rb;
-    kemppinen_reflect_at2(m, &p, &levels, view, a.wi, b.wi, a.irradiance, b.irradiance, &ra, &rb);
+    kemppinen_reflect_at2(m, &p, &levels, a.wi, b.wi, sp.wo, a.irradiance, b.irradiance, &ra, &rb);
     radiance = r3_add(r3_add(radiance, ra), rb);
   }
   for (; l < n_lights; ++l) {
     PunctualLight light = punctual_light(spec, in, sp, l);
-    radiance = r3_add(
-        radiance, kemppinen_reflect_at_view(m, &p, &levels, view, 1, light.wi, light.irradiance));
+    radiance =
+        r3_add(radiance, kemppinen_reflect_at(m, &p, &levels, light.wi, sp.wo, light.irradiance));
   }
   return radiance;
 }

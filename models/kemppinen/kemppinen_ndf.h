@@ -378,7 +378,17 @@ GLINT_FN real kemppinen_log2_pos(real x) {
   /* m = x 2^-e: the same mantissa under the exponent 127 + (b's exponent - k). */
   real m = KEMP_BITS_FLOAT(b - (k << 23) + 0x3f800000u);
   real e = KEMP_TO_REAL(k) - GLINT_R(127.0);
+#if GLINT_FAST_ROOTS_ACTIVE
+  /* The point pass's 16-lane device entry: m + 1 in [1.7, 2.5], inside glint_recip_nn's domain
+   * (kernels/compat.h: <= 3 2^-24 + 2^-28 relative), so t = (m - 1) / (m + 1) (m - 1 exact,
+   * Sterbenz) carries <= 4 2^-24 + 2^-28 relative instead of 2^-24, and |t p| <= 0.51 moves
+   * the result by <= 1.1e-7 more: <= 2.6e-7 + 1/2 ulp (FastLog2Device, tests/kernels). The
+   * division sat on the level set-up's critical path (perf annotate: the instructions waiting
+   * on it were ~5% of the ONE_CELL kernel's samples). */
+  real t = (m - GLINT_R(1.0)) * glint_recip_nn(m + GLINT_R(1.0));
+#else
   real t = (m - GLINT_R(1.0)) / (m + GLINT_R(1.0));
+#endif
   real t2 = t * t;
   /* 2 / ln 2 times 1, 1/3, 1/5, 1/7, 1/9. */
   real p = GLINT_R(2.8853900817779268) +

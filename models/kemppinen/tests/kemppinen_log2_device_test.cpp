@@ -25,6 +25,7 @@
 #include "server/cl_runtime.h"
 #include "server/kernel_source.h"
 #include "tests/support/device_int_flag.h"
+#include "tests/support/device_lane_kernel.h"
 
 namespace glint {
 namespace {
@@ -67,27 +68,10 @@ TEST(FastLog2Device, WithinItsBoundOfLongDouble) {
   while (x.size() % 16) x.push_back(1.0f);
 
   cl_int err = CL_SUCCESS;
-  const size_t bytes = x.size() * sizeof(float);
-  ClBuffer in(clCreateBuffer(rt->context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, bytes,
-                             x.data(), &err));
-  ASSERT_EQ(err, CL_SUCCESS);
-  ClBuffer out(clCreateBuffer(rt->context(), CL_MEM_WRITE_ONLY, bytes, nullptr, &err));
-  ASSERT_EQ(err, CL_SUCCESS);
-  ClKernel kernel(clCreateKernel(program, "log2_fast", &err));
-  ASSERT_EQ(err, CL_SUCCESS);
-  cl_mem args[2] = {in.get(), out.get()};
-  for (cl_uint a = 0; a < 2; ++a)
-    ASSERT_EQ(clSetKernelArg(kernel.get(), a, sizeof(cl_mem), &args[a]), CL_SUCCESS);
   ClQueue queue(clCreateCommandQueue(rt->context(), rt->device(), 0, &err));
   ASSERT_EQ(err, CL_SUCCESS);
-  const size_t global = x.size() / 16;
-  ASSERT_EQ(clEnqueueNDRangeKernel(queue.get(), kernel.get(), 1, nullptr, &global, nullptr, 0,
-                                   nullptr, nullptr),
-            CL_SUCCESS);
-  std::vector<float> y(x.size());
-  ASSERT_EQ(
-      clEnqueueReadBuffer(queue.get(), out.get(), CL_TRUE, 0, bytes, y.data(), 0, nullptr, nullptr),
-      CL_SUCCESS);
+  std::vector<float> y;
+  ASSERT_TRUE(test::RunFloatLaneKernel(*rt, program, queue.get(), "log2_fast", 16, x, {&y}));
 
   const double u = 0x1p-24;
   double worst = 0, worst_ulps = 0;

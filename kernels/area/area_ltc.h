@@ -224,8 +224,11 @@ GLINT_FN AreaLtcView area_ltc_view(SmoothMaterial m, const GLINT_GLOBAL float *t
   AreaLtcView w;
   area_ltc_view_tangent(wo, &w.tx, &w.ty);
 #if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
-  /* The material is the request's, the same in every lane: alpha once, as a
-   * scalar (the same bits as the lanes' product and square root). */
+  /* Lane callers pass the request's material, the same in every lane (SMOOTH's
+   * LTC pass: one material per request), so alpha is taken from lane 0 once, as
+   * a scalar (the same bits as the lanes' product and square root). A caller
+   * with per-lane roughness (a glint model's filtered alpha) must not use this
+   * function: it would shade every lane with lane 0's alpha. */
   area_ltc_lookup_uniform_alpha(table, sqrt(m.alpha_x.s0 * m.alpha_y.s0), wo.z, w.e);
 #else
   area_ltc_lookup(table, sqrt(m.alpha_x * m.alpha_y), wo.z, w.e);

@@ -382,7 +382,8 @@ GLINT_FN real kemppinen_log2_pos(real x) {
   /* The point pass's 16-lane device entry: m + 1 in [1.7, 2.5], inside glint_recip_nn's domain
    * (kernels/compat.h: <= 3 2^-24 + 2^-28 relative), so t = (m - 1) / (m + 1) (m - 1 exact,
    * Sterbenz) carries <= 4 2^-24 + 2^-28 relative instead of 2^-24, and |t p| <= 0.51 moves
-   * the result by <= 1.1e-7 more: <= 2.6e-7 + 1/2 ulp (FastLog2Device, tests/kernels). The
+   * the result by <= 1.1e-7 more: <= 4.1 2^-24 + 1e-9 + 1/2 ulp, ~2.45e-7 + 1/2 ulp
+   * (FastLog2Device, models/kemppinen/tests/kemppinen_log2_device_test.cpp). The
    * division sat on the level set-up's critical path (perf annotate: the instructions waiting
    * on it were ~5% of the ONE_CELL kernel's samples). */
   real t = (m - GLINT_R(1.0)) * glint_recip_nn(m + GLINT_R(1.0));

@@ -24,6 +24,11 @@
 #ifndef GLINT_BLOCKS
 #define GLINT_BLOCKS 1
 #endif
+/* The launch gives each work-item GLINT_BLOCKS blocks: an entry that evaluated fewer would leave
+ * queries unwritten, so any other count is a build error, not a silent gap. */
+#if GLINT_BLOCKS != 1 && !(GLINT_BLOCKS == 2 && GLINT_PROBE)
+#error "glint_smooth evaluates 2 blocks per work-item for probes only (GLINT_BLOCKS)"
+#endif
 
 __kernel void glint_smooth(GLINT_KERNEL_ARGS) {
 #if GLINT_PROBE

@@ -50,17 +50,9 @@ __kernel void fast_roots(__global const float *x, __global float *s, __global fl
 )";
 
 TEST(FastRootsDevice, WithinTheNewtonStepsBoundOfLongDouble) {
-  const char *cache = std::getenv("GLINT_CACHE_DIR");
   std::unique_ptr<ClRuntime> rt;
-  ASSERT_TRUE(ClRuntime::Create("", cache ? cache : "", &rt).ok());
   cl_program program = nullptr;
-  const Status built = rt->GetProgram(
-      // As the shipped entries compile them: with fused multiply-adds (local frame).
-      "#define GLINT_FAST_ROOTS 1\n#define GLINT_CONTRACT_FMA 1\n" +
-          ExpandKernelSource("kernels/compat.h") + kKernel,
-      "-DGLINT_LANES=16 -DGLINT_USE_DOUBLE=0 -DGLINT_HAS_FRAME=0 -cl-single-precision-constant",
-      &program);
-  ASSERT_TRUE(built.ok()) << built.message();
+  ASSERT_TRUE(test::BuildFastRootsLaneProgram("kernels/compat.h", kKernel, &rt, &program));
 
   // Every binade of the positive floats (subnormals included) at random mantissas, the ends of
   // the range, 1 and its neighbours, and the square roots' own 0.

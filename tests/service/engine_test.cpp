@@ -38,6 +38,18 @@ class EngineTest : public test::DeviceEngineTest {
     EXPECT_TRUE(s.ok()) << s.message();
     return out;
   }
+  // The batch in chunks of `chunk` queries on alternating workers, concatenated; chunks that
+  // start after `max_begin` are left out (small chunks are slow).
+  std::vector<float> DeviceInChunks(const EvalPlan &plan, const v1::QueryBatch &q, uint32_t chunk,
+                                    uint32_t max_begin) {
+    std::vector<float> pieces;
+    for (uint32_t begin = 0; begin < q.count() && begin <= max_begin; begin += chunk) {
+      auto r = Device(plan, client::SliceQueries(q, begin, std::min(q.count(), begin + chunk)),
+                      int(begin / chunk) % 2);
+      pieces.insert(pieces.end(), r.begin(), r.end());
+    }
+    return pieces;
+  }
   static std::vector<float> Host(const EvalPlan &plan, const v1::QueryBatch &q) {
     std::vector<float> out(3 * q.count(), -1.0f);
     HostEvaluate(plan, q, out.data());
@@ -297,21 +309,8 @@ TEST_F(EngineTest, ChunkingIsBitIdentical) {
   EvalPlan plan = MakeEvalPlan(settings, q);
   auto whole = Device(plan, q);
   for (uint32_t chunk : {1u, 13u, 128u, 4096u}) {
-    std::vector<float> pieces;
-    for (uint32_t begin = 0; begin < q.count(); begin += chunk) {
-      uint32_t end = std::min(q.count(), begin + chunk);
-      if (chunk == 1 && begin > 300) break;  // chunk size 1 is slow; 300 queries suffice
-      v1::QueryBatch part;
-      part.set_count(end - begin);
-      for (uint32_t i = 3 * begin; i < 3 * end; ++i) {
-        part.add_wo(q.wo(int(i)));
-        part.add_position(q.position(int(i)));
-        part.add_normal(q.normal(int(i)));
-        part.add_tangent(q.tangent(int(i)));
-      }
-      auto r = Device(plan, part, int(begin / chunk) % 2);
-      pieces.insert(pieces.end(), r.begin(), r.end());
-    }
+    // chunk size 1 is slow; 300 queries suffice
+    const std::vector<float> pieces = DeviceInChunks(plan, q, chunk, chunk == 1 ? 300 : q.count());
     ASSERT_EQ(0, std::memcmp(pieces.data(), whole.data(), pieces.size() * sizeof(float)))
         << "chunk size " << chunk;
   }
@@ -328,19 +327,9 @@ TEST_F(EngineTest, ProbeChunkingIsBitIdenticalAcrossTwoBlockWorkItems) {
     EvalPlan plan = MakeEvalPlan(settings, q);
     auto whole = Device(plan, q);
     for (uint32_t chunk : {1u, 5u, 16u, 17u, 31u, 32u, 33u, 47u, 500u}) {
-      std::vector<float> pieces;
-      for (uint32_t begin = 0; begin < q.count(); begin += chunk) {
-        uint32_t end = std::min(q.count(), begin + chunk);
-        if (chunk == 1 && begin > 100) break;  // chunk size 1 is slow; 100 queries suffice
-        v1::QueryBatch part;
-        part.set_count(end - begin);
-        for (uint32_t i = 3 * begin; i < 3 * end; ++i) {
-          part.add_wo(q.wo(int(i)));
-          part.add_wi(q.wi(int(i)));
-        }
-        auto r = Device(plan, part, int(begin / chunk) % 2);
-        pieces.insert(pieces.end(), r.begin(), r.end());
-      }
+      // chunk size 1 is slow; 100 queries suffice
+      const std::vector<float> pieces =
+          DeviceInChunks(plan, q, chunk, chunk == 1 ? 100 : q.count());
       ASSERT_EQ(0, std::memcmp(pieces.data(), whole.data(), pieces.size() * sizeof(float)))
           << "fresnel " << fresnel << " chunk size " << chunk;
     }

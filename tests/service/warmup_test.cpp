@@ -22,6 +22,7 @@
 
 #include "server/device_engine.h"
 #include "server/eval_plan.h"
+#include "server/launch_grid.h"
 #include "server/model_table.h"
 #include "server/query_view.h"
 #include "server/validation.h"
@@ -216,10 +217,10 @@ std::set<std::string> WorkGroupFunctions(const std::string &pocl_cache) {
 // 65535 work-items or more (its "smallgrid" specialisation: pocl_cache.c, pocl_llvm_wg.cc,
 // grid_width_specialization_limit = USHRT_MAX). The device engine launches 2D grids whose
 // dimensions stay below that (server/launch_grid.h), so the one-query warm-up compiles the work-
-// group function every request of the variant uses: a request of 2^20 queries (65536 work-items
-// of the 16-lane smooth kernel, 2 grid rows: 65408 + 128) compiles nothing more. Its result is
-// bit-identical to the same queries evaluated in chunks of one grid row or less (the work-item
-// index kernels/work_item.h computes from the 2D id).
+// group function every request of the variant uses: a request of 65536 work-items of the smooth
+// probe kernel (2 grid rows: 65408 + 128; 2^21 queries at 16 lanes x 2 blocks) compiles nothing
+// more. Its result is bit-identical to the same queries evaluated in chunks of one grid row or less
+// (the work-item index kernels/work_item.h computes from the 2D id).
 TEST(WarmUp, LargeRequestAfterWarmUpCompilesNoWorkGroupFunction) {
   // A fresh cache, so every work-group function this test needs is compiled here and seen.
   const std::string dir =
@@ -238,7 +239,11 @@ TEST(WarmUp, LargeRequestAfterWarmUpCompilesNoWorkGroupFunction) {
                  << "\": POCL_CACHE_DIR set, its cache off, or another OpenCL platform)";
   }
 
-  constexpr uint32_t kQueries = 1u << 20;
+  // As many queries as 65536 work-items of the pass hold, so the launch takes two grid rows
+  // (checked, so that the test keeps its purpose if the pass's width or blocks change).
+  const ModelPass &pass = FindModel(v1::SMOOTH)->passes[0];
+  const uint32_t kQueries = uint32_t(65536 * pass.Width(false) * pass.Blocks(false, true));
+  ASSERT_GT(GridFor(65536, o.local_size).global[1], 1u);
   const EvaluateRequest r = SmoothRequest(Shape::kProbe, v1::GGX, false, kQueries);
   const EvalPlan plan = MakeEvalPlan(r, r.queries());
   ASSERT_TRUE(WarmKernels(engine.get(), {plan.spec}, 1).ok());
@@ -250,10 +255,10 @@ TEST(WarmUp, LargeRequestAfterWarmUpCompilesNoWorkGroupFunction) {
   ASSERT_TRUE(engine->Evaluate(0, plan, r.queries(), whole.data()).ok());
   const std::set<std::string> after = WorkGroupFunctions(pocl);
   for (const std::string &f : after)
-    EXPECT_TRUE(warmed.count(f)) << "the 2^20-query request compiled work-group function " << f;
+    EXPECT_TRUE(warmed.count(f)) << "the two-row request compiled work-group function " << f;
   EXPECT_EQ(engine->runtime().programs_compiled(), programs);
 
-  // Chunks of 4096 queries: 256 work-items, one grid row.
+  // Chunks of 4096 queries: at most 256 work-items, one grid row.
   const QueryView all = QueryView::Of(r.queries());
   std::vector<float> chunk(size_t(3) * 4096);
   for (uint32_t begin = 0; begin < kQueries; begin += 4096) {

@@ -35,16 +35,10 @@ __kernel void exp_both(__global const float *x, __global float *fast, __global f
 )";
 
 TEST(KemppinenExpDevice, SameBitsAsTheLibraryExpOnItsDomain) {
-  const char *cache = std::getenv("GLINT_CACHE_DIR");
   std::unique_ptr<ClRuntime> rt;
-  ASSERT_TRUE(ClRuntime::Create("", cache ? cache : "", &rt).ok());
   cl_program program = nullptr;
-  const Status built = rt->GetProgram(
-      "#define GLINT_FAST_ROOTS 1\n#define GLINT_CONTRACT_FMA 1\n" +
-          ExpandKernelSource("models/kemppinen/kemppinen_exp.h") + kKernel,
-      "-DGLINT_LANES=16 -DGLINT_USE_DOUBLE=0 -DGLINT_HAS_FRAME=0 -cl-single-precision-constant",
-      &program);
-  ASSERT_TRUE(built.ok()) << built.message();
+  ASSERT_TRUE(
+      test::BuildFastRootsLaneProgram("models/kemppinen/kemppinen_exp.h", kKernel, &rt, &program));
 
   // The domain's ends and 0, a uniform grid of 2^20 + 1 points over [-86, 86], and 2^18 random
   // floats of every binade in (0, 86] with both signs (small arguments, where q = 0 and s is

@@ -39,16 +39,10 @@ __kernel void log2_fast(__global const float *x, __global float *y) {
 )";
 
 TEST(FastLog2Device, WithinItsBoundOfLongDouble) {
-  const char *cache = std::getenv("GLINT_CACHE_DIR");
   std::unique_ptr<ClRuntime> rt;
-  ASSERT_TRUE(ClRuntime::Create("", cache ? cache : "", &rt).ok());
   cl_program program = nullptr;
-  const Status built = rt->GetProgram(
-      "#define GLINT_FAST_ROOTS 1\n#define GLINT_CONTRACT_FMA 1\n" +
-          ExpandKernelSource("models/kemppinen/kemppinen_ndf.h") + kKernel,
-      "-DGLINT_LANES=16 -DGLINT_USE_DOUBLE=0 -DGLINT_HAS_FRAME=0 -cl-single-precision-constant",
-      &program);
-  ASSERT_TRUE(built.ok()) << built.message();
+  ASSERT_TRUE(
+      test::BuildFastRootsLaneProgram("models/kemppinen/kemppinen_ndf.h", kKernel, &rt, &program));
 
   // The inputs of the host test: log-uniform over [1e-30, 1e30] (the footprint's range), the
   // binade edges at 1 and sqrt 2 (where m and the exponent switch) with their neighbours, and a

@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "server/cl_runtime.h"
+#include "server/device_engine.h"
 #include "server/eval_plan.h"
 #include "server/kernel_source.h"
 #include "server/model_table.h"
@@ -61,12 +62,7 @@ std::vector<Program> WarmPrograms() {
     plan.n_polygon = spec.has_polygon;
     for (const ModelPass &pass : model->passes) {
       if (pass.needed && !pass.needed(plan)) continue;
-      // The options DeviceEngine builds with (server/device_engine.cpp PassOptions).
-      std::string options =
-          spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(pass.Width(spec.fp64));
-      if (pass.Blocks(spec.fp64, spec.probe) > 1)
-        options += " -DGLINT_BLOCKS=" + std::to_string(pass.Blocks(spec.fp64, spec.probe));
-      Program p{spec.Describe() + " " + pass.entry, pass.kernel_file, options};
+      Program p{spec.Describe() + " " + pass.entry, pass.kernel_file, PassBuildOptions(pass, spec)};
       if (seen.insert(p.kernel_file + '\n' + p.options).second) out.push_back(p);
     }
   }

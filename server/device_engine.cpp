@@ -224,11 +224,7 @@ DeviceEngine::~DeviceEngine() {
   model_tables_.clear();
 }
 
-namespace {
-
-// The spec's options plus the SIMD width, which only the pass decides. Also (with the source)
-// the key of the program cache.
-std::string PassOptions(const ModelPass &pass, const KernelSpec &spec) {
+std::string PassBuildOptions(const ModelPass &pass, const KernelSpec &spec) {
   std::string options =
       spec.BuildOptions() + " -DGLINT_LANES=" + std::to_string(pass.Width(spec.fp64));
   // Only when above 1, so that every other program keeps its options (and its cache key).
@@ -237,9 +233,11 @@ std::string PassOptions(const ModelPass &pass, const KernelSpec &spec) {
   return options;
 }
 
+namespace {
+
 // The key of a queue's kernel map.
 std::string PassKey(const ModelPass &pass, const KernelSpec &spec) {
-  return std::string(pass.kernel_file) + '\n' + pass.entry + '\n' + PassOptions(pass, spec);
+  return std::string(pass.kernel_file) + '\n' + pass.entry + '\n' + PassBuildOptions(pass, spec);
 }
 
 double MsSince(std::chrono::steady_clock::time_point t0) {
@@ -302,7 +300,7 @@ Status DeviceEngine::PrepareSample(int worker, const EvalPlan &plan,
 
 Status DeviceEngine::KernelFor(Queue &queue, const ModelPass &pass, const KernelSpec &spec,
                                cl_kernel *out) {
-  const std::string options = PassOptions(pass, spec);
+  const std::string options = PassBuildOptions(pass, spec);
   const std::string key = PassKey(pass, spec);
   auto it = queue.kernels.find(key);
   if (it != queue.kernels.end()) {

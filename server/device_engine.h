@@ -24,6 +24,11 @@
 
 namespace glint {
 
+// The build options DeviceEngine compiles `pass` with for `spec`: the spec's options plus the SIMD
+// width and blocks per work-item, which only the pass decides. Also (with the source) the key of
+// the program cache; benchmarks that build the engine's programs themselves use it too.
+std::string PassBuildOptions(const ModelPass &pass, const KernelSpec &spec);
+
 struct DeviceEngineOptions {
   std::string device;     // see ClRuntime::Create
   std::string cache_dir;  // program binary cache; "" = memory only

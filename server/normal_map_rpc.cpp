@@ -82,7 +82,7 @@ class UploadReactor : public grpc::ServerReadReactor<grpc::ByteBuffer> {
   }
 
   void OnDone() override {
-    Uploads().End(bytes_.size());
+    if (!released_) Uploads().End(bytes_.size());  // Done releases first; OnDone follows Finish
     delete this;
   }
 
@@ -96,6 +96,15 @@ class UploadReactor : public grpc::ServerReadReactor<grpc::ByteBuffer> {
     service_->LogLine(line.str());
     grpc::Status status = ToGrpcStatus(s);
     if (status.ok()) status = SerializeReply(response_, reply_);
+    // The file's bytes and this upload's share of the gate go before the answer, not in OnDone
+    // (after the client has it): a client that uploads again on receipt of the answer must find
+    // the room this one held (upload_gate_test saw a refusal "uploads in progress hold 2097152
+    // bytes" right after both holders were answered), as the scheduler frees a slot before it
+    // answers.
+    const uint64_t held = bytes_.size();
+    std::string().swap(bytes_);
+    Uploads().End(held);
+    released_ = true;
     Finish(status);
   }
 
@@ -108,6 +117,7 @@ class UploadReactor : public grpc::ServerReadReactor<grpc::ByteBuffer> {
   uint64_t chunks_read_ = 0;
   glint::v1::NormalMapChunk chunk_;
   std::string filename_, bytes_;
+  bool released_ = false;  // Done gave back this upload's share of the gate
 };
 
 }  // namespace

@@ -112,18 +112,30 @@ GLINT_FN real3 binomial_polygon(FootprintGrids g, BinomialParams b, SmoothMateri
 }
 
 /* Polygon light l by LTC (area_ltc.h), lane-safe: its smooth radiance, p and glints.
- * Called with a constant n for quads (unrolled vertex loops, as area_ltc_shade_light). */
+ * Called with a constant n for quads (unrolled vertex loops, as area_ltc_shade_light).
+ * `entry` is the LTC table entry at (alpha, wo.z) that binomial_shade looked up for D_H, the
+ * one area_ltc_form_factor would look up again, or 0 to look it up here (what binomial_shade
+ * passes when the request also has punctual lights: below). */
 GLINT_FN real3 binomial_polygon_ltc(FootprintGrids g, BinomialParams b, SmoothMaterial m,
                                     EvalSpec spec, KernelInputs in, ShadingPoint sp, real alpha,
-                                    real d_n, uint l, int n, glint_mask live) {
+                                    real d_n, uint l, int n, glint_mask live,
+                                    const GLINT_PRIVATE real *entry) {
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   const GLINT_GLOBAL float *rec = in.polygons + GLINT_POLYGON_FLOATS * l;
   real3 v[GLINT_POLYGON_MAX_VERTICES];
   area_polygon_load_n(rec, n, spec.has_frame, sp.frame, sp.p, v);
   glint_mask facing = live & area_polygon_facing(v, n, rec[1] != 0.0f);
   if (!glint_any(facing)) return zero;
+  /* area_ltc_form_factor's steps, with the entry reused where given: the same entry, so the
+   * same bits (area_ltc_form_factor_entry zeroes it in some lanes: a copy per light). */
   real e[GLINT_LTC_ENTRY];
-  real ff = area_ltc_form_factor(in.ltc_table, alpha, sp.wo, v, n, e);
+  real tx, ty;
+  area_ltc_view_tangent(sp.wo, &tx, &ty);
+  if (entry)
+    for (int k = 0; k < GLINT_LTC_ENTRY; ++k) e[k] = entry[k];
+  else
+    area_ltc_lookup(in.ltc_table, alpha, sp.wo.z, e);
+  real ff = area_ltc_form_factor_entry(sp.wo, tx, ty, v, n, e);
   real3 ls = r3_mul(r3_scale(area_ltc_albedo(m, e), ff),
                     make_real3((real)rec[2], (real)rec[3], (real)rec[4]));
   return binomial_polygon(g, b, m, sp.wo, d_n, v, n, ls, ff, e[6], e[7], l, facing);
@@ -182,10 +194,18 @@ GLINT_FN real3 binomial_shade(EvalSpec spec, KernelInputs in, QueryInputs q, rea
       continue;
     }
 #endif
+    /* The polygons reuse the entry looked up above for D_H instead of a second lookup per light
+     * (16 gathers of 4 x 8 floats, the blend and the transposes per 16 lanes): 8-10% of the
+     * one-quad rate (models/binomial/README.md "Quad throughput (session 18)"). Not when the
+     * request also has punctual lights (build-time constants in the lane kernel): keeping the
+     * 8-vector entry live across their loop cost directional + point ~4% in session 12, so
+     * those kernels look it up again here. */
+    const GLINT_PRIVATE real *entry = spec.has_directional || spec.has_point ? 0 : e;
     int n = (int)in.polygons[GLINT_POLYGON_FLOATS * l];
-    radiance = r3_add(radiance,
-                      n == 4 ? binomial_polygon_ltc(g, b, m, spec, in, sp, alpha, d_n, l, 4, live)
-                             : binomial_polygon_ltc(g, b, m, spec, in, sp, alpha, d_n, l, n, live));
+    radiance =
+        r3_add(radiance,
+               n == 4 ? binomial_polygon_ltc(g, b, m, spec, in, sp, alpha, d_n, l, 4, live, entry)
+                      : binomial_polygon_ltc(g, b, m, spec, in, sp, alpha, d_n, l, n, live, entry));
   }
   return r3_select(zero, radiance, live);
 }

@@ -195,7 +195,7 @@ GLINT_FN real3 binomial_shade(EvalSpec spec, KernelInputs in, QueryInputs q, rea
     }
 #endif
     /* The polygons reuse the entry looked up above for D_H instead of a second lookup per light
-     * (16 gathers of 4 x 8 floats, the blend and the transposes per 16 lanes): 8-10% of the
+     * (16 gathers of 4 x 8 floats, the blend and the transposes per 16 lanes): 3-5% of the
      * one-quad rate (models/binomial/README.md "Quad throughput (session 18)"). Not when the
      * request also has punctual lights (build-time constants in the lane kernel): keeping the
      * 8-vector entry live across their loop cost directional + point ~4% in session 12, so

@@ -897,9 +897,30 @@ GLINT_FN real kemppinen_compensation_with(real ta_x, real ta_y, real ba_x, real 
   /* erfc at the 4 edges per axis, each used by two masses; the square's
    * edges are many standard deviations away except near the disk's rim. */
   KemppinenErfc4 eb = kemppinen_erfc4_with(x1, x2, y1, y2, cheap);
-  real xb = kemppinen_mass_e(x1, x2, eb.a, eb.b), yb = kemppinen_mass_e(y1, y2, eb.c, eb.d);
   real cut = GLINT_R(GLINT_KEMPPINEN_ERFC_CUT);
   glint_mask square_far = (x0 <= -cut) & (x3 >= cut) & (y0 <= -cut) & (y3 >= cut);
+  /* The block holds x_a strictly inside (x1 < 0 < x2, y1 < 0 < y2): so it does whenever x_a
+   * lies in the unit square, as T(h) does up to rounding (kemppinen_angular_first keeps ta in
+   * [ba, ea]), except on a cell edge. Where that holds in every lane and the square's edges are
+   * far (the branch below), each mass_e and each select of the folded branch picks its
+   * across-0 or tail operand; this is that branch with those choices made: the same IEEE
+   * operations on the same values in the same statements, so the same bits, without the 12
+   * selects and their compares per light and level (the compensation was ~18% of the ONE_CELL
+   * k = 1 kernel, models/kemppinen/README.md session 17). */
+  glint_mask inside =
+      (x1 < GLINT_R(0.0)) & (x2 > GLINT_R(0.0)) & (y1 < GLINT_R(0.0)) & (y2 > GLINT_R(0.0));
+  if (!glint_any(!(square_far & inside))) {
+    real hx1 = GLINT_R(0.5) * eb.a, hx2 = GLINT_R(0.5) * eb.b;
+    real hy1 = GLINT_R(0.5) * eb.c, hy2 = GLINT_R(0.5) * eb.d;
+    real xb_in = GLINT_R(1.0) - GLINT_R(0.5) * (eb.a + eb.b);
+    real yb_in = GLINT_R(1.0) - GLINT_R(0.5) * (eb.c + eb.d);
+    real xout_in = hx1 + hx2;
+    real yout_in = hy1 + hy2;
+    real yb_xout_in = yb_in * xout_in;
+    real square_minus_block_in = yout_in + yb_xout_in;
+    return glint_fmax_nn(square_minus_block_in + outside * xb_in * yb_in, GLINT_R(0.0));
+  }
+  real xb = kemppinen_mass_e(x1, x2, eb.a, eb.b), yb = kemppinen_mass_e(y1, y2, eb.c, eb.d);
   real square_minus_block; /* = P_a(square) - P_a(B) */
   if (glint_any(!square_far)) {
     KemppinenErfc4 es = kemppinen_erfc4_with(x0, x3, y0, y3, cheap);
@@ -1019,18 +1040,26 @@ GLINT_FN void kemppinen_level_facet_add(const GLINT_PRIVATE KemppinenParams *p,
                                         const GLINT_PRIVATE KemppinenLevelLobe *o, real dxc,
                                         real dyc, kemp_uint column, real ix, real iy, real w,
                                         GLINT_PRIVATE real3 *sum) {
-  /* Cells past the grid's end (res_a < n at the coarsest levels) drop. */
-  glint_mask valid = (ix < o->ea_x) & (iy < o->ea_y);
   KemppinenFacet g = kemppinen_facet_in_column(column, iy);
-  /* One level (w = 1): R(r, 1) = 1 for every r, no roulette. */
-  real keep = GLINT_R(1.0);
-  if (!p->one_level) keep = kemppinen_roulette(g.r, w); /* uniform: a branch, not a select */
-  /* No branch on the roulette: with 16 lanes some lane almost always
-   * keeps the facet, and the branch cost 10% (measured at k = 1, 4). */
   real lobe =
       kemppinen_facet_lobe_at(q->s.inv_res_a, o->ta_x, o->ta_y, o->inv_sax, o->inv_say, dxc, dyc,
                               q->s.qxx, q->s.qxy, q->s.qyy, o->norm, o->e_lim, ix, iy, g);
-  real wt = glint_select(GLINT_R(0.0), keep * lobe, valid & (keep > GLINT_R(0.0)));
+  real wt;
+  if (p->one_level) { /* uniform: a branch, not a select */
+    /* One level (w = 1): R(r, 1) = 1 for every r, no roulette; keep = 1 below, and 1 * lobe =
+     * lobe, keep > 0: the same bits without the product and the compare. n = 1: the one cell
+     * [ba, ba + 1) never passes the grid's end (kemppinen_angular_first: ba <= res_a - 1, and
+     * ba + 1 <= 2^24 is exact), so `valid` holds in every lane, even a dead one (a NaN ta
+     * clamps to 0). */
+    wt = p->n_side == 1 ? lobe : glint_select(GLINT_R(0.0), lobe, (ix < o->ea_x) & (iy < o->ea_y));
+  } else {
+    /* Cells past the grid's end (res_a < n at the coarsest levels) drop. */
+    glint_mask valid = (ix < o->ea_x) & (iy < o->ea_y);
+    /* No branch on the roulette: with 16 lanes some lane almost always
+     * keeps the facet, and the branch cost 10% (measured at k = 1, 4). */
+    real keep = kemppinen_roulette(g.r, w);
+    wt = glint_select(GLINT_R(0.0), keep * lobe, valid & (keep > GLINT_R(0.0)));
+  }
   if (p->white) /* uniform */
     sum->x = sum->x + wt;
   else

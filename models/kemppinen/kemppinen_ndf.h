@@ -515,27 +515,59 @@ GLINT_FN real kemppinen_u16_lo(kemp_uint h) {
   return KEMP_TO_REAL(h & 0xffffu) * GLINT_R(1.52587890625e-5);
 }
 
-/* The facet's hash in two steps: the angular column ix (shared by the n cells
- * of a column of the n x n block, kemppinen_level_at), then the row iy. */
-GLINT_FN kemp_uint kemppinen_column_key(kemp_uint spatial_key, real ix) {
-  return kemppinen_absorb(spatial_key, KEMP_TO_UINT(ix));
+/* The facet's hash (session 18): the spatial cell's key absorbed once with the angular cell
+ * (ix, iy) packed into one word, ix + 2^16 iy, then
+ *   key -> the angular offsets (ax, ay), mix(key ^ 1) -> the spatial offsets (sx, sy),
+ *   mix(key ^ 0x68e31da4) -> the roulette number r and the colour pick (kemppinen_facet_draws),
+ * each a 16-bit half. Until session 17 it was two absorbs (column ix, then row iy), key -> (r,
+ * pick), mix(key ^ 1) -> (sx, sy), mix(key ^ 2) -> (ax, ay): four lowbias32 mixes per facet, and
+ * with the roulette-free neighbourhoods (ONE_LEVEL, ONE_CELL) r is never read. Now one
+ * neighbourhood without colours needs two mixes per facet (key and mix(key ^ 1)), the paper's
+ * three, and the chain from the spatial key to the last offset is two mixes (four multiplies)
+ * instead of three. The roles are the old ones permuted (each field a 16-bit half of key or of a
+ * mix of it), so every field is as uniform and as independent of the others as before; the
+ * pattern itself is a new one (models/kemppinen/README.md, session 18). The packing is
+ * injective for ix, iy < 2^16, i.e. at levels l <= 16; beyond (res_a > 65536 angular cells per
+ * axis: the pixel filter then spans > 2^13 mean facet spacings, so the explicit facets weigh
+ * nothing against the compensation) two angular cells 2^16 apart along x in one spatial cell
+ * share a key, as spatial cells 2^24 apart do (kemppinen_cell_key). */
+GLINT_FN kemp_uint kemppinen_facet_key(kemp_uint spatial_key, real ix, real iy) {
+  return kemppinen_absorb(spatial_key, KEMP_TO_UINT(ix) + (KEMP_TO_UINT(iy) << 16));
 }
 
-GLINT_FN KemppinenFacet kemppinen_facet_in_column(kemp_uint column_key, real iy) {
-  kemp_uint key = kemppinen_absorb(column_key, KEMP_TO_UINT(iy));
-  kemp_uint h1 = kemppinen_mix(key ^ 0x1u), h2 = kemppinen_mix(key ^ 0x2u);
+/* The facet's offsets in its 4D cell (not r and pick: kemppinen_facet_draws). */
+GLINT_FN KemppinenFacet kemppinen_facet_offsets(kemp_uint key) {
+  kemp_uint h1 = kemppinen_mix(key ^ 0x1u);
   KemppinenFacet g;
   g.sx = kemppinen_u16_hi(h1);
   g.sy = kemppinen_u16_lo(h1);
-  g.ax = kemppinen_u16_hi(h2);
-  g.ay = kemppinen_u16_lo(h2);
-  g.r = kemppinen_u16_hi(key);
-  g.pick = kemppinen_u16_lo(key); /* bits 0-15, independent of r's 16-31 */
+  g.ax = kemppinen_u16_hi(key);
+  g.ay = kemppinen_u16_lo(key);
+  g.r = GLINT_R(0.0);
+  g.pick = GLINT_R(0.0);
+  return g;
+}
+
+/* The hash of the facet's roulette number (bits 16-31) and colour pick (bits 0-15). Not
+ * mix(key ^ 2), as until session 17: lowbias32 of two keys that differ in their low bits only
+ * (key ^ 1, key ^ 2) has dependent low halves (8 x 8 chi-square of lo16(mix(k ^ 1)) against
+ * lo16(mix(k ^ 2)) over 2e6 random k: 801, 63 degrees of freedom; the old hash's sy against
+ * ay). A dense constant spreads the difference over both halves before the first xor-shift
+ * (the same statistic 78; FacetHash test). */
+GLINT_FN kemp_uint kemppinen_facet_draws(kemp_uint key) {
+  return kemppinen_mix(key ^ 0x68e31da4u);
+}
+
+GLINT_FN KemppinenFacet kemppinen_facet_of_key(kemp_uint key) {
+  KemppinenFacet g = kemppinen_facet_offsets(key);
+  kemp_uint h2 = kemppinen_facet_draws(key);
+  g.r = kemppinen_u16_hi(h2);
+  g.pick = kemppinen_u16_lo(h2); /* bits 0-15, independent of r's 16-31 */
   return g;
 }
 
 GLINT_FN KemppinenFacet kemppinen_facet(kemp_uint spatial_key, real ix, real iy) {
-  return kemppinen_facet_in_column(kemppinen_column_key(spatial_key, ix), iy);
+  return kemppinen_facet_of_key(kemppinen_facet_key(spatial_key, ix, iy));
 }
 
 /* The angular query: x_a = T(h) and the lobe's standard deviations in U. */
@@ -1038,9 +1070,13 @@ GLINT_FN KemppinenLevelLobe kemppinen_level_lobe(const GLINT_PRIVATE KemppinenPa
 GLINT_FN void kemppinen_level_facet_add(const GLINT_PRIVATE KemppinenParams *p,
                                         const GLINT_PRIVATE KemppinenLevelQuery *q,
                                         const GLINT_PRIVATE KemppinenLevelLobe *o, real dxc,
-                                        real dyc, kemp_uint column, real ix, real iy, real w,
+                                        real dyc, kemp_uint spatial_key, real ix, real iy, real w,
                                         GLINT_PRIVATE real3 *sum) {
-  KemppinenFacet g = kemppinen_facet_in_column(column, iy);
+  kemp_uint key = kemppinen_facet_key(spatial_key, ix, iy);
+  /* The offsets only: r and the colour pick (a third mix) where they are read. */
+  KemppinenFacet g = kemppinen_facet_offsets(key);
+  kemp_uint draws = key;
+  if (!(p->one_level && p->white)) draws = kemppinen_facet_draws(key); /* uniform */
   real lobe =
       kemppinen_facet_lobe_at(q->s.inv_res_a, o->ta_x, o->ta_y, o->inv_sax, o->inv_say, dxc, dyc,
                               q->s.qxx, q->s.qxy, q->s.qyy, o->norm, o->e_lim, ix, iy, g);
@@ -1057,13 +1093,15 @@ GLINT_FN void kemppinen_level_facet_add(const GLINT_PRIVATE KemppinenParams *p,
     glint_mask valid = (ix < o->ea_x) & (iy < o->ea_y);
     /* No branch on the roulette: with 16 lanes some lane almost always
      * keeps the facet, and the branch cost 10% (measured at k = 1, 4). */
-    real keep = kemppinen_roulette(g.r, w);
+    real keep = kemppinen_roulette(kemppinen_u16_hi(draws), w);
     wt = glint_select(GLINT_R(0.0), keep * lobe, valid & (keep > GLINT_R(0.0)));
   }
   if (p->white) /* uniform */
     sum->x = sum->x + wt;
-  else
+  else {
+    g.pick = kemppinen_u16_lo(draws);
     *sum = r3_add(*sum, r3_scale(kemppinen_facet_color_of(p, g), wt));
+  }
 }
 
 /* After kemppinen_level_facet_add's loop: a white material's sum is in x only. */
@@ -1096,15 +1134,10 @@ GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
   for (int j = 0; j < n_cells; ++j) {
     real dxc = q->s.ts_x - (q->s.bs_x + (real)(j & 1));
     real dyc = q->s.ts_y - (q->s.bs_y + (real)(j >> 1));
-    /* The n columns' absorbs once per spatial cell, not per facet (the
-     * same hashes: kemppinen_facet = kemppinen_facet_in_column o
-     * kemppinen_column_key); the summation order is unchanged. */
-    kemp_uint column[4];
-    for (int mx = 0; mx < n; ++mx) column[mx] = kemppinen_column_key(q->key[j], o.ba_x + (real)mx);
     for (int my = 0; my < n; ++my) {
       real iy = o.ba_y + (real)my;
       for (int mx = 0; mx < n; ++mx)
-        kemppinen_level_facet_add(p, q, &o, dxc, dyc, column[mx], o.ba_x + (real)mx, iy, w, &sum);
+        kemppinen_level_facet_add(p, q, &o, dxc, dyc, q->key[j], o.ba_x + (real)mx, iy, w, &sum);
     }
   }
   return r3_add(kemppinen_level_sum_white(p, sum), kemppinen_level_compensation(p, q, &o, w));
@@ -1128,16 +1161,13 @@ GLINT_FN void kemppinen_level_at2(const GLINT_PRIVATE KemppinenParams *p,
   for (int j = 0; j < n_cells; ++j) {
     real dxc = q->s.ts_x - (q->s.bs_x + (real)(j & 1));
     real dyc = q->s.ts_y - (q->s.bs_y + (real)(j >> 1));
-    kemp_uint cola[4], colb[4];
-    for (int mx = 0; mx < n; ++mx) {
-      cola[mx] = kemppinen_column_key(q->key[j], oa.ba_x + (real)mx);
-      colb[mx] = kemppinen_column_key(q->key[j], ob.ba_x + (real)mx);
-    }
     for (int my = 0; my < n; ++my) {
       real iya = oa.ba_y + (real)my, iyb = ob.ba_y + (real)my;
       for (int mx = 0; mx < n; ++mx) {
-        kemppinen_level_facet_add(p, q, &oa, dxc, dyc, cola[mx], oa.ba_x + (real)mx, iya, w, &suma);
-        kemppinen_level_facet_add(p, q, &ob, dxc, dyc, colb[mx], ob.ba_x + (real)mx, iyb, w, &sumb);
+        kemppinen_level_facet_add(p, q, &oa, dxc, dyc, q->key[j], oa.ba_x + (real)mx, iya, w,
+                                  &suma);
+        kemppinen_level_facet_add(p, q, &ob, dxc, dyc, q->key[j], ob.ba_x + (real)mx, iyb, w,
+                                  &sumb);
       }
     }
   }

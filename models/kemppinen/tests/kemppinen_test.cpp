@@ -468,12 +468,12 @@ TEST(GlintyNdf, SpreadPerQueryFallsAsTheDensityGrows) {
 // offsets, angular offsets, roulette number, colour pick) uniform on [0, 1), every pair of
 // fields independent, and each field independent of the same field in the next angular cell
 // along x and along y (the cells whose packed keys ix + 2^16 iy differ by 1 and by 2^16) and in
-// the next spatial cell. Reference: the uniform distribution, by chi-square over 20000 facets per
+// the next spatial cell. Reference: the uniform distribution, by chi-square over 160000 facets per
 // level (levels 3, 9 and 20, the last beyond the packing's injective range l <= 16): 16 bins per
 // field (15 degrees of freedom), 8 x 8 per pair (63). Each statistic against its 0.9999 quantile
 // (Wilson-Hilferty, within 1% at these degrees of freedom): 90 statistics, so a correct hash fails
 // one with probability < 1%. The draws as mix(key ^ 2) (the derivation of the hash before
-// session 18, there for sy against ay) fail it: sy against pick 104-122.
+// session 18, there for sy against ay) fail it: sy against pick 118.5 at level 3.
 namespace {
 double ChiSquareQuantile9999(int dof) {
   const double z = 3.7190164854556804, k = dof;  // the standard normal's 0.9999 quantile

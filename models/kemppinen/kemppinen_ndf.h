@@ -936,7 +936,7 @@ GLINT_FN real kemppinen_compensation_with(real ta_x, real ta_y, real ba_x, real 
    * [ba, ea]), except on a cell edge. Where that holds in every lane and the square's edges are
    * far (the branch below), each mass_e and each select of the folded branch picks its
    * across-0 or tail operand; this is that branch with those choices made: the same IEEE
-   * operations on the same values in the same statements, so the same bits, without the 12
+   * operations on the same values in the same statements, so the same bits, without the 8
    * selects and their compares per light and level (the compensation was ~18% of the ONE_CELL
    * k = 1 kernel, models/kemppinen/README.md session 17). */
   glint_mask inside =

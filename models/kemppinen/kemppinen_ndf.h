@@ -515,27 +515,59 @@ GLINT_FN real kemppinen_u16_lo(kemp_uint h) {
   return KEMP_TO_REAL(h & 0xffffu) * GLINT_R(1.52587890625e-5);
 }
 
-/* The facet's hash in two steps: the angular column ix (shared by the n cells
- * of a column of the n x n block, kemppinen_level_at), then the row iy. */
-GLINT_FN kemp_uint kemppinen_column_key(kemp_uint spatial_key, real ix) {
-  return kemppinen_absorb(spatial_key, KEMP_TO_UINT(ix));
+/* The facet's hash (session 18): the spatial cell's key absorbed once with the angular cell
+ * (ix, iy) packed into one word, ix + 2^16 iy, then
+ *   key -> the angular offsets (ax, ay), mix(key ^ 1) -> the spatial offsets (sx, sy),
+ *   mix(key ^ 0x68e31da4) -> the roulette number r and the colour pick (kemppinen_facet_draws),
+ * each a 16-bit half. Until session 17 it was two absorbs (column ix, then row iy), key -> (r,
+ * pick), mix(key ^ 1) -> (sx, sy), mix(key ^ 2) -> (ax, ay): four lowbias32 mixes per facet, and
+ * with the roulette-free neighbourhoods (ONE_LEVEL, ONE_CELL) r is never read. Now one
+ * neighbourhood without colours needs two mixes per facet (key and mix(key ^ 1)), the paper's
+ * three, and the chain from the spatial key to the last offset is two mixes (four multiplies)
+ * instead of three. The roles are the old ones permuted (each field a 16-bit half of key or of a
+ * mix of it), so every field is as uniform and as independent of the others as before; the
+ * pattern itself is a new one (models/kemppinen/README.md, session 18). The packing is
+ * injective for ix, iy < 2^16, i.e. at levels l <= 16; beyond (res_a > 65536 angular cells per
+ * axis: the pixel filter then spans > 2^13 mean facet spacings, so the explicit facets weigh
+ * nothing against the compensation) two angular cells 2^16 apart along x in one spatial cell
+ * share a key, as spatial cells 2^24 apart do (kemppinen_cell_key). */
+GLINT_FN kemp_uint kemppinen_facet_key(kemp_uint spatial_key, real ix, real iy) {
+  return kemppinen_absorb(spatial_key, KEMP_TO_UINT(ix) + (KEMP_TO_UINT(iy) << 16));
 }
 
-GLINT_FN KemppinenFacet kemppinen_facet_in_column(kemp_uint column_key, real iy) {
-  kemp_uint key = kemppinen_absorb(column_key, KEMP_TO_UINT(iy));
-  kemp_uint h1 = kemppinen_mix(key ^ 0x1u), h2 = kemppinen_mix(key ^ 0x2u);
+/* The facet's offsets in its 4D cell (not r and pick: kemppinen_facet_draws). */
+GLINT_FN KemppinenFacet kemppinen_facet_offsets(kemp_uint key) {
+  kemp_uint h1 = kemppinen_mix(key ^ 0x1u);
   KemppinenFacet g;
   g.sx = kemppinen_u16_hi(h1);
   g.sy = kemppinen_u16_lo(h1);
-  g.ax = kemppinen_u16_hi(h2);
-  g.ay = kemppinen_u16_lo(h2);
-  g.r = kemppinen_u16_hi(key);
-  g.pick = kemppinen_u16_lo(key); /* bits 0-15, independent of r's 16-31 */
+  g.ax = kemppinen_u16_hi(key);
+  g.ay = kemppinen_u16_lo(key);
+  g.r = GLINT_R(0.0);
+  g.pick = GLINT_R(0.0);
+  return g;
+}
+
+/* The hash of the facet's roulette number (bits 16-31) and colour pick (bits 0-15). Not
+ * mix(key ^ 2), as until session 17: lowbias32 of two keys that differ in their low bits only
+ * (key ^ 1, key ^ 2) has dependent low halves (8 x 8 chi-square of lo16(mix(k ^ 1)) against
+ * lo16(mix(k ^ 2)) over 2e6 random k: 801, 63 degrees of freedom; the old hash's sy against
+ * ay). A dense constant spreads the difference over both halves before the first xor-shift
+ * (the same statistic 78; FacetHash test). */
+GLINT_FN kemp_uint kemppinen_facet_draws(kemp_uint key) {
+  return kemppinen_mix(key ^ 0x68e31da4u);
+}
+
+GLINT_FN KemppinenFacet kemppinen_facet_of_key(kemp_uint key) {
+  KemppinenFacet g = kemppinen_facet_offsets(key);
+  kemp_uint h2 = kemppinen_facet_draws(key);
+  g.r = kemppinen_u16_hi(h2);
+  g.pick = kemppinen_u16_lo(h2); /* bits 0-15, independent of r's 16-31 */
   return g;
 }
 
 GLINT_FN KemppinenFacet kemppinen_facet(kemp_uint spatial_key, real ix, real iy) {
-  return kemppinen_facet_in_column(kemppinen_column_key(spatial_key, ix), iy);
+  return kemppinen_facet_of_key(kemppinen_facet_key(spatial_key, ix, iy));
 }
 
 /* The angular query: x_a = T(h) and the lobe's standard deviations in U. */
@@ -897,9 +929,30 @@ GLINT_FN real kemppinen_compensation_with(real ta_x, real ta_y, real ba_x, real 
   /* erfc at the 4 edges per axis, each used by two masses; the square's
    * edges are many standard deviations away except near the disk's rim. */
   KemppinenErfc4 eb = kemppinen_erfc4_with(x1, x2, y1, y2, cheap);
-  real xb = kemppinen_mass_e(x1, x2, eb.a, eb.b), yb = kemppinen_mass_e(y1, y2, eb.c, eb.d);
   real cut = GLINT_R(GLINT_KEMPPINEN_ERFC_CUT);
   glint_mask square_far = (x0 <= -cut) & (x3 >= cut) & (y0 <= -cut) & (y3 >= cut);
+  /* The block holds x_a strictly inside (x1 < 0 < x2, y1 < 0 < y2): so it does whenever x_a
+   * lies in the unit square, as T(h) does up to rounding (kemppinen_angular_first keeps ta in
+   * [ba, ea]), except on a cell edge. Where that holds in every lane and the square's edges are
+   * far (the branch below), each mass_e and each select of the folded branch picks its
+   * across-0 or tail operand; this is that branch with those choices made: the same IEEE
+   * operations on the same values in the same statements, so the same bits, without the 8
+   * selects and their compares per light and level (the compensation was ~18% of the ONE_CELL
+   * k = 1 kernel, models/kemppinen/README.md session 17). */
+  glint_mask inside =
+      (x1 < GLINT_R(0.0)) & (x2 > GLINT_R(0.0)) & (y1 < GLINT_R(0.0)) & (y2 > GLINT_R(0.0));
+  if (!glint_any(!(square_far & inside))) {
+    real hx1 = GLINT_R(0.5) * eb.a, hx2 = GLINT_R(0.5) * eb.b;
+    real hy1 = GLINT_R(0.5) * eb.c, hy2 = GLINT_R(0.5) * eb.d;
+    real xb_in = GLINT_R(1.0) - GLINT_R(0.5) * (eb.a + eb.b);
+    real yb_in = GLINT_R(1.0) - GLINT_R(0.5) * (eb.c + eb.d);
+    real xout_in = hx1 + hx2;
+    real yout_in = hy1 + hy2;
+    real yb_xout_in = yb_in * xout_in;
+    real square_minus_block_in = yout_in + yb_xout_in;
+    return glint_fmax_nn(square_minus_block_in + outside * xb_in * yb_in, GLINT_R(0.0));
+  }
+  real xb = kemppinen_mass_e(x1, x2, eb.a, eb.b), yb = kemppinen_mass_e(y1, y2, eb.c, eb.d);
   real square_minus_block; /* = P_a(square) - P_a(B) */
   if (glint_any(!square_far)) {
     KemppinenErfc4 es = kemppinen_erfc4_with(x0, x3, y0, y3, cheap);
@@ -1017,24 +1070,38 @@ GLINT_FN KemppinenLevelLobe kemppinen_level_lobe(const GLINT_PRIVATE KemppinenPa
 GLINT_FN void kemppinen_level_facet_add(const GLINT_PRIVATE KemppinenParams *p,
                                         const GLINT_PRIVATE KemppinenLevelQuery *q,
                                         const GLINT_PRIVATE KemppinenLevelLobe *o, real dxc,
-                                        real dyc, kemp_uint column, real ix, real iy, real w,
+                                        real dyc, kemp_uint spatial_key, real ix, real iy, real w,
                                         GLINT_PRIVATE real3 *sum) {
-  /* Cells past the grid's end (res_a < n at the coarsest levels) drop. */
-  glint_mask valid = (ix < o->ea_x) & (iy < o->ea_y);
-  KemppinenFacet g = kemppinen_facet_in_column(column, iy);
-  /* One level (w = 1): R(r, 1) = 1 for every r, no roulette. */
-  real keep = GLINT_R(1.0);
-  if (!p->one_level) keep = kemppinen_roulette(g.r, w); /* uniform: a branch, not a select */
-  /* No branch on the roulette: with 16 lanes some lane almost always
-   * keeps the facet, and the branch cost 10% (measured at k = 1, 4). */
+  kemp_uint key = kemppinen_facet_key(spatial_key, ix, iy);
+  /* The offsets only: r and the colour pick (a third mix) where they are read. */
+  KemppinenFacet g = kemppinen_facet_offsets(key);
+  kemp_uint draws = key;
+  if (!(p->one_level && p->white)) draws = kemppinen_facet_draws(key); /* uniform */
   real lobe =
       kemppinen_facet_lobe_at(q->s.inv_res_a, o->ta_x, o->ta_y, o->inv_sax, o->inv_say, dxc, dyc,
                               q->s.qxx, q->s.qxy, q->s.qyy, o->norm, o->e_lim, ix, iy, g);
-  real wt = glint_select(GLINT_R(0.0), keep * lobe, valid & (keep > GLINT_R(0.0)));
+  real wt;
+  if (p->one_level) { /* uniform: a branch, not a select */
+    /* One level (w = 1): R(r, 1) = 1 for every r, no roulette; keep = 1 below, and 1 * lobe =
+     * lobe, keep > 0: the same bits without the product and the compare. n = 1: the one cell
+     * [ba, ba + 1) never passes the grid's end (kemppinen_angular_first: ba <= res_a - 1, and
+     * ba + 1 <= 2^24 is exact), so `valid` holds in every lane, even a dead one (a NaN ta
+     * clamps to 0). */
+    wt = p->n_side == 1 ? lobe : glint_select(GLINT_R(0.0), lobe, (ix < o->ea_x) & (iy < o->ea_y));
+  } else {
+    /* Cells past the grid's end (res_a < n at the coarsest levels) drop. */
+    glint_mask valid = (ix < o->ea_x) & (iy < o->ea_y);
+    /* No branch on the roulette: with 16 lanes some lane almost always
+     * keeps the facet, and the branch cost 10% (measured at k = 1, 4). */
+    real keep = kemppinen_roulette(kemppinen_u16_hi(draws), w);
+    wt = glint_select(GLINT_R(0.0), keep * lobe, valid & (keep > GLINT_R(0.0)));
+  }
   if (p->white) /* uniform */
     sum->x = sum->x + wt;
-  else
+  else {
+    g.pick = kemppinen_u16_lo(draws);
     *sum = r3_add(*sum, r3_scale(kemppinen_facet_color_of(p, g), wt));
+  }
 }
 
 /* After kemppinen_level_facet_add's loop: a white material's sum is in x only. */
@@ -1067,15 +1134,10 @@ GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
   for (int j = 0; j < n_cells; ++j) {
     real dxc = q->s.ts_x - (q->s.bs_x + (real)(j & 1));
     real dyc = q->s.ts_y - (q->s.bs_y + (real)(j >> 1));
-    /* The n columns' absorbs once per spatial cell, not per facet (the
-     * same hashes: kemppinen_facet = kemppinen_facet_in_column o
-     * kemppinen_column_key); the summation order is unchanged. */
-    kemp_uint column[4];
-    for (int mx = 0; mx < n; ++mx) column[mx] = kemppinen_column_key(q->key[j], o.ba_x + (real)mx);
     for (int my = 0; my < n; ++my) {
       real iy = o.ba_y + (real)my;
       for (int mx = 0; mx < n; ++mx)
-        kemppinen_level_facet_add(p, q, &o, dxc, dyc, column[mx], o.ba_x + (real)mx, iy, w, &sum);
+        kemppinen_level_facet_add(p, q, &o, dxc, dyc, q->key[j], o.ba_x + (real)mx, iy, w, &sum);
     }
   }
   return r3_add(kemppinen_level_sum_white(p, sum), kemppinen_level_compensation(p, q, &o, w));
@@ -1099,16 +1161,13 @@ GLINT_FN void kemppinen_level_at2(const GLINT_PRIVATE KemppinenParams *p,
   for (int j = 0; j < n_cells; ++j) {
     real dxc = q->s.ts_x - (q->s.bs_x + (real)(j & 1));
     real dyc = q->s.ts_y - (q->s.bs_y + (real)(j >> 1));
-    kemp_uint cola[4], colb[4];
-    for (int mx = 0; mx < n; ++mx) {
-      cola[mx] = kemppinen_column_key(q->key[j], oa.ba_x + (real)mx);
-      colb[mx] = kemppinen_column_key(q->key[j], ob.ba_x + (real)mx);
-    }
     for (int my = 0; my < n; ++my) {
       real iya = oa.ba_y + (real)my, iyb = ob.ba_y + (real)my;
       for (int mx = 0; mx < n; ++mx) {
-        kemppinen_level_facet_add(p, q, &oa, dxc, dyc, cola[mx], oa.ba_x + (real)mx, iya, w, &suma);
-        kemppinen_level_facet_add(p, q, &ob, dxc, dyc, colb[mx], ob.ba_x + (real)mx, iyb, w, &sumb);
+        kemppinen_level_facet_add(p, q, &oa, dxc, dyc, q->key[j], oa.ba_x + (real)mx, iya, w,
+                                  &suma);
+        kemppinen_level_facet_add(p, q, &ob, dxc, dyc, q->key[j], ob.ba_x + (real)mx, iyb, w,
+                                  &sumb);
       }
     }
   }

@@ -148,8 +148,6 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
     /* res_a = 2^l (l <= 24): a product by inv_res_a is the exact quotient,
      * without a division per cell and facet. */
     real inv_res_a = GLINT_R(1.0) / res_a;
-    /* The column keys of each spatial cell once per column, not per facet
-     * (kemppinen_facet = kemppinen_facet_in_column o kemppinen_column_key). */
     int n = pb.n_side;
     for (int j = 0; j < 4; ++j) {
       real cx = b.bs_x + (real)(j & 1);
@@ -158,8 +156,6 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
           GLINT_R(GLINT_KEMPPINEN_FILTER_CUT))
         continue;
       kemp_uint key = kemppinen_spatial_key(fp.seed_key, level, cx, cy);
-      kemp_uint column[GLINT_KEMPPINEN_POLYGON_MAX_SIDE];
-      for (int mx = 0; mx < n; ++mx) column[mx] = kemppinen_column_key(key, b.ba_x + (real)mx);
       /* Rows outer, columns inner, in the order of the former single loop
        * over mm (ix = mm % n, iy = mm / n): the same sum, no integer division. */
       for (int my = 0; my < n; ++my) {
@@ -172,32 +168,31 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
           if (kemppinen_lines_rect_apart(&lines, ix * inv_res_a, (ix + GLINT_R(1.0)) * inv_res_a,
                                          iy * inv_res_a, (iy + GLINT_R(1.0)) * inv_res_a))
             continue;
-          /* kemppinen_facet_in_column (kemppinen_ndf.h: the same hashes
-           * and fields), in the order of its tests' costs:
-           * the spatial offsets (one mix) and the filter cut first (most
-           * facets of a cell lie beyond it when the filter is smaller than
-           * the cell), then the roulette, the angular offsets and the
-           * disk's rejection. Each test only drops the facet, so the order
-           * does not change the sum. */
-          kemp_uint fkey = kemppinen_absorb(column[mx], KEMP_TO_UINT(iy));
+          /* kemppinen_facet (kemppinen_ndf.h: the same hashes and fields),
+           * in the order of its tests' costs: the spatial offsets (one mix)
+           * and the filter cut first (most facets of a cell lie beyond it
+           * when the filter is smaller than the cell), then the roulette (a
+           * second mix), the angular offsets and the disk's rejection. Each
+           * test only drops the facet, so the order does not change the sum. */
+          kemp_uint fkey = kemppinen_facet_key(key, ix, iy);
           kemp_uint h1 = kemppinen_mix(fkey ^ 0x1u);
           real dx = b.ts_x - cx - kemppinen_u16_hi(h1), dy = b.ts_y - cy - kemppinen_u16_lo(h1);
           real es = b.qxx * dx * dx + b.qxy * dx * dy + b.qyy * dy * dy;
           if (es > GLINT_R(GLINT_KEMPPINEN_FILTER_CUT)) continue;
-          real keep = kemppinen_roulette(kemppinen_u16_hi(fkey), w);
+          kemp_uint h2 = kemppinen_facet_draws(fkey);
+          real keep = kemppinen_roulette(kemppinen_u16_hi(h2), w);
           if (!(keep > GLINT_R(0.0))) continue;
-          kemp_uint h2 = kemppinen_mix(fkey ^ 0x2u);
-          real gx = (ix + kemppinen_u16_hi(h2)) * inv_res_a,
-               gy = (iy + kemppinen_u16_lo(h2)) * inv_res_a;
+          real gx = (ix + kemppinen_u16_hi(fkey)) * inv_res_a,
+               gy = (iy + kemppinen_u16_lo(fkey)) * inv_res_a;
           real ox = gx - GLINT_R(0.5), oy = gy - GLINT_R(0.5);
           if (ox * ox + oy * oy >= GLINT_R(0.25)) continue; /* rejected (3.3.1) */
-          KemppinenFacet g; /* the fields of kemppinen_facet_in_column */
+          KemppinenFacet g;                                 /* the fields of kemppinen_facet */
           g.sx = kemppinen_u16_hi(h1);
           g.sy = kemppinen_u16_lo(h1);
-          g.ax = kemppinen_u16_hi(h2);
-          g.ay = kemppinen_u16_lo(h2);
-          g.r = kemppinen_u16_hi(fkey);
-          g.pick = kemppinen_u16_lo(fkey);
+          g.ax = kemppinen_u16_hi(fkey);
+          g.ay = kemppinen_u16_lo(fkey);
+          g.r = kemppinen_u16_hi(h2);
+          g.pick = kemppinen_u16_lo(h2);
           real ns = sn * exp(-es);
           real mass = kemppinen_lines_mass(R, &lines, gx, gy, a.sx, a.sy);
           sum = r3_add(sum, r3_scale(kemppinen_facet_color_of(&p, g), keep * ns * mass));

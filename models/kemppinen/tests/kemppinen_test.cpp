@@ -464,6 +464,83 @@ TEST(GlintyNdf, SpreadPerQueryFallsAsTheDensityGrows) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// The facet hash (kemppinen_facet_key, kemppinen_facet_of_key): every field of a facet (spatial
+// offsets, angular offsets, roulette number, colour pick) uniform on [0, 1), every pair of
+// fields independent, and each field independent of the same field in the next angular cell
+// along x and along y (the cells whose packed keys ix + 2^16 iy differ by 1 and by 2^16) and in
+// the next spatial cell. Reference: the uniform distribution, by chi-square over 160000 facets per
+// level (levels 3, 9 and 20, the last beyond the packing's injective range l <= 16): 16 bins per
+// field (15 degrees of freedom), 8 x 8 per pair (63). Each statistic against its 0.9999 quantile
+// (Wilson-Hilferty, within 1% at these degrees of freedom): 90 statistics, so a correct hash fails
+// one with probability < 1%. The draws as mix(key ^ 2) (the derivation of the hash before
+// session 18, there for sy against ay) fail it: sy against pick 118.5 at level 3.
+namespace {
+double ChiSquareQuantile9999(int dof) {
+  const double z = 3.7190164854556804, k = dof;  // the standard normal's 0.9999 quantile
+  const double t = 1.0 - 2.0 / (9.0 * k) + z * std::sqrt(2.0 / (9.0 * k));
+  return k * t * t * t;
+}
+}  // namespace
+
+TEST(FacetHash, FieldsUniformAndIndependentWithinAndAcrossCells) {
+  Glinty g;
+  const char *names[6] = {"sx", "sy", "ax", "ay", "r", "pick"};
+  const double q15 = ChiSquareQuantile9999(15), q63 = ChiSquareQuantile9999(63);
+  double worst1 = 0, worst2 = 0;
+  for (int level : {3, 9, 20}) {
+    // 400 spatial cells x a 20 x 20 angular block (every other cell, from 65516 at level 20
+    // so that the block crosses 2^16), each facet against its neighbours at x + 1, y + 1 and
+    // in the next spatial cell: disjoint pairs (overlapping ones would not be chi-square).
+    const double i0 = level == 20 ? 65516.0 : 0.0;
+    std::vector<std::array<double, 6>> f, fx, fy, fs;
+    for (int c = 0; c < 400; ++c)
+      for (int ix = 0; ix < 20; ++ix)
+        for (int iy = 0; iy < 20; ++iy) {
+          const double x = i0 + 2 * ix, y = i0 + 2 * iy, cx = 2 * c, cy = 7 * c + 1;
+          f.push_back(k64::FacetFields(g, level, cx, cy, x, y));
+          fx.push_back(k64::FacetFields(g, level, cx, cy, x + 1, y));
+          fy.push_back(k64::FacetFields(g, level, cx, cy, x, y + 1));
+          fs.push_back(k64::FacetFields(g, level, cx + 1, cy, x, y));
+        }
+    const double n = double(f.size());
+    for (int a = 0; a < 6; ++a) {
+      std::array<double, 16> c{};
+      for (const auto &v : f) c[size_t(v[size_t(a)] * 16)] += 1;
+      double chi2 = 0, e = n / 16;
+      for (double k : c) chi2 += (k - e) * (k - e) / e;
+      worst1 = std::max(worst1, chi2);
+      EXPECT_LT(chi2, q15) << "level " << level << " field " << names[a];
+    }
+    // Pairs (a, b) of the same facet, a < b, then field a against field a of a neighbour.
+    auto pair_chi2 = [&](const std::vector<std::array<double, 6>> &p, int a, int b) {
+      std::array<double, 64> c{};
+      for (size_t i = 0; i < f.size(); ++i)
+        c[size_t(f[i][size_t(a)] * 8) * 8 + size_t(p[i][size_t(b)] * 8)] += 1;
+      double chi2 = 0, e = n / 64;
+      for (double k : c) chi2 += (k - e) * (k - e) / e;
+      return chi2;
+    };
+    for (int a = 0; a < 6; ++a)
+      for (int b = a + 1; b < 6; ++b) {
+        double chi2 = pair_chi2(f, a, b);
+        worst2 = std::max(worst2, chi2);
+        EXPECT_LT(chi2, q63) << "level " << level << " " << names[a] << " vs " << names[b];
+      }
+    for (int a = 0; a < 6; a += 2) {  // sx, ax, r against the neighbours' same field
+      for (const auto *p : {&fx, &fy, &fs}) {
+        double chi2 = pair_chi2(*p, a, a);
+        worst2 = std::max(worst2, chi2);
+        EXPECT_LT(chi2, q63) << "level " << level << " " << names[a] << " vs a neighbour's";
+      }
+    }
+  }
+  std::printf(
+      "facet hash: worst chi-square %.1f of one field (15 dof, 0.9999 quantile %.1f), "
+      "%.1f of a pair (63 dof, %.1f)\n",
+      worst1, q15, worst2, q63);
+}
+
+// ---------------------------------------------------------------------------------------------
 // Eq. 9-11 against the explicit sum over every facet of the level (the slow test-only path):
 // the estimate (2x2 spatial x k angular cells + compensation) and the full sum have the same
 // expectation (the mean difference is within 4.5 standard errors), and the error per query

@@ -354,6 +354,24 @@ GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mas
   real ratio = q / (GLINT_R(1.0) - q);
   real eps = binomial_eps();
   real rel_error = GLINT_R(2.0) * eps * (GLINT_R(8.0) - GLINT_R(5.0) * log_pmf0);
+  /* The near test below, !(|vs - c| > (rel_error + 14 eps i) c), costs 5 vector operations per
+   * step; a trip first asks the cheaper question whether any CDF value c of its 4 steps lies in
+   * [vs (1 - band), vs (1 + band)] (2 comparisons per step), and takes the near test only then.
+   * The interval holds every c that the near test can call near, so the branch taken and every
+   * result are the same: let b = (rel_error + 14 eps (cap + 4)) (1 + 5 eps), which bounds the
+   * rounded bound of every step compared (i <= cap + 3) and the roundings of |vs - c| and of the
+   * product; near means |vs - c| <= b c, so vs / (1 + b) <= c <= vs / (1 - b). band >= 1.99 b
+   * (band = 2 (rel_error + 14 eps (cap + 4)), rounded 3 times); then the rounded vs (1 - band) is
+   * at most vs / (1 + b) and the rounded vs (1 + band) at least vs / (1 - b), for 2.5 eps <= b <=
+   * 0.1 (b >= rel_error >= 16 eps; b <= 2e-4 in fp32, from rel_error <= 1126 eps at n log(1 - q)
+   * >= -111 and cap <= 127, both for thresholds <= 40, the validated range, binomial_model.cpp).
+   * The running CDF is finite in a searching lane (scaled pmf <= 2^90), so no NaN is called near
+   * that the interval misses. A search whose v comes within the band of a CDF value pays the
+   * near test in that trip: most trips do not (models/binomial/README.md "Quad throughput
+   * (session 18)"). */
+  real band = GLINT_R(2.0) * (rel_error + GLINT_R(14.0) * eps * (cap + GLINT_R(4.0)));
+  real band_lo = vs * (GLINT_R(1.0) - band);
+  real band_hi = vs * (GLINT_R(1.0) + band);
   /* A lane that still searches has searched every step so far, so its k is the step count i,
    * the same in every lane: pmf and cdf advance with i in all lanes, unmasked, and only k
    * freezes where a lane stops (the stopped lanes' pmf and cdf are not read again). The steps
@@ -382,10 +400,18 @@ GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mas
     real cdf3 = cdf2 + pmf3;
     real pmf4 = pmf3 * (binomial_step_quotient(n, i3) * ratio);
     real cdf4 = cdf3 + pmf4;
-    glint_mask near = !(fabs(vs - cdf) > (rel_error + GLINT_R(14.0) * eps * i) * cdf);
-    glint_mask near_later = !(fabs(vs - cdf1) > (rel_error + GLINT_R(14.0) * eps * i1) * cdf1) |
-                            !(fabs(vs - cdf2) > (rel_error + GLINT_R(14.0) * eps * i2) * cdf2) |
-                            !(fabs(vs - cdf3) > (rel_error + GLINT_R(14.0) * eps * i3) * cdf3);
+    glint_mask in_band = ((cdf >= band_lo) & (cdf <= band_hi)) |
+                         ((cdf1 >= band_lo) & (cdf1 <= band_hi)) |
+                         ((cdf2 >= band_lo) & (cdf2 <= band_hi)) |
+                         ((cdf3 >= band_lo) & (cdf3 <= band_hi));
+    glint_mask near = in_band & !in_band; /* no lane */
+    glint_mask near_later = near;
+    if (binomial_any(searching & in_band)) {
+      near = !(fabs(vs - cdf) > (rel_error + GLINT_R(14.0) * eps * i) * cdf);
+      near_later = !(fabs(vs - cdf1) > (rel_error + GLINT_R(14.0) * eps * i1) * cdf1) |
+                   !(fabs(vs - cdf2) > (rel_error + GLINT_R(14.0) * eps * i2) * cdf2) |
+                   !(fabs(vs - cdf3) > (rel_error + GLINT_R(14.0) * eps * i3) * cdf3);
+    }
     if (binomial_any(searching & (near | near_later))) {
       /* One step of the 1-step search at i. */
       glint_mask beyond = vs > cdf;

@@ -62,8 +62,7 @@
  * runs two of them per 4-step trip (binomial_exact_log), ~20 of its ~120 instructions, and the
  * trip is bound by the vector unit's throughput (models/binomial/README.md "Quad throughput
  * (session 18)"). The same truth value, so the same branches and results. */
-#if defined(__OPENCL_VERSION__) && GLINT_LANES == 16 && !GLINT_USE_DOUBLE && \
-    defined(__AVX512DQ__)
+#if defined(__OPENCL_VERSION__) && GLINT_LANES == 16 && !GLINT_USE_DOUBLE && defined(__AVX512DQ__)
 #define binomial_any(c) (__builtin_ia32_cvtd2mask512(c) != 0)
 #else
 #define binomial_any(c) glint_any(c)
@@ -226,25 +225,6 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
   return g;
 }
 
-/* A bound on quantiles of Binomial(n, q): Bernstein's inequality for a sum of independent
- * trials (each at most 1 above its mean), P(X - n q >= t) <= exp(-t^2 / (2 (var + t / 3))),
- * var = n q (1 - q), gives P(X >= n q + t) <= exp(-L) for t = L/3 + sqrt(L^2/9 + 2 L var), so
- * every quantile at levels u < 1 - exp(-L) is at most ceil(n q + t - 1) < the returned
- * floor(n q + t) + 1 (clamped to n). */
-GLINT_FN real binomial_quantile_bound(real n, real q, real L) {
-  real var = n * q * (GLINT_R(1.0) - q);
-  real t = L / GLINT_R(3.0) + sqrt(L * L / GLINT_R(9.0) + GLINT_R(2.0) * L * var);
-  return glint_fmin_nn(glint_floor(n * q + t) + GLINT_R(1.0), n);
-}
-
-/* The largest count binomial_exact can return for the rarer outcome's probability q: the bound
- * above at L = 17 > 24 ln 2, beyond every 24-bit uniform (P(X > cap) < 2^-24), so capping the
- * search there changes no result in exact arithmetic. It stops a search that rounding would
- * prolong (u = 0 on the failures side, below) and sizes the tail sums. */
-GLINT_FN real binomial_exact_cap(real n, real q) {
-  return binomial_quantile_bound(n, q, GLINT_R(17.0));
-}
-
 /* The running pmf and CDF of binomial_exact are kept scaled by 2^90: pmf(0) = (1 - q)^n
  * reaches 2^-160 (n < 4 x 40 trials stay exact up to q = 1/2), below fp32's range; scaled it is
  * >= 2^-70, and no scaled term exceeds 2^90. It is formed as (exp(A / 2) 2^45)^2, A =
@@ -287,12 +267,45 @@ GLINT_FN real binomial_markstein_quotient(real a, real_scalar b) {
 GLINT_FN real binomial_step_quotient(real n, real_scalar i) {
   return binomial_markstein_quotient(n - (real)i, i + (real_scalar)1.0f);
 }
+/* a / b for constant divisors (3 and 12 in binomial_arcsine_theta, 3 and 9 in
+ * binomial_quantile_bound): the same correctly rounded quotient (the check above covers every
+ * significand for these divisors: BinomialDraw.MarksteinQuotientIsTheDivision checks all of
+ * them) for 3 pipelined operations instead of a vdivps on the shared divider, of which a draw's
+ * regime code has ~10 (p1, the arcsine, the normal quantile, the E(p1) bound, the search's
+ * ratio). */
+GLINT_FN real binomial_quotient_by(real a, real_scalar b) {
+  return binomial_markstein_quotient(a, b);
+}
 #else
 #define GLINT_BINOMIAL_MARKSTEIN_STEP 0
 GLINT_FN real binomial_step_quotient(real n, real_scalar i) {
   return (n - i) / (i + (real_scalar)1.0);
 }
+GLINT_FN real binomial_quotient_by(real a, real_scalar b) {
+  return a / (real)b;
+}
 #endif
+
+/* A bound on quantiles of Binomial(n, q): Bernstein's inequality for a sum of independent
+ * trials (each at most 1 above its mean), P(X - n q >= t) <= exp(-t^2 / (2 (var + t / 3))),
+ * var = n q (1 - q), gives P(X >= n q + t) <= exp(-L) for t = L/3 + sqrt(L^2/9 + 2 L var), so
+ * every quantile at levels u < 1 - exp(-L) is at most ceil(n q + t - 1) < the returned
+ * floor(n q + t) + 1 (clamped to n). */
+GLINT_FN real binomial_quantile_bound(real n, real q, real L) {
+  real var = n * q * (GLINT_R(1.0) - q);
+  /* the constant divisors as binomial_quotient_by: the same quotients */
+  real t = binomial_quotient_by(L, (real_scalar)3.0f) +
+           sqrt(binomial_quotient_by(L * L, (real_scalar)9.0f) + GLINT_R(2.0) * L * var);
+  return glint_fmin_nn(glint_floor(n * q + t) + GLINT_R(1.0), n);
+}
+
+/* The largest count binomial_exact can return for the rarer outcome's probability q: the bound
+ * above at L = 17 > 24 ln 2, beyond every 24-bit uniform (P(X > cap) < 2^-24), so capping the
+ * search there changes no result in exact arithmetic. It stops a search that rounding would
+ * prolong (u = 0 on the failures side, below) and sizes the tail sums. */
+GLINT_FN real binomial_exact_cap(real n, real q) {
+  return binomial_quantile_bound(n, q, GLINT_R(17.0));
+}
 
 /* Whether the quantile of binomial_exact lies beyond k, decided with the tail
  * S = sum_{k < j <= cap} pmf(j) (continuing the recurrence from pmf(k)) and the total
@@ -365,10 +378,11 @@ GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mas
    * at most vs / (1 + b) and the rounded vs (1 + band) at least vs / (1 - b), for 2.5 eps <= b <=
    * 0.1 (b >= rel_error >= 16 eps; b <= 2e-4 in fp32, from rel_error <= 1126 eps at n log(1 - q)
    * >= -111 and cap <= 127, both for thresholds <= 40, the validated range, binomial_model.cpp).
-   * The running CDF is finite in a searching lane (scaled pmf <= 2^90), so no NaN is called near
-   * that the interval misses. A search whose v comes within the band of a CDF value pays the
-   * near test in that trip: most trips do not (models/binomial/README.md "Quad throughput
-   * (session 18)"). */
+   * The running CDF is finite in a searching lane (scaled pmf <= 2^90) and v is a uniform of
+   * the hash, so no NaN is called near that the interval misses (BinomialDraw.FourStepSearch*
+   * counts the near comparisons outside the band: none). A search whose v comes within the band of
+   * a CDF value pays the near test in that trip: most trips do not (models/binomial/README.md "Quad
+   * throughput (session 18)"). */
   real band = GLINT_R(2.0) * (rel_error + GLINT_R(14.0) * eps * (cap + GLINT_R(4.0)));
   real band_lo = vs * (GLINT_R(1.0) - band);
   real band_hi = vs * (GLINT_R(1.0) + band);
@@ -400,10 +414,9 @@ GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mas
     real cdf3 = cdf2 + pmf3;
     real pmf4 = pmf3 * (binomial_step_quotient(n, i3) * ratio);
     real cdf4 = cdf3 + pmf4;
-    glint_mask in_band = ((cdf >= band_lo) & (cdf <= band_hi)) |
-                         ((cdf1 >= band_lo) & (cdf1 <= band_hi)) |
-                         ((cdf2 >= band_lo) & (cdf2 <= band_hi)) |
-                         ((cdf3 >= band_lo) & (cdf3 <= band_hi));
+    glint_mask in_band =
+        ((cdf >= band_lo) & (cdf <= band_hi)) | ((cdf1 >= band_lo) & (cdf1 <= band_hi)) |
+        ((cdf2 >= band_lo) & (cdf2 <= band_hi)) | ((cdf3 >= band_lo) & (cdf3 <= band_hi));
     glint_mask near = in_band & !in_band; /* no lane */
     glint_mask near_later = near;
     if (binomial_any(searching & in_band)) {
@@ -544,9 +557,12 @@ GLINT_FN real binomial_arcsine_theta(real n, real p, real theta, real z) {
   real s = sin(phi);
   /* 1 - exp(-x) for x = 1/(2n) < 1/128 (n > 64 here): the series to x^3, relative error x^3/24 */
   real x = GLINT_R(0.5) / n;
-  real mean_excess = GLINT_R(0.5) * (GLINT_R(1.0) - GLINT_R(2.0) * p) * x *
-                     (GLINT_R(1.0) - GLINT_R(0.5) * x * (GLINT_R(1.0) - x / GLINT_R(3.0)));
-  real skew = (GLINT_R(1.0) - GLINT_R(2.0) * p) * (z * z - GLINT_R(1.0)) / GLINT_R(12.0);
+  real mean_excess =
+      GLINT_R(0.5) * (GLINT_R(1.0) - GLINT_R(2.0) * p) * x *
+      (GLINT_R(1.0) -
+       GLINT_R(0.5) * x * (GLINT_R(1.0) - binomial_quotient_by(x, (real_scalar)3.0f)));
+  real skew = binomial_quotient_by((GLINT_R(1.0) - GLINT_R(2.0) * p) * (z * z - GLINT_R(1.0)),
+                                   (real_scalar)12.0f);
   return glint_clamp_nn(glint_floor(n * (s * s - mean_excess) - skew + GLINT_R(0.5)), GLINT_R(0.0),
                         n);
 }

@@ -543,7 +543,9 @@ GLINT_FN real binomial_normal_of_uniform(real u) {
  *  - rounded to the nearest integer, the continuity-corrected count: a number of facets, and
  *    one the exact counts of the neighbouring regimes can meet (binomial_whole). Rounding adds
  *    1/12 to the variance and, at standard deviations >= 1, nothing measurable to the mean.
- * Monotone in p for fixed z: theta grows, the angle is clamped to [0, pi/2] where sin^2 grows,
+ * Monotone in p for fixed z: theta grows, the angle is clamped to [0, pi/2] where sin^2 grows
+ * (and the device's fp32 sin does not fall between any two consecutive inputs there:
+ * BinomialSinDevice.NonDecreasingOnEveryFp32InZeroToHalfPi),
  * -(1 - 2p) grows, and the Cornish-Fisher term falls at most at rate 1/6 (|z| < 1; the
  * arcsine term then grows at rate >= n/2 for variances >= 1). The plain n p + z sqrt(n p (1-p))
  * is not monotone (sqrt(p (1 - p)) falls above p = 1/2, which a positive z turns into a falling

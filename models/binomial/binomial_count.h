@@ -55,6 +55,19 @@
 #include "kernels/rng.h"
 #include "models/binomial/binomial_params.h"
 
+/* glint_any for this file's loops: on the fp32 16-lane AVX-512 device, the mask's sign bits
+ * as a 16-bit mask (vpmovd2m, which LLVM folds into the comparison's own mask register) tested
+ * against 0 (kortestw), instead of glint_any's OR reduction, which PoCL lowers to ~10
+ * extract / or / shuffle instructions on the vector unit (kernels/compat.h). The exact search
+ * runs two of them per 4-step trip (binomial_exact_log), ~20 of its ~120 instructions, and the
+ * trip is bound by the vector unit's throughput (models/binomial/README.md "Quad throughput
+ * (session 18)"). The same truth value, so the same branches and results. */
+#if defined(__OPENCL_VERSION__) && GLINT_LANES == 16 && !GLINT_USE_DOUBLE && defined(__AVX512DQ__)
+#define binomial_any(c) (__builtin_ia32_cvtd2mask512(c) != 0)
+#else
+#define binomial_any(c) glint_any(c)
+#endif
+
 /* Trials up to this count are always sampled exactly (CDF inversion, O(count of the rarer
  * outcome)); above it only while the variance is below the normal threshold. */
 #define GLINT_BINOMIAL_EXACT_MAX 64
@@ -212,25 +225,6 @@ GLINT_FN FootprintGrids binomial_footprint_grids(real density, real u, real v,
   return g;
 }
 
-/* A bound on quantiles of Binomial(n, q): Bernstein's inequality for a sum of independent
- * trials (each at most 1 above its mean), P(X - n q >= t) <= exp(-t^2 / (2 (var + t / 3))),
- * var = n q (1 - q), gives P(X >= n q + t) <= exp(-L) for t = L/3 + sqrt(L^2/9 + 2 L var), so
- * every quantile at levels u < 1 - exp(-L) is at most ceil(n q + t - 1) < the returned
- * floor(n q + t) + 1 (clamped to n). */
-GLINT_FN real binomial_quantile_bound(real n, real q, real L) {
-  real var = n * q * (GLINT_R(1.0) - q);
-  real t = L / GLINT_R(3.0) + sqrt(L * L / GLINT_R(9.0) + GLINT_R(2.0) * L * var);
-  return glint_fmin_nn(glint_floor(n * q + t) + GLINT_R(1.0), n);
-}
-
-/* The largest count binomial_exact can return for the rarer outcome's probability q: the bound
- * above at L = 17 > 24 ln 2, beyond every 24-bit uniform (P(X > cap) < 2^-24), so capping the
- * search there changes no result in exact arithmetic. It stops a search that rounding would
- * prolong (u = 0 on the failures side, below) and sizes the tail sums. */
-GLINT_FN real binomial_exact_cap(real n, real q) {
-  return binomial_quantile_bound(n, q, GLINT_R(17.0));
-}
-
 /* The running pmf and CDF of binomial_exact are kept scaled by 2^90: pmf(0) = (1 - q)^n
  * reaches 2^-160 (n < 4 x 40 trials stay exact up to q = 1/2), below fp32's range; scaled it is
  * >= 2^-70, and no scaled term exceeds 2^90. It is formed as (exp(A / 2) 2^45)^2, A =
@@ -273,12 +267,45 @@ GLINT_FN real binomial_markstein_quotient(real a, real_scalar b) {
 GLINT_FN real binomial_step_quotient(real n, real_scalar i) {
   return binomial_markstein_quotient(n - (real)i, i + (real_scalar)1.0f);
 }
+/* a / b for constant divisors (3 and 12 in binomial_arcsine_theta, 3 and 9 in
+ * binomial_quantile_bound): the same correctly rounded quotient (the check above covers every
+ * significand for these divisors: BinomialDraw.MarksteinQuotientIsTheDivision checks all of
+ * them) for 3 pipelined operations instead of a vdivps on the shared divider, of which a draw's
+ * regime code has ~10 (p1, the arcsine, the normal quantile, the E(p1) bound, the search's
+ * ratio). */
+GLINT_FN real binomial_quotient_by(real a, real_scalar b) {
+  return binomial_markstein_quotient(a, b);
+}
 #else
 #define GLINT_BINOMIAL_MARKSTEIN_STEP 0
 GLINT_FN real binomial_step_quotient(real n, real_scalar i) {
   return (n - i) / (i + (real_scalar)1.0);
 }
+GLINT_FN real binomial_quotient_by(real a, real_scalar b) {
+  return a / (real)b;
+}
 #endif
+
+/* A bound on quantiles of Binomial(n, q): Bernstein's inequality for a sum of independent
+ * trials (each at most 1 above its mean), P(X - n q >= t) <= exp(-t^2 / (2 (var + t / 3))),
+ * var = n q (1 - q), gives P(X >= n q + t) <= exp(-L) for t = L/3 + sqrt(L^2/9 + 2 L var), so
+ * every quantile at levels u < 1 - exp(-L) is at most ceil(n q + t - 1) < the returned
+ * floor(n q + t) + 1 (clamped to n). */
+GLINT_FN real binomial_quantile_bound(real n, real q, real L) {
+  real var = n * q * (GLINT_R(1.0) - q);
+  /* the constant divisors as binomial_quotient_by: the same quotients */
+  real t = binomial_quotient_by(L, (real_scalar)3.0f) +
+           sqrt(binomial_quotient_by(L * L, (real_scalar)9.0f) + GLINT_R(2.0) * L * var);
+  return glint_fmin_nn(glint_floor(n * q + t) + GLINT_R(1.0), n);
+}
+
+/* The largest count binomial_exact can return for the rarer outcome's probability q: the bound
+ * above at L = 17 > 24 ln 2, beyond every 24-bit uniform (P(X > cap) < 2^-24), so capping the
+ * search there changes no result in exact arithmetic. It stops a search that rounding would
+ * prolong (u = 0 on the failures side, below) and sizes the tail sums. */
+GLINT_FN real binomial_exact_cap(real n, real q) {
+  return binomial_quantile_bound(n, q, GLINT_R(17.0));
+}
 
 /* Whether the quantile of binomial_exact lies beyond k, decided with the tail
  * S = sum_{k < j <= cap} pmf(j) (continuing the recurrence from pmf(k)) and the total
@@ -293,7 +320,7 @@ GLINT_FN glint_mask binomial_exact_beyond(real n, real k, real cap, real pmf, re
   real tail = GLINT_R(0.0);
   real j = k;
   glint_mask summing = active & (j < cap);
-  while (glint_any(summing)) {
+  while (binomial_any(summing)) {
     pmf = glint_select(pmf, pmf * ((n - j) / (j + GLINT_R(1.0)) * ratio), summing);
     tail = glint_select(tail, tail + pmf, summing);
     j += GLINT_R(1.0);
@@ -340,6 +367,25 @@ GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mas
   real ratio = q / (GLINT_R(1.0) - q);
   real eps = binomial_eps();
   real rel_error = GLINT_R(2.0) * eps * (GLINT_R(8.0) - GLINT_R(5.0) * log_pmf0);
+  /* The near test below, !(|vs - c| > (rel_error + 14 eps i) c), costs 5 vector operations per
+   * step; a trip first asks the cheaper question whether any CDF value c of its 4 steps lies in
+   * [vs (1 - band), vs (1 + band)] (2 comparisons per step), and takes the near test only then.
+   * The interval holds every c that the near test can call near, so the branch taken and every
+   * result are the same: let b = (rel_error + 14 eps (cap + 4)) (1 + 5 eps), which bounds the
+   * rounded bound of every step compared (i <= cap + 3) and the roundings of |vs - c| and of the
+   * product; near means |vs - c| <= b c, so vs / (1 + b) <= c <= vs / (1 - b). band >= 1.99 b
+   * (band = 2 (rel_error + 14 eps (cap + 4)), rounded 3 times); then the rounded vs (1 - band) is
+   * at most vs / (1 + b) and the rounded vs (1 + band) at least vs / (1 - b), for 2.5 eps <= b <=
+   * 0.1 (b >= rel_error >= 16 eps; b <= 2e-4 in fp32, from rel_error <= 1126 eps at n log(1 - q)
+   * >= -111 and cap <= 127, both for thresholds <= 40, the validated range, binomial_model.cpp).
+   * The running CDF is finite in a searching lane (scaled pmf <= 2^90) and v is a uniform of
+   * the hash, so no NaN is called near that the interval misses (BinomialDraw.FourStepSearch*
+   * counts the near comparisons outside the band: none). A search whose v comes within the band of
+   * a CDF value pays the near test in that trip: most trips do not (models/binomial/README.md "Quad
+   * throughput (session 18)"). */
+  real band = GLINT_R(2.0) * (rel_error + GLINT_R(14.0) * eps * (cap + GLINT_R(4.0)));
+  real band_lo = vs * (GLINT_R(1.0) - band);
+  real band_hi = vs * (GLINT_R(1.0) + band);
   /* A lane that still searches has searched every step so far, so its k is the step count i,
    * the same in every lane: pmf and cdf advance with i in all lanes, unmasked, and only k
    * freezes where a lane stops (the stopped lanes' pmf and cdf are not read again). The steps
@@ -357,7 +403,7 @@ GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mas
    * divisions (binomial_step_quotient). */
   real_scalar i = (real_scalar)0.0f;
   glint_mask searching = active & (k < cap);
-  while (glint_any(searching)) {
+  while (binomial_any(searching)) {
     real_scalar i1 = i + (real_scalar)1.0f, i2 = i + (real_scalar)2.0f;
     real_scalar i3 = i + (real_scalar)3.0f, i4 = i + (real_scalar)4.0f;
     real pmf1 = pmf * (binomial_step_quotient(n, i) * ratio);
@@ -368,14 +414,21 @@ GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mas
     real cdf3 = cdf2 + pmf3;
     real pmf4 = pmf3 * (binomial_step_quotient(n, i3) * ratio);
     real cdf4 = cdf3 + pmf4;
-    glint_mask near = !(fabs(vs - cdf) > (rel_error + GLINT_R(14.0) * eps * i) * cdf);
-    glint_mask near_later = !(fabs(vs - cdf1) > (rel_error + GLINT_R(14.0) * eps * i1) * cdf1) |
-                            !(fabs(vs - cdf2) > (rel_error + GLINT_R(14.0) * eps * i2) * cdf2) |
-                            !(fabs(vs - cdf3) > (rel_error + GLINT_R(14.0) * eps * i3) * cdf3);
-    if (glint_any(searching & (near | near_later))) {
+    glint_mask in_band =
+        ((cdf >= band_lo) & (cdf <= band_hi)) | ((cdf1 >= band_lo) & (cdf1 <= band_hi)) |
+        ((cdf2 >= band_lo) & (cdf2 <= band_hi)) | ((cdf3 >= band_lo) & (cdf3 <= band_hi));
+    glint_mask near = in_band & !in_band; /* no lane */
+    glint_mask near_later = near;
+    if (binomial_any(searching & in_band)) {
+      near = !(fabs(vs - cdf) > (rel_error + GLINT_R(14.0) * eps * i) * cdf);
+      near_later = !(fabs(vs - cdf1) > (rel_error + GLINT_R(14.0) * eps * i1) * cdf1) |
+                   !(fabs(vs - cdf2) > (rel_error + GLINT_R(14.0) * eps * i2) * cdf2) |
+                   !(fabs(vs - cdf3) > (rel_error + GLINT_R(14.0) * eps * i3) * cdf3);
+    }
+    if (binomial_any(searching & (near | near_later))) {
       /* One step of the 1-step search at i. */
       glint_mask beyond = vs > cdf;
-      if (glint_any(searching & near)) {
+      if (binomial_any(searching & near)) {
         glint_mask tail_says =
             binomial_exact_beyond(n, (real)i, cap, pmf, cdf, ratio, v, flip, searching & near);
         beyond = ((!near) & beyond) | (near & tail_says);
@@ -462,7 +515,7 @@ GLINT_FN real binomial_normal_quantile_central(real t) {
 GLINT_FN real binomial_normal_quantile_lower(real t) {
   glint_mask tail = t < GLINT_R(0.02425);
   real z = binomial_normal_quantile_central(t);
-  if (glint_any(tail)) z = glint_select(z, binomial_normal_quantile_tail(t), tail);
+  if (binomial_any(tail)) z = glint_select(z, binomial_normal_quantile_tail(t), tail);
   return z;
 }
 
@@ -490,7 +543,9 @@ GLINT_FN real binomial_normal_of_uniform(real u) {
  *  - rounded to the nearest integer, the continuity-corrected count: a number of facets, and
  *    one the exact counts of the neighbouring regimes can meet (binomial_whole). Rounding adds
  *    1/12 to the variance and, at standard deviations >= 1, nothing measurable to the mean.
- * Monotone in p for fixed z: theta grows, the angle is clamped to [0, pi/2] where sin^2 grows,
+ * Monotone in p for fixed z: theta grows, the angle is clamped to [0, pi/2] where sin^2 grows
+ * (and the device's fp32 sin does not fall between any two consecutive inputs there:
+ * BinomialSinDevice.NonDecreasingOnEveryFp32InZeroToHalfPi),
  * -(1 - 2p) grows, and the Cornish-Fisher term falls at most at rate 1/6 (|z| < 1; the
  * arcsine term then grows at rate >= n/2 for variances >= 1). The plain n p + z sqrt(n p (1-p))
  * is not monotone (sqrt(p (1 - p)) falls above p = 1/2, which a positive z turns into a falling
@@ -504,9 +559,12 @@ GLINT_FN real binomial_arcsine_theta(real n, real p, real theta, real z) {
   real s = sin(phi);
   /* 1 - exp(-x) for x = 1/(2n) < 1/128 (n > 64 here): the series to x^3, relative error x^3/24 */
   real x = GLINT_R(0.5) / n;
-  real mean_excess = GLINT_R(0.5) * (GLINT_R(1.0) - GLINT_R(2.0) * p) * x *
-                     (GLINT_R(1.0) - GLINT_R(0.5) * x * (GLINT_R(1.0) - x / GLINT_R(3.0)));
-  real skew = (GLINT_R(1.0) - GLINT_R(2.0) * p) * (z * z - GLINT_R(1.0)) / GLINT_R(12.0);
+  real mean_excess =
+      GLINT_R(0.5) * (GLINT_R(1.0) - GLINT_R(2.0) * p) * x *
+      (GLINT_R(1.0) -
+       GLINT_R(0.5) * x * (GLINT_R(1.0) - binomial_quotient_by(x, (real_scalar)3.0f)));
+  real skew = binomial_quotient_by((GLINT_R(1.0) - GLINT_R(2.0) * p) * (z * z - GLINT_R(1.0)),
+                                   (real_scalar)12.0f);
   return glint_clamp_nn(glint_floor(n * (s * s - mean_excess) - skew + GLINT_R(0.5)), GLINT_R(0.0),
                         n);
 }
@@ -587,7 +645,7 @@ GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real
    * exact (NaN in the clearly exact lanes of a mixed work-item, unused there). */
   glint_mask approx = active & !clearly_exact;
   real p1 = GLINT_R(0.0), p2 = GLINT_R(1.0);
-  if (glint_any(approx)) {
+  if (binomial_any(approx)) {
     p1 = GLINT_R(2.0) * threshold /
          (n * (GLINT_R(1.0) + sqrt(GLINT_R(1.0) - GLINT_R(4.0) * threshold / n)));
     p2 = GLINT_R(1.0) - p1;
@@ -595,11 +653,11 @@ GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real
   }
   real x = GLINT_R(0.0);
   glint_mask near_p1 = approx & !approx; /* no lane */
-  if (glint_any(approx)) {
+  if (binomial_any(approx)) {
     /* asin(sqrt(fmin(p, p2))): the light's theta unless p > p2 */
     real theta = binomial_prob_theta(prob);
     glint_mask above_p2 = approx & (p > p2);
-    if (glint_any(above_p2)) theta = glint_select(theta, asin(sqrt(p2)), above_p2);
+    if (binomial_any(above_p2)) theta = glint_select(theta, asin(sqrt(p2)), above_p2);
     x = binomial_arcsine_theta(n, glint_fmin_nn(p, p2), theta, binomial_normal_of_uniform(u));
     /* max(x, E(p1)) needs E(p1) only if it can exceed x: E(p1) <= the cap for every u, and
      * <= the Bernstein bound at L = -log(1 - u) for this u (L enlarged by 1e-3 against its
@@ -607,7 +665,7 @@ GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real
      * Whether it is skipped depends on u and on x, which grows with p: once skipped, it stays
      * skipped. */
     near_p1 = approx & (x < binomial_exact_cap(n, p1));
-    if (glint_any(near_p1)) {
+    if (binomial_any(near_p1)) {
       real level = GLINT_R(1.001) * -log1p(-u) + GLINT_R(0.001);
       near_p1 = near_p1 & (x < binomial_quantile_bound(n, p1, level) + GLINT_R(1.0));
     }
@@ -621,12 +679,12 @@ GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real
    * both (approximated above p2 yet near p1: only where p1 and p2 nearly meet, n ~ 4 threshold)
    * gets its E(p) in a second search. The maxima commute, so the order does not matter. */
   glint_mask first = near_p1 | search;
-  if (glint_any(first)) {
+  if (binomial_any(first)) {
     real p_first = p, log1m_first;
-    if (glint_any(near_p1)) {
+    if (binomial_any(near_p1)) {
       p_first = glint_select(p, p1, near_p1);
       /* E(p) in no lane: p's logarithm is not needed */
-      log1m_first = glint_any(search) ? binomial_prob_log1m_q(prob) : GLINT_R(0.0);
+      log1m_first = binomial_any(search) ? binomial_prob_log1m_q(prob) : GLINT_R(0.0);
       log1m_first = glint_select(log1m_first, binomial_log1m_rarer(p1), near_p1);
     } else {
       log1m_first = binomial_prob_log1m_q(prob);
@@ -635,7 +693,7 @@ GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real
     x = glint_select(x, glint_select(e, fmax(x, e), approx), first);
   }
   glint_mask both = near_p1 & search;
-  if (glint_any(both)) {
+  if (binomial_any(both)) {
     real e = binomial_exact_log(n, p, u, binomial_prob_log1m_q(prob), both);
     x = glint_select(x, fmax(x, e), both);
   }
@@ -677,7 +735,7 @@ GLINT_FN real binomial_draw_prob(real n, real p, GLINT_PRIVATE BinomialProb *pro
   real k = GLINT_R(0.0);
   real u = rng_u01_key(rng_absorb_key(key, 1u));
   glint_mask has_whole = drawn & (whole > GLINT_R(0.0)) & !binomial_surely_zero(whole, p, u);
-  if (glint_any(has_whole))
+  if (binomial_any(has_whole))
     k = glint_select(k, binomial_whole_prob(whole, prob, threshold, u, has_whole), has_whole);
   glint_mask partial =
       drawn & (part > GLINT_R(0.0)) & (rng_u01_key(rng_absorb_key(key, 4u)) < part * p);
@@ -698,12 +756,12 @@ GLINT_FN real binomial_fraction_lanes(FootprintGrids g, real p, real threshold, 
                                       glint_mask active) {
   glint_mask counted = active & (g.n_facets > GLINT_R(0.0)) & (p > GLINT_R(0.0));
   real count = GLINT_R(0.0);
-  if (!glint_any(counted)) return count;
+  if (!binomial_any(counted)) return count;
   BinomialProb prob = binomial_prob(p);
   for (int k = 0; k < GLINT_BINOMIAL_GRIDS; ++k) {
     glint_mask in_grid = counted & (g.share[k] > GLINT_R(0.0));
     /* += 0 in the other lanes: the sum of the grids that hold facets, as before */
-    if (glint_any(in_grid))
+    if (binomial_any(in_grid))
       count += binomial_draw_prob(g.share[k] * g.n_facets, p, &prob, threshold,
                                   rng_absorb_key(g.cell_key[k], light_key), in_grid);
   }

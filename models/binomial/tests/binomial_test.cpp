@@ -351,8 +351,13 @@ TEST(BinomialDraw, CountNeverFallsAsPGrowsForAnyKeyInAnyRegimeInFp32) {
 // per trip, every update masked): the reference the 4-step search must equal bit for bit, since
 // both are meant to do the same arithmetic per lane. Written here in plain C++ on the kernel
 // header's pieces (binomial_exact_cap, binomial_exact_beyond, binomial_eps) of precision T.
+// It also counts the comparisons its near test calls near (`near_count`) and those of them
+// whose CDF value lies outside the band that binomial_exact_log asks first
+// (`near_outside_band`): the 4-step search skips the near test when no CDF value of a trip is
+// in the band, which is the same search only if the band holds every near value.
 template <typename T, typename Cap, typename Beyond>
-T OneStepSearch(T n, T p, T u, T log1m_q, T eps, Cap cap_of, Beyond beyond_of) {
+T OneStepSearch(T n, T p, T u, T log1m_q, T eps, Cap cap_of, Beyond beyond_of, long *near_count,
+                long *near_outside_band) {
   const bool flip = p > T(0.5);
   const T q = flip ? T(1) - p : p, v = flip ? T(1) - u : u;
   const T vs = v * T(1237940039285380274899124224.0);  // 2^90
@@ -362,11 +367,19 @@ T OneStepSearch(T n, T p, T u, T log1m_q, T eps, Cap cap_of, Beyond beyond_of) {
   T pmf = pmf_sqrt * pmf_sqrt, cdf = pmf;
   const T ratio = q / (T(1) - q);
   const T rel_error = T(2) * eps * (T(8) - T(5) * log_pmf0);
+  const T band = T(2) * (rel_error + T(14) * eps * (cap + T(4)));
+  const T band_lo = vs * (T(1) - band), band_hi = vs * (T(1) + band);
   T k = 0;
   bool searching = k < cap;
   while (searching) {
     const T tol = (rel_error + T(14) * eps * k) * cdf;
     const bool near = !(std::fabs(vs - cdf) > tol);
+    // (a NaN u, which the tie uniforms below give at p = 1 and no hash gives, is near to
+    // everything and in no band: both searches stop there, so it is not counted)
+    if (near && !std::isnan(vs)) {
+      ++*near_count;
+      *near_outside_band += !(cdf >= band_lo && cdf <= band_hi);
+    }
     bool beyond = vs > cdf;
     if (near) beyond = beyond_of(n, k, cap, pmf, cdf, ratio, v, flip);
     searching = beyond;
@@ -385,7 +398,7 @@ void ExpectFourStepSearchEqualsOneStep(const char *precision, T eps, Search sear
                                        Cap cap_of, Beyond beyond_of) {
   std::mt19937_64 rng(29);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
-  long compared = 0, ties = 0, mismatches = 0;
+  long compared = 0, ties = 0, mismatches = 0, near = 0, near_outside_band = 0;
   for (double n : {1.0, 2.0, 3.0, 5.0, 8.0, 13.0, 31.0, 64.0, 65.0, 100.0, 400.0, 1000.0, 1e5}) {
     for (int ip = 0; ip < 60; ++ip) {
       // p from 1e-6 to 1, log-spaced, and its mirror 1 - p (the failures side)
@@ -412,7 +425,8 @@ void ExpectFourStepSearchEqualsOneStep(const char *precision, T eps, Search sear
         }
         for (T u : us) {
           const T a = search(T(n), p, u, lq);
-          const T b = OneStepSearch<T>(T(n), p, u, lq, eps, cap_of, beyond_of);
+          const T b =
+              OneStepSearch<T>(T(n), p, u, lq, eps, cap_of, beyond_of, &near, &near_outside_band);
           ++compared;
           if (!(a == b)) {
             if (++mismatches <= 5)
@@ -423,9 +437,13 @@ void ExpectFourStepSearchEqualsOneStep(const char *precision, T eps, Search sear
       }
     }
   }
-  std::printf("%s: %ld searches compared (%ld CDF-tie uniforms), %ld mismatches\n", precision,
-              compared, ties, mismatches);
+  std::printf(
+      "%s: %ld searches compared (%ld CDF-tie uniforms), %ld mismatches; %ld near "
+      "comparisons, %ld outside the band\n",
+      precision, compared, ties, mismatches, near, near_outside_band);
   EXPECT_EQ(mismatches, 0);
+  EXPECT_GT(near, 0);  // the tie uniforms reach the near test
+  EXPECT_EQ(near_outside_band, 0);
 }
 
 TEST(BinomialDraw, FourStepSearchEqualsTheOneStepSearchBitForBit) {
@@ -470,7 +488,10 @@ TEST(BinomialDraw, MarksteinQuotientIsTheDivision) {
         ADD_FAILURE() << a << " / " << b << ": " << q << " against " << a / fb;
     };
     for (int a = 0; a < (1 << 17); ++a) check(float(a));
-    for (int m = 1 << 23; m < (1 << 24); m += exhaustive ? 1 : 61) check(float(m));
+    // every significand for the constant divisors of binomial_quotient_by
+    const bool constant_divisor = b == 3 || b == 9 || b == 12;
+    for (int m = 1 << 23; m < (1 << 24); m += exhaustive || constant_divisor ? 1 : 61)
+      check(float(m));
   }
   std::printf("%ld quotients compared, %ld differ (%ld without the correction)\n", compared,
               mismatches, uncorrected);

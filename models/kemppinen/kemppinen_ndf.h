@@ -516,28 +516,43 @@ GLINT_FN real kemppinen_u16_lo(kemp_uint h) {
 }
 
 /* The facet's hash (session 18): the spatial cell's key absorbed once with the angular cell
- * (ix, iy) packed into one word, ix + 2^16 iy, then
+ * (ix, iy) packed into one word, (ix + 2^16 iy) times an odd constant, then
  *   key -> the angular offsets (ax, ay), mix(key ^ 1) -> the spatial offsets (sx, sy),
  *   mix(key ^ 0x68e31da4) -> the roulette number r and the colour pick (kemppinen_facet_draws),
  * each a 16-bit half. Until session 17 it was two absorbs (column ix, then row iy), key -> (r,
  * pick), mix(key ^ 1) -> (sx, sy), mix(key ^ 2) -> (ax, ay): four lowbias32 mixes per facet, and
- * with the roulette-free neighbourhoods (ONE_LEVEL, ONE_CELL) r is never read. Now one
+ * with the roulette-free neighbourhoods (ONE_LEVEL, ONE_CELL) r is never read. Now a one-level
  * neighbourhood without colours needs two mixes per facet (key and mix(key ^ 1)), the paper's
  * three, and the chain from the spatial key to the last offset is two mixes (four multiplies)
  * instead of three. The roles are the old ones permuted (each field a 16-bit half of key or of a
  * mix of it), so every field is as uniform and as independent of the others as before; the
- * pattern itself is a new one (models/kemppinen/README.md, session 18). The packing is
- * injective for ix, iy < 2^16, i.e. at levels l <= 16; beyond (res_a > 65536 angular cells per
- * axis: the pixel filter then spans > 2^13 mean facet spacings, so the explicit facets weigh
- * nothing against the compensation) two angular cells 2^16 apart along x in one spatial cell
- * share a key, as spatial cells 2^24 apart do (kemppinen_cell_key). */
+ * pattern itself is a new one (models/kemppinen/README.md, session 18). Why the odd multiplier
+ * (the golden ratio's 0x9e3779b1; a bijection of 32-bit words, one multiply off the key's
+ * dependent chain): without it the words of neighbouring cells along x differ in their low bits
+ * only, and lowbias32 leaves their low halves weakly dependent: ay against the next cell's ay,
+ * 8 x 8 chi-square 247 at 2e7 samples (63 degrees of freedom, Cramer's V ~0.001; 609 for even
+ * ix), which the FacetHash test caught (the old hash had the same kind in pick along y, 297).
+ * The multiplier moves the difference into the high bits, which lowbias32's first xor-shift folds
+ * down (50.8). The packing is injective for ix, iy < 2^16, i.e. at levels l <= 16;
+ * beyond (res_a > 65536 angular cells per axis: the pixel filter then spans > 2^13 mean facet
+ * spacings, so the explicit facets weigh nothing against the compensation) the word is taken
+ * mod 2^32: (ix + 2^16, iy) shares a key with (ix, iy + 1), and (ix, iy + 2^16) with (ix, iy),
+ * as spatial cells 2^24 apart do (kemppinen_cell_key). The k neighbour cells of one query are
+ * at most 4 apart, so no query sees two facets of one key. */
 GLINT_FN kemp_uint kemppinen_facet_key(kemp_uint spatial_key, real ix, real iy) {
-  return kemppinen_absorb(spatial_key, KEMP_TO_UINT(ix) + (KEMP_TO_UINT(iy) << 16));
+  return kemppinen_absorb(spatial_key, (KEMP_TO_UINT(ix) + (KEMP_TO_UINT(iy) << 16)) * 0x9e3779b1u);
 }
 
-/* The facet's offsets in its 4D cell (not r and pick: kemppinen_facet_draws). */
+/* The hash of the facet's spatial offsets (sx: bits 16-31, sy: bits 0-15); the polygon pass
+ * (kemppinen_polygons.h) reads it before the other fields. */
+GLINT_FN kemp_uint kemppinen_facet_spatial_hash(kemp_uint key) {
+  return kemppinen_mix(key ^ 0x1u);
+}
+
+/* The facet's offsets in its 4D cell. Not r and pick: they are left 0 here, and a caller that
+ * reads them takes kemppinen_facet_draws (kemppinen_facet_of_key does both). */
 GLINT_FN KemppinenFacet kemppinen_facet_offsets(kemp_uint key) {
-  kemp_uint h1 = kemppinen_mix(key ^ 0x1u);
+  kemp_uint h1 = kemppinen_facet_spatial_hash(key);
   KemppinenFacet g;
   g.sx = kemppinen_u16_hi(h1);
   g.sy = kemppinen_u16_lo(h1);
@@ -1062,7 +1077,7 @@ GLINT_FN KemppinenLevelLobe kemppinen_level_lobe(const GLINT_PRIVATE KemppinenPa
 
 /* One explicit facet of the lobe (Algorithm 1 lines 13-18): its roulette-weighted lobe, 0 past
  * the grid's end, added to `sum` in its colour (K25 3.3.6, from its cell's hash). (dxc, dyc): the
- * query in cells of spatial cell j; `column`: that cell's key absorbed with the column ix. A
+ * query in cells of spatial cell j; `spatial_key`: spatial cell j's key (kemppinen_facet_key). A
  * white material (p->white) adds the weight to sum->x only, and kemppinen_level_sum_white copies
  * it to y and z after the loops: the colour (1, 1, 1) times the weight is the weight exactly, so
  * each channel is the same sum in the same order as before, the same bits, without 3 products

@@ -175,7 +175,7 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
            * second mix), the angular offsets and the disk's rejection. Each
            * test only drops the facet, so the order does not change the sum. */
           kemp_uint fkey = kemppinen_facet_key(key, ix, iy);
-          kemp_uint h1 = kemppinen_mix(fkey ^ 0x1u);
+          kemp_uint h1 = kemppinen_facet_spatial_hash(fkey);
           real dx = b.ts_x - cx - kemppinen_u16_hi(h1), dy = b.ts_y - cy - kemppinen_u16_lo(h1);
           real es = b.qxx * dx * dx + b.qxy * dx * dy + b.qyy * dy * dy;
           if (es > GLINT_R(GLINT_KEMPPINEN_FILTER_CUT)) continue;

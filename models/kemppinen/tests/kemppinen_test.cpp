@@ -466,14 +466,18 @@ TEST(GlintyNdf, SpreadPerQueryFallsAsTheDensityGrows) {
 // ---------------------------------------------------------------------------------------------
 // The facet hash (kemppinen_facet_key, kemppinen_facet_of_key): every field of a facet (spatial
 // offsets, angular offsets, roulette number, colour pick) uniform on [0, 1), every pair of
-// fields independent, and each field independent of the same field in the next angular cell
-// along x and along y (the cells whose packed keys ix + 2^16 iy differ by 1 and by 2^16) and in
-// the next spatial cell. Reference: the uniform distribution, by chi-square over 160000 facets per
-// level (levels 3, 9 and 20, the last beyond the packing's injective range l <= 16): 16 bins per
+// fields independent, and each of the six fields independent of the same field in the next
+// angular cell along x and along y (the cells whose packed keys ix + 2^16 iy differ by 1 and by
+// 2^16) and in the next spatial cell. Reference: the uniform distribution, by chi-square over
+// 640000 facets per level (levels 6, 9 and 20: at 6 and 9 the 40 x 40 block lies inside the
+// grid's 2^l cells per axis; 20 is beyond the packing's injective range l <= 16): 16 bins per
 // field (15 degrees of freedom), 8 x 8 per pair (63). Each statistic against its 0.9999 quantile
-// (Wilson-Hilferty, within 1% at these degrees of freedom): 90 statistics, so a correct hash fails
-// one with probability < 1%. The draws as mix(key ^ 2) (the derivation of the hash before
-// session 18, there for sy against ay) fail it: sy against pick 118.5 at level 3.
+// (Wilson-Hilferty, within 1% at these degrees of freedom): 117 statistics, so a correct hash
+// fails one with probability ~1%. The draws as mix(key ^ 2) (the derivation of the hash before
+// session 18, there for sy against ay) failed the test's first form (160000 facets, level 3) at sy
+// against pick, 118.5; with 4x the facets that defect's expected statistic is ~300. At this size
+// the test also caught the packed word absorbed without its odd multiplier (kemppinen_facet_key):
+// ay against the x neighbour's ay, 106.5 at level 9 (609 at 2e7 even-ix samples).
 namespace {
 double ChiSquareQuantile9999(int dof) {
   const double z = 3.7190164854556804, k = dof;  // the standard normal's 0.9999 quantile
@@ -487,13 +491,13 @@ TEST(FacetHash, FieldsUniformAndIndependentWithinAndAcrossCells) {
   const char *names[6] = {"sx", "sy", "ax", "ay", "r", "pick"};
   const double q15 = ChiSquareQuantile9999(15), q63 = ChiSquareQuantile9999(63);
   double worst1 = 0, worst2 = 0;
-  for (int level : {3, 9, 20}) {
-    // 400 spatial cells x a 20 x 20 angular block (every other cell, from 65516 at level 20
+  for (int level : {6, 9, 20}) {
+    // 1600 spatial cells x a 20 x 20 angular block (every other cell, from 65516 at level 20
     // so that the block crosses 2^16), each facet against its neighbours at x + 1, y + 1 and
     // in the next spatial cell: disjoint pairs (overlapping ones would not be chi-square).
     const double i0 = level == 20 ? 65516.0 : 0.0;
     std::vector<std::array<double, 6>> f, fx, fy, fs;
-    for (int c = 0; c < 400; ++c)
+    for (int c = 0; c < 1600; ++c)
       for (int ix = 0; ix < 20; ++ix)
         for (int iy = 0; iy < 20; ++iy) {
           const double x = i0 + 2 * ix, y = i0 + 2 * iy, cx = 2 * c, cy = 7 * c + 1;
@@ -526,7 +530,7 @@ TEST(FacetHash, FieldsUniformAndIndependentWithinAndAcrossCells) {
         worst2 = std::max(worst2, chi2);
         EXPECT_LT(chi2, q63) << "level " << level << " " << names[a] << " vs " << names[b];
       }
-    for (int a = 0; a < 6; a += 2) {  // sx, ax, r against the neighbours' same field
+    for (int a = 0; a < 6; ++a) {  // each field against the neighbours' same field
       for (const auto *p : {&fx, &fy, &fs}) {
         double chi2 = pair_chi2(*p, a, a);
         worst2 = std::max(worst2, chi2);

@@ -195,11 +195,11 @@ GLINT_FN real3 binomial_shade(EvalSpec spec, KernelInputs in, QueryInputs q, rea
     }
 #endif
     /* The polygons reuse the entry looked up above for D_H instead of a second lookup per light
-     * (16 gathers of 4 x 8 floats, the blend and the transposes per 16 lanes): 3-5% of the
-     * one-quad rate (models/binomial/README.md "Quad throughput (session 18)"). Not when the
-     * request also has punctual lights (build-time constants in the lane kernel): keeping the
-     * 8-vector entry live across their loop cost directional + point ~4% in session 12, so
-     * those kernels look it up again here. */
+     * (16 gathers of 4 x 8 floats, the blend and the transposes per 16 lanes): ~3% of the
+     * one-quad rate, at the noise floor (models/binomial/README.md "Quad throughput (session 18):
+     * the query outside the draw"). Not when the request also has punctual lights (build-time
+     * constants in the lane kernel): keeping the 8-vector entry live across their loop cost
+     * directional + point ~4% in session 12, so those kernels look it up again here. */
     const GLINT_PRIVATE real *entry = spec.has_directional || spec.has_point ? 0 : e;
     int n = (int)in.polygons[GLINT_POLYGON_FLOATS * l];
     radiance =

@@ -5,7 +5,9 @@
 //    the arcsine count is non-decreasing in p only if its sine is; session 17 found a polynomial
 //    sine that fell by an ulp at 287 inputs (models/binomial/README.md "Quad throughput (session
 //    17)"), and whether the device's own `sin` is monotone there had not been checked;
-//  - against long double sin on a sample, within the 4 ulp that OpenCL 1.2 requires of `sin`.
+//  - against long double sin on a sample, within the 4 ulp that OpenCL 1.2 requires of `sin`;
+//  - theta = asin(sqrt(p)), the angle the sine is taken of, never falls either, for every fp32 p
+//    in [0, 1] (review, session 18: the argument needs both).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -37,7 +39,20 @@ __kernel void sin_falls(__global const float *start, __global float *falls) {
   int16 nf = (int16)0;
   for (uint j = 0; j < 4096u; ++j) {
     float16 s = sin(as_float16(min(b + (uint16)j, (uint16)0x3fc90fdbu)));
-    nf -= s < prev;
+    nf -= !(s >= prev); /* a NaN counts as a fall */
+    prev = s;
+  }
+  vstore16(convert_float16(nf), i, falls);
+}
+/* the same for theta = asin(sqrt(p)) over p in [0, 1] (binomial_prob_theta) */
+__kernel void asin_sqrt_falls(__global const float *start, __global float *falls) {
+  size_t i = get_global_id(0);
+  uint16 b = as_uint16(vload16(i, start));
+  float16 prev = asin(sqrt(as_float16(b - select((uint16)0, (uint16)1, b > (uint16)0))));
+  int16 nf = (int16)0;
+  for (uint j = 0; j < 4096u; ++j) {
+    float16 s = asin(sqrt(as_float16(min(b + (uint16)j, (uint16)0x3f800000u))));
+    nf -= !(s >= prev);
     prev = s;
   }
   vstore16(convert_float16(nf), i, falls);
@@ -72,6 +87,27 @@ TEST(BinomialSinDevice, NonDecreasingOnEveryFp32InZeroToHalfPi) {
   for (float f : falls) n_falls += f;
   std::printf("%.0f fp32 inputs in [0, pi/2]: sin falls at %.0f\n", double(kLastBits) + 1, n_falls);
   EXPECT_EQ(n_falls, 0);
+
+  // theta = asin(sqrt(p)), the arcsine count's angle (binomial_prob_theta, and asin(sqrt(p2))
+  // above the upper switch): the count is non-decreasing in p only if theta is, whatever the
+  // lane kernels' square root (GLINT_FAST_ROOTS) is. Every fp32 p in [0, 1].
+  constexpr uint32_t kOneBits = 0x3f800000u;
+  std::vector<float> p_starts;
+  for (uint64_t b = 0; b <= kOneBits; b += kChunk) {
+    float f;
+    const uint32_t bits = uint32_t(b);
+    std::memcpy(&f, &bits, sizeof f);
+    p_starts.push_back(f);
+  }
+  while (p_starts.size() % 16) p_starts.push_back(p_starts.back());
+  std::vector<float> theta_falls;
+  ASSERT_TRUE(test::RunFloatLaneKernel(*rt, program, queue.get(), "asin_sqrt_falls", 16, p_starts,
+                                       {&theta_falls}));
+  double n_theta_falls = 0;
+  for (float f : theta_falls) n_theta_falls += f;
+  std::printf("%.0f fp32 p in [0, 1]: asin(sqrt(p)) falls at %.0f\n", double(kOneBits) + 1,
+              n_theta_falls);
+  EXPECT_EQ(n_theta_falls, 0);
 
   // accuracy on a sample: uniform in [0, pi/2] and log-uniform towards 0
   std::vector<float> x;

@@ -510,23 +510,27 @@ GLINT_FN real binomial_normal_quantile_central(real t) {
           GLINT_R(1.0));
 }
 
-/* Lower tail below 0.02425, the central region above (per lane; the tail
- * only when a lane needs it). */
-GLINT_FN real binomial_normal_quantile_lower(real t) {
+/* Lower tail below 0.02425, the central region above (per lane; the tail only when a lane of
+ * `used` needs it: the other lanes' z is not read, and each u is in a tail with probability
+ * 0.0485, so 16 lanes of which all ask would take the tail's log, sqrt and division in 55% of
+ * the work-items, and only the ~half of them that are approximated at N_P = 1e2 in ~1 - 0.95^8
+ * = 33%). Per lane the same arithmetic, so a used lane's z is the same; an unused lane in the
+ * tail keeps the central form's value, finite there (its denominator is >= 1.1e-4 on (0, 1/2]). */
+GLINT_FN real binomial_normal_quantile_lower(real t, glint_mask used) {
   glint_mask tail = t < GLINT_R(0.02425);
   real z = binomial_normal_quantile_central(t);
-  if (binomial_any(tail)) z = glint_select(z, binomial_normal_quantile_tail(t), tail);
+  if (binomial_any(used & tail)) z = glint_select(z, binomial_normal_quantile_tail(t), tail);
   return z;
 }
 
 /* The standard normal z of the uniform u = m 2^-24: the quantile of the middle of u's bin,
  * (m + 1/2) 2^-24, formed from the nearer end so that it is exact in fp32 too (|z| <= 5.4), and
- * odd: the bins of m and 2^24 - 1 - m give -z and z. */
-GLINT_FN real binomial_normal_of_uniform(real u) {
+ * odd: the bins of m and 2^24 - 1 - m give -z and z. Meaningful in the lanes of `used`. */
+GLINT_FN real binomial_normal_of_uniform(real u, glint_mask used) {
   const real half_bin = GLINT_R(2.98023223876953125e-8); /* 2^-25 */
   glint_mask upper = u >= GLINT_R(0.5);
   real z = binomial_normal_quantile_lower(
-      glint_select(u + half_bin, (GLINT_R(1.0) - u) - half_bin, upper));
+      glint_select(u + half_bin, (GLINT_R(1.0) - u) - half_bin, upper), used);
   return glint_select(z, -z, upper);
 }
 
@@ -658,7 +662,8 @@ GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real
     real theta = binomial_prob_theta(prob);
     glint_mask above_p2 = approx & (p > p2);
     if (binomial_any(above_p2)) theta = glint_select(theta, asin(sqrt(p2)), above_p2);
-    x = binomial_arcsine_theta(n, glint_fmin_nn(p, p2), theta, binomial_normal_of_uniform(u));
+    x = binomial_arcsine_theta(n, glint_fmin_nn(p, p2), theta,
+                               binomial_normal_of_uniform(u, approx));
     /* max(x, E(p1)) needs E(p1) only if it can exceed x: E(p1) <= the cap for every u, and
      * <= the Bernstein bound at L = -log(1 - u) for this u (L enlarged by 1e-3 against its
      * rounding; plus one count for a comparison that rounding decides, binomial_exact).

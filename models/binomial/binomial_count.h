@@ -59,9 +59,11 @@
  * as a 16-bit mask (vpmovd2m, which LLVM folds into the comparison's own mask register) tested
  * against 0 (kortestw), instead of glint_any's OR reduction, which PoCL lowers to ~10
  * extract / or / shuffle instructions on the vector unit (kernels/compat.h). The exact search
- * runs two of them per 4-step trip (binomial_exact_log), ~20 of its ~120 instructions, and the
+ * ran two of them per 4-step trip (binomial_exact_log), ~20 of its ~120 instructions, and the
  * trip is bound by the vector unit's throughput (models/binomial/README.md "Quad throughput
- * (session 18)"). The same truth value, so the same branches and results. */
+ * (session 18): the count draw at N_P = 1e2"); with the band pre-filter a trip runs two (the
+ * loop's condition, the band) and a third only when a lane is in the band. The same truth
+ * value, so the same branches and results. */
 #if defined(__OPENCL_VERSION__) && GLINT_LANES == 16 && !GLINT_USE_DOUBLE && defined(__AVX512DQ__)
 #define binomial_any(c) (__builtin_ia32_cvtd2mask512(c) != 0)
 #else
@@ -418,14 +420,17 @@ GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mas
         ((cdf >= band_lo) & (cdf <= band_hi)) | ((cdf1 >= band_lo) & (cdf1 <= band_hi)) |
         ((cdf2 >= band_lo) & (cdf2 <= band_hi)) | ((cdf3 >= band_lo) & (cdf3 <= band_hi));
     glint_mask near = in_band & !in_band; /* no lane */
-    glint_mask near_later = near;
+    /* Whether any searching lane is near one of the 4: only asked when one is in the band (no
+     * lane outside it can be near), so a trip without one pays two `any`, not three. */
+    int any_near = 0;
     if (binomial_any(searching & in_band)) {
       near = !(fabs(vs - cdf) > (rel_error + GLINT_R(14.0) * eps * i) * cdf);
-      near_later = !(fabs(vs - cdf1) > (rel_error + GLINT_R(14.0) * eps * i1) * cdf1) |
-                   !(fabs(vs - cdf2) > (rel_error + GLINT_R(14.0) * eps * i2) * cdf2) |
-                   !(fabs(vs - cdf3) > (rel_error + GLINT_R(14.0) * eps * i3) * cdf3);
+      glint_mask near_later = !(fabs(vs - cdf1) > (rel_error + GLINT_R(14.0) * eps * i1) * cdf1) |
+                              !(fabs(vs - cdf2) > (rel_error + GLINT_R(14.0) * eps * i2) * cdf2) |
+                              !(fabs(vs - cdf3) > (rel_error + GLINT_R(14.0) * eps * i3) * cdf3);
+      any_near = binomial_any(searching & (near | near_later));
     }
-    if (binomial_any(searching & (near | near_later))) {
+    if (any_near) {
       /* One step of the 1-step search at i. */
       glint_mask beyond = vs > cdf;
       if (binomial_any(searching & near)) {

@@ -55,18 +55,12 @@
 #include "kernels/rng.h"
 #include "models/binomial/binomial_params.h"
 
-/* glint_any for this file's loops: on the fp32 16-lane AVX-512 device, the mask's sign bits
- * as a 16-bit mask (vpmovd2m, which LLVM folds into the comparison's own mask register) tested
- * against 0 (kortestw), instead of glint_any's OR reduction, which PoCL lowers to ~10
- * extract / or / shuffle instructions on the vector unit (kernels/compat.h). The exact search
- * runs two of them per 4-step trip (binomial_exact_log), ~20 of its ~120 instructions, and the
- * trip is bound by the vector unit's throughput (models/binomial/README.md "Quad throughput
- * (session 18)"). The same truth value, so the same branches and results. */
-#if defined(__OPENCL_VERSION__) && GLINT_LANES == 16 && !GLINT_USE_DOUBLE && defined(__AVX512DQ__)
-#define binomial_any(c) (__builtin_ia32_cvtd2mask512(c) != 0)
-#else
-#define binomial_any(c) glint_any(c)
-#endif
+/* glint_any for this file's loops: the mask-register test (kernels/compat.h glint_any_by_mask),
+ * instead of glint_any's OR reduction. The exact search runs two per 4-step trip
+ * (binomial_exact_log), ~20 of its ~120 instructions as reductions, and the trip is bound by the
+ * vector unit's throughput (models/binomial/README.md "Quad throughput (session 18)"). The same
+ * truth value, so the same branches and results. */
+#define binomial_any(c) glint_any_by_mask(c)
 
 /* Trials up to this count are always sampled exactly (CDF inversion, O(count of the rarer
  * outcome)); above it only while the variance is below the normal threshold. */

@@ -5,9 +5,10 @@
  * run the same math in double. The shared headers use the common subset of
  * OpenCL C 1.2 and C++: no templates, references, overloads or classes.
  *
- * On the device one work-item evaluates GLINT_LANES queries (8, set by
- * server/device_engine.cpp): `real` is then an OpenCL vector (float8 or
- * double8), one lane per query, and every line of the shared headers is SIMD
+ * On the device one work-item evaluates GLINT_LANES queries (8 or 16, per model
+ * pass: ModelPass::simd_width in server/model.h, set by server/device_engine.cpp): `real` is
+ * then an OpenCL vector (float8/16 or double8/16), one lane per query, and every line of
+ * the shared headers is SIMD
  * code. The host sees plain scalars, or with GLINT_HOST_LANES a class of
  * GLINT_HOST_LANES lanes (kernels/host_lanes.h). Rules that keep one source
  * valid for both:
@@ -255,12 +256,47 @@ GLINT_FN real glint_clamp_nn(real x, real lo, real hi) {
 #if defined(__OPENCL_VERSION__) && GLINT_LANES > 1
 /* An OR reduction of the lanes, tested for the sign bit (true lanes are -1): PoCL's any()
  * extracts and tests the lanes one by one with a branch each, which cost ~20% of the binomial
- * lane kernel's exact-search loops (perf, issue 13). */
+ * lane kernel's exact-search loops (perf, issue 13). glint_any_by_mask below is cheaper still
+ * per test but measured slower as the default (session 18). */
 #define glint_any(c) (__builtin_reduce_or(c) < 0)
 #elif defined(GLINT_HOST_LANES_ACTIVE) && GLINT_HOST_LANES_ACTIVE
 /* kernels/host_lanes.h */
 #else
 #define glint_any(c) (c)
+#endif
+
+/* glint_any with the lanes' sign bits (true lanes are -1) gathered into an AVX-512 mask
+ * register and tested against 0 (vpmovd2m / vpmovq2m, which LLVM folds into the comparison
+ * that made the mask, then kortest: 2-3 instructions where PoCL lowers the OR reduction to ~10
+ * extract / or / shuffle instructions on the vector unit). The same truth value, so the same
+ * branches and results. Not the default: session 18 made it glint_any for every lane kernel
+ * and measured it slower where it changed the code (SMOOTH's 8-lane LTC pass 3-4% per
+ * CPU-second, BINOMIAL's quad rows 2-4%; the punctual SMOOTH and KEMPPINEN fp32 kernels
+ * compiled to the same machine code), so it serves the loops where it measured faster:
+ * BINOMIAL's draw (binomial_count.h: its exact search, 4-6% of the fp32 quad kernel; fp64
+ * +1-6%, about the noise; docs/performance-history.md "Session 18: glint_any by mask
+ * register"). Every branch of it compiled in PoCL when it was glint_any. The builtins are
+ * clang's, as PoCL compiles them for its -mcpu (skylake-avx512 here defines __AVX512DQ__,
+ * __AVX512VL__ and __AVX512BW__); elsewhere (no AVX-512, the host) it is glint_any. */
+#if defined(__OPENCL_VERSION__) && GLINT_LANES > 1 && defined(__AVX512DQ__)
+#if GLINT_LANES == 16 && !GLINT_USE_DOUBLE
+#define glint_any_by_mask(c) (__builtin_ia32_cvtd2mask512(c) != 0)
+#elif GLINT_LANES == 16
+/* long16 is two zmm registers: the OR of its halves (LLVM folds it into kortestb of the two
+ * comparisons' masks). A function, so that c is evaluated once. */
+GLINT_FN int glint_any_by_mask_long16(long16 c) {
+  return __builtin_ia32_cvtq2mask512(c.lo | c.hi) != 0;
+}
+#define glint_any_by_mask(c) glint_any_by_mask_long16(c)
+#elif GLINT_USE_DOUBLE
+#define glint_any_by_mask(c) (__builtin_ia32_cvtq2mask512(c) != 0)
+#elif defined(__AVX512VL__)
+#define glint_any_by_mask(c) (__builtin_ia32_cvtd2mask256(c) != 0)
+#else
+#define glint_any_by_mask(c) glint_any(c)
+#endif
+#else
+#define glint_any_by_mask(c) glint_any(c)
 #endif
 
 #ifndef __OPENCL_VERSION__

@@ -55,20 +55,14 @@
 #include "kernels/rng.h"
 #include "models/binomial/binomial_params.h"
 
-/* glint_any for this file's loops: on the fp32 16-lane AVX-512 device, the mask's sign bits
- * as a 16-bit mask (vpmovd2m, which LLVM folds into the comparison's own mask register) tested
- * against 0 (kortestw), instead of glint_any's OR reduction, which PoCL lowers to ~10
- * extract / or / shuffle instructions on the vector unit (kernels/compat.h). The exact search
- * ran two of them per 4-step trip (binomial_exact_log), ~20 of its ~120 instructions, and the
- * trip is bound by the vector unit's throughput (models/binomial/README.md "Quad throughput
- * (session 18): the count draw at N_P = 1e2"); with the band pre-filter a trip runs two (the
- * loop's condition, the band) and a third only when a lane is in the band. The same truth
- * value, so the same branches and results. */
-#if defined(__OPENCL_VERSION__) && GLINT_LANES == 16 && !GLINT_USE_DOUBLE && defined(__AVX512DQ__)
-#define binomial_any(c) (__builtin_ia32_cvtd2mask512(c) != 0)
-#else
-#define binomial_any(c) glint_any(c)
-#endif
+/* This file's loops and regime branches test their masks with glint_any_by_mask (kernels/compat.h:
+ * the mask register, vpmovd2m + kortest) instead of glint_any's OR reduction, which PoCL lowers
+ * to ~10 extract / or / shuffle instructions on the vector unit. The exact search ran two per
+ * 4-step trip (binomial_exact_log), ~20 of its ~120 instructions, and the trip is bound by the
+ * vector unit's throughput (models/binomial/README.md "Quad throughput (session 18): the count
+ * draw at N_P = 1e2"); with the band pre-filter a trip runs two (the loop's condition, the band)
+ * and a third only when a lane is in the band. The same truth value, so the same branches and
+ * results. */
 
 /* Trials up to this count are always sampled exactly (CDF inversion, O(count of the rarer
  * outcome)); above it only while the variance is below the normal threshold. */
@@ -322,7 +316,7 @@ GLINT_FN glint_mask binomial_exact_beyond(real n, real k, real cap, real pmf, re
   real tail = GLINT_R(0.0);
   real j = k;
   glint_mask summing = active & (j < cap);
-  while (binomial_any(summing)) {
+  while (glint_any_by_mask(summing)) {
     pmf = glint_select(pmf, pmf * ((n - j) / (j + GLINT_R(1.0)) * ratio), summing);
     tail = glint_select(tail, tail + pmf, summing);
     j += GLINT_R(1.0);
@@ -405,7 +399,7 @@ GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mas
    * divisions (binomial_step_quotient). */
   real_scalar i = (real_scalar)0.0f;
   glint_mask searching = active & (k < cap);
-  while (binomial_any(searching)) {
+  while (glint_any_by_mask(searching)) {
     real_scalar i1 = i + (real_scalar)1.0f, i2 = i + (real_scalar)2.0f;
     real_scalar i3 = i + (real_scalar)3.0f, i4 = i + (real_scalar)4.0f;
     real pmf1 = pmf * (binomial_step_quotient(n, i) * ratio);
@@ -423,17 +417,17 @@ GLINT_FN real binomial_exact_log(real n, real p, real u, real log1m_q, glint_mas
     /* Whether any searching lane is near one of the 4: only asked when one is in the band (no
      * lane outside it can be near), so a trip without one pays two `any`, not three. */
     int any_near = 0;
-    if (binomial_any(searching & in_band)) {
+    if (glint_any_by_mask(searching & in_band)) {
       near = !(fabs(vs - cdf) > (rel_error + GLINT_R(14.0) * eps * i) * cdf);
       glint_mask near_later = !(fabs(vs - cdf1) > (rel_error + GLINT_R(14.0) * eps * i1) * cdf1) |
                               !(fabs(vs - cdf2) > (rel_error + GLINT_R(14.0) * eps * i2) * cdf2) |
                               !(fabs(vs - cdf3) > (rel_error + GLINT_R(14.0) * eps * i3) * cdf3);
-      any_near = binomial_any(searching & (near | near_later));
+      any_near = glint_any_by_mask(searching & (near | near_later));
     }
     if (any_near) {
       /* One step of the 1-step search at i. */
       glint_mask beyond = vs > cdf;
-      if (binomial_any(searching & near)) {
+      if (glint_any_by_mask(searching & near)) {
         glint_mask tail_says =
             binomial_exact_beyond(n, (real)i, cap, pmf, cdf, ratio, v, flip, searching & near);
         beyond = ((!near) & beyond) | (near & tail_says);
@@ -524,7 +518,7 @@ GLINT_FN real binomial_normal_quantile_central(real t) {
 GLINT_FN real binomial_normal_quantile_lower(real t, glint_mask used) {
   glint_mask tail = t < GLINT_R(0.02425);
   real z = binomial_normal_quantile_central(t);
-  if (binomial_any(used & tail)) z = glint_select(z, binomial_normal_quantile_tail(t), tail);
+  if (glint_any_by_mask(used & tail)) z = glint_select(z, binomial_normal_quantile_tail(t), tail);
   return z;
 }
 
@@ -654,7 +648,7 @@ GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real
    * exact (NaN in the clearly exact lanes of a mixed work-item, unused there). */
   glint_mask approx = active & !clearly_exact;
   real p1 = GLINT_R(0.0), p2 = GLINT_R(1.0);
-  if (binomial_any(approx)) {
+  if (glint_any_by_mask(approx)) {
     p1 = GLINT_R(2.0) * threshold /
          (n * (GLINT_R(1.0) + sqrt(GLINT_R(1.0) - GLINT_R(4.0) * threshold / n)));
     p2 = GLINT_R(1.0) - p1;
@@ -662,11 +656,11 @@ GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real
   }
   real x = GLINT_R(0.0);
   glint_mask near_p1 = approx & !approx; /* no lane */
-  if (binomial_any(approx)) {
+  if (glint_any_by_mask(approx)) {
     /* asin(sqrt(fmin(p, p2))): the light's theta unless p > p2 */
     real theta = binomial_prob_theta(prob);
     glint_mask above_p2 = approx & (p > p2);
-    if (binomial_any(above_p2)) theta = glint_select(theta, asin(sqrt(p2)), above_p2);
+    if (glint_any_by_mask(above_p2)) theta = glint_select(theta, asin(sqrt(p2)), above_p2);
     x = binomial_arcsine_theta(n, glint_fmin_nn(p, p2), theta,
                                binomial_normal_of_uniform(u, approx));
     /* max(x, E(p1)) needs E(p1) only if it can exceed x: E(p1) <= the cap for every u, and
@@ -675,7 +669,7 @@ GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real
      * Whether it is skipped depends on u and on x, which grows with p: once skipped, it stays
      * skipped. */
     near_p1 = approx & (x < binomial_exact_cap(n, p1));
-    if (binomial_any(near_p1)) {
+    if (glint_any_by_mask(near_p1)) {
       real level = GLINT_R(1.001) * -log1p(-u) + GLINT_R(0.001);
       near_p1 = near_p1 & (x < binomial_quantile_bound(n, p1, level) + GLINT_R(1.0));
     }
@@ -689,12 +683,12 @@ GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real
    * both (approximated above p2 yet near p1: only where p1 and p2 nearly meet, n ~ 4 threshold)
    * gets its E(p) in a second search. The maxima commute, so the order does not matter. */
   glint_mask first = near_p1 | search;
-  if (binomial_any(first)) {
+  if (glint_any_by_mask(first)) {
     real p_first = p, log1m_first;
-    if (binomial_any(near_p1)) {
+    if (glint_any_by_mask(near_p1)) {
       p_first = glint_select(p, p1, near_p1);
       /* E(p) in no lane: p's logarithm is not needed */
-      log1m_first = binomial_any(search) ? binomial_prob_log1m_q(prob) : GLINT_R(0.0);
+      log1m_first = glint_any_by_mask(search) ? binomial_prob_log1m_q(prob) : GLINT_R(0.0);
       log1m_first = glint_select(log1m_first, binomial_log1m_rarer(p1), near_p1);
     } else {
       log1m_first = binomial_prob_log1m_q(prob);
@@ -703,7 +697,7 @@ GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real
     x = glint_select(x, glint_select(e, fmax(x, e), approx), first);
   }
   glint_mask both = near_p1 & search;
-  if (binomial_any(both)) {
+  if (glint_any_by_mask(both)) {
     real e = binomial_exact_log(n, p, u, binomial_prob_log1m_q(prob), both);
     x = glint_select(x, fmax(x, e), both);
   }
@@ -745,7 +739,7 @@ GLINT_FN real binomial_draw_prob(real n, real p, GLINT_PRIVATE BinomialProb *pro
   real k = GLINT_R(0.0);
   real u = rng_u01_key(rng_absorb_key(key, 1u));
   glint_mask has_whole = drawn & (whole > GLINT_R(0.0)) & !binomial_surely_zero(whole, p, u);
-  if (binomial_any(has_whole))
+  if (glint_any_by_mask(has_whole))
     k = glint_select(k, binomial_whole_prob(whole, prob, threshold, u, has_whole), has_whole);
   glint_mask partial =
       drawn & (part > GLINT_R(0.0)) & (rng_u01_key(rng_absorb_key(key, 4u)) < part * p);
@@ -766,12 +760,12 @@ GLINT_FN real binomial_fraction_lanes(FootprintGrids g, real p, real threshold, 
                                       glint_mask active) {
   glint_mask counted = active & (g.n_facets > GLINT_R(0.0)) & (p > GLINT_R(0.0));
   real count = GLINT_R(0.0);
-  if (!binomial_any(counted)) return count;
+  if (!glint_any_by_mask(counted)) return count;
   BinomialProb prob = binomial_prob(p);
   for (int k = 0; k < GLINT_BINOMIAL_GRIDS; ++k) {
     glint_mask in_grid = counted & (g.share[k] > GLINT_R(0.0));
     /* += 0 in the other lanes: the sum of the grids that hold facets, as before */
-    if (binomial_any(in_grid))
+    if (glint_any_by_mask(in_grid))
       count += binomial_draw_prob(g.share[k] * g.n_facets, p, &prob, threshold,
                                   rng_absorb_key(g.cell_key[k], light_key), in_grid);
   }

@@ -72,19 +72,26 @@ TEST(BinomialSinDevice, NonDecreasingOnEveryFp32InZeroToHalfPi) {
   ClQueue queue(clCreateCommandQueue(rt->context(), rt->device(), 0, &err));
   ASSERT_EQ(err, CL_SUCCESS);
 
-  std::vector<float> starts;
-  for (uint64_t b = 0; b <= kLastBits; b += kChunk) {
-    float f;
-    const uint32_t bits = uint32_t(b);
-    std::memcpy(&f, &bits, sizeof f);
-    starts.push_back(f);
-  }
-  while (starts.size() % 16) starts.push_back(starts.back());
-  std::vector<float> falls;
-  ASSERT_TRUE(
-      test::RunFloatLaneKernel(*rt, program, queue.get(), "sin_falls", 16, starts, {&falls}));
+  // Every fp32 input from +0 to `last_bits` (kernel `name`: each lane checks 4096 from its start)
+  // and the falls the kernel counted in all of them.
+  auto falls_up_to = [&](const char *name, uint32_t last_bits, double *n_falls) {
+    std::vector<float> starts;
+    for (uint64_t b = 0; b <= last_bits; b += kChunk) {
+      float f;
+      const uint32_t bits = uint32_t(b);
+      std::memcpy(&f, &bits, sizeof f);
+      starts.push_back(f);
+    }
+    while (starts.size() % 16) starts.push_back(starts.back());
+    std::vector<float> falls;
+    ::testing::AssertionResult ran =
+        test::RunFloatLaneKernel(*rt, program, queue.get(), name, 16, starts, {&falls});
+    *n_falls = 0;
+    for (float f : falls) *n_falls += f;
+    return ran;
+  };
   double n_falls = 0;
-  for (float f : falls) n_falls += f;
+  ASSERT_TRUE(falls_up_to("sin_falls", kLastBits, &n_falls));
   std::printf("%.0f fp32 inputs in [0, pi/2]: sin falls at %.0f\n", double(kLastBits) + 1, n_falls);
   EXPECT_EQ(n_falls, 0);
 
@@ -92,19 +99,8 @@ TEST(BinomialSinDevice, NonDecreasingOnEveryFp32InZeroToHalfPi) {
   // above the upper switch): the count is non-decreasing in p only if theta is, whatever the
   // lane kernels' square root (GLINT_FAST_ROOTS) is. Every fp32 p in [0, 1].
   constexpr uint32_t kOneBits = 0x3f800000u;
-  std::vector<float> p_starts;
-  for (uint64_t b = 0; b <= kOneBits; b += kChunk) {
-    float f;
-    const uint32_t bits = uint32_t(b);
-    std::memcpy(&f, &bits, sizeof f);
-    p_starts.push_back(f);
-  }
-  while (p_starts.size() % 16) p_starts.push_back(p_starts.back());
-  std::vector<float> theta_falls;
-  ASSERT_TRUE(test::RunFloatLaneKernel(*rt, program, queue.get(), "asin_sqrt_falls", 16, p_starts,
-                                       {&theta_falls}));
   double n_theta_falls = 0;
-  for (float f : theta_falls) n_theta_falls += f;
+  ASSERT_TRUE(falls_up_to("asin_sqrt_falls", kOneBits, &n_theta_falls));
   std::printf("%.0f fp32 p in [0, 1]: asin(sqrt(p)) falls at %.0f\n", double(kOneBits) + 1,
               n_theta_falls);
   EXPECT_EQ(n_theta_falls, 0);

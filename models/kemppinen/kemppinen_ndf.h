@@ -539,8 +539,23 @@ GLINT_FN real kemppinen_u16_lo(kemp_uint h) {
  * mod 2^32: (ix + 2^16, iy) shares a key with (ix, iy + 1), and (ix, iy + 2^16) with (ix, iy),
  * as spatial cells 2^24 apart do (kemppinen_cell_key). The k neighbour cells of one query are
  * at most 4 apart, so no query sees two facets of one key. */
+#define GLINT_KEMPPINEN_CELL_WORD_MUL 0x9e3779b1u
+/* The absorbed word of angular cell (ix, iy). */
+GLINT_FN kemp_uint kemppinen_cell_word(real ix, real iy) {
+  return (KEMP_TO_UINT(ix) + (KEMP_TO_UINT(iy) << 16)) * GLINT_KEMPPINEN_CELL_WORD_MUL;
+}
+
+/* The word of cell (ix + mx, iy + my) from the word of (ix, iy), for the point pass's block of
+ * cells: the same word mod 2^32 by distributivity (KEMP_TO_UINT(ix + mx) = KEMP_TO_UINT(ix) + mx
+ * while ix + mx <= 2^24 is exact; beyond, at level 24, the cell is past the grid's end and its
+ * facet is dropped whatever its key), with a uniform product instead of one per facet and lane
+ * (the multiplier cost PAPER k = 4 5-9% before, models/kemppinen/README.md session 18). */
+GLINT_FN kemp_uint kemppinen_cell_word_at(kemp_uint base_word, int mx, int my) {
+  return base_word + (uint)(mx + (my << 16)) * GLINT_KEMPPINEN_CELL_WORD_MUL;
+}
+
 GLINT_FN kemp_uint kemppinen_facet_key(kemp_uint spatial_key, real ix, real iy) {
-  return kemppinen_absorb(spatial_key, (KEMP_TO_UINT(ix) + (KEMP_TO_UINT(iy) << 16)) * 0x9e3779b1u);
+  return kemppinen_absorb(spatial_key, kemppinen_cell_word(ix, iy));
 }
 
 /* The hash of the facet's spatial offsets (sx: bits 16-31, sy: bits 0-15); the polygon pass
@@ -1077,7 +1092,8 @@ GLINT_FN KemppinenLevelLobe kemppinen_level_lobe(const GLINT_PRIVATE KemppinenPa
 
 /* One explicit facet of the lobe (Algorithm 1 lines 13-18): its roulette-weighted lobe, 0 past
  * the grid's end, added to `sum` in its colour (K25 3.3.6, from its cell's hash). (dxc, dyc): the
- * query in cells of spatial cell j; `spatial_key`: spatial cell j's key (kemppinen_facet_key). A
+ * query in cells of spatial cell j; `spatial_key`: spatial cell j's key, `word`: the cell's
+ * (kemppinen_cell_word of (ix, iy), by kemppinen_cell_word_at). A
  * white material (p->white) adds the weight to sum->x only, and kemppinen_level_sum_white copies
  * it to y and z after the loops: the colour (1, 1, 1) times the weight is the weight exactly, so
  * each channel is the same sum in the same order as before, the same bits, without 3 products
@@ -1085,9 +1101,9 @@ GLINT_FN KemppinenLevelLobe kemppinen_level_lobe(const GLINT_PRIVATE KemppinenPa
 GLINT_FN void kemppinen_level_facet_add(const GLINT_PRIVATE KemppinenParams *p,
                                         const GLINT_PRIVATE KemppinenLevelQuery *q,
                                         const GLINT_PRIVATE KemppinenLevelLobe *o, real dxc,
-                                        real dyc, kemp_uint spatial_key, real ix, real iy, real w,
-                                        GLINT_PRIVATE real3 *sum) {
-  kemp_uint key = kemppinen_facet_key(spatial_key, ix, iy);
+                                        real dyc, kemp_uint spatial_key, kemp_uint word, real ix,
+                                        real iy, real w, GLINT_PRIVATE real3 *sum) {
+  kemp_uint key = kemppinen_absorb(spatial_key, word); /* kemppinen_facet_key */
   /* The offsets only: r and the colour pick (a third mix) where they are read. */
   KemppinenFacet g = kemppinen_facet_offsets(key);
   kemp_uint draws = key;
@@ -1146,13 +1162,16 @@ GLINT_FN real3 kemppinen_level_at(const GLINT_PRIVATE KemppinenParams *p,
   int n = p->n_side;
   real3 sum = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   int n_cells = p->one_cell ? 1 : 4;
+  kemp_uint base_word = kemppinen_cell_word(o.ba_x, o.ba_y);
   for (int j = 0; j < n_cells; ++j) {
     real dxc = q->s.ts_x - (q->s.bs_x + (real)(j & 1));
     real dyc = q->s.ts_y - (q->s.bs_y + (real)(j >> 1));
     for (int my = 0; my < n; ++my) {
       real iy = o.ba_y + (real)my;
       for (int mx = 0; mx < n; ++mx)
-        kemppinen_level_facet_add(p, q, &o, dxc, dyc, q->key[j], o.ba_x + (real)mx, iy, w, &sum);
+        kemppinen_level_facet_add(p, q, &o, dxc, dyc, q->key[j],
+                                  kemppinen_cell_word_at(base_word, mx, my), o.ba_x + (real)mx, iy,
+                                  w, &sum);
     }
   }
   return r3_add(kemppinen_level_sum_white(p, sum), kemppinen_level_compensation(p, q, &o, w));
@@ -1173,16 +1192,20 @@ GLINT_FN void kemppinen_level_at2(const GLINT_PRIVATE KemppinenParams *p,
   real3 suma = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   real3 sumb = suma;
   int n_cells = p->one_cell ? 1 : 4;
+  kemp_uint base_a = kemppinen_cell_word(oa.ba_x, oa.ba_y);
+  kemp_uint base_b = kemppinen_cell_word(ob.ba_x, ob.ba_y);
   for (int j = 0; j < n_cells; ++j) {
     real dxc = q->s.ts_x - (q->s.bs_x + (real)(j & 1));
     real dyc = q->s.ts_y - (q->s.bs_y + (real)(j >> 1));
     for (int my = 0; my < n; ++my) {
       real iya = oa.ba_y + (real)my, iyb = ob.ba_y + (real)my;
       for (int mx = 0; mx < n; ++mx) {
-        kemppinen_level_facet_add(p, q, &oa, dxc, dyc, q->key[j], oa.ba_x + (real)mx, iya, w,
-                                  &suma);
-        kemppinen_level_facet_add(p, q, &ob, dxc, dyc, q->key[j], ob.ba_x + (real)mx, iyb, w,
-                                  &sumb);
+        kemppinen_level_facet_add(p, q, &oa, dxc, dyc, q->key[j],
+                                  kemppinen_cell_word_at(base_a, mx, my), oa.ba_x + (real)mx, iya,
+                                  w, &suma);
+        kemppinen_level_facet_add(p, q, &ob, dxc, dyc, q->key[j],
+                                  kemppinen_cell_word_at(base_b, mx, my), ob.ba_x + (real)mx, iyb,
+                                  w, &sumb);
       }
     }
   }

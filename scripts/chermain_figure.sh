@@ -9,7 +9,7 @@
 #
 # Writes out/chermain/<name>.{exr,png}, out/chermain/stats.md and docs/chermain_figure.png.
 # Expects a built tree (scripts/build.sh runs if the binaries are missing) and Python 3 with
-# numpy; installs Pillow and OpenEXR with pip if they are missing.
+# numpy, Pillow and OpenEXR (scripts/lib/figure_common.sh: the system's, or a venv of its own).
 # Environment: GLINT_BUILD_DIR (default build), GLINT_OUT_DIR (default out/chermain),
 # GLINT_FIGURE (default docs/chermain_figure.png), GLINT_SIZE (default 480x270).
 set -euo pipefail
@@ -19,30 +19,16 @@ OUT="${GLINT_OUT_DIR:-$PWD/out/chermain}"
 FIGURE="${GLINT_FIGURE:-$PWD/docs/chermain_figure.png}"
 SIZE="${GLINT_SIZE:-480x270}"
 
-if [ ! -x "$BUILD_DIR/server/glintd" ] || [ ! -x "$BUILD_DIR/client/cli/glint" ]; then
-  bash scripts/build.sh
-fi
-python3 -c 'import numpy' 2>/dev/null || pip install numpy
-python3 -c 'import PIL' 2>/dev/null || pip install pillow
-python3 -c 'import OpenEXR' 2>/dev/null || pip install OpenEXR
+source scripts/lib/figure_common.sh
+figure_require_build
+figure_python
 
 mkdir -p "$OUT/materials" "$(dirname "$FIGURE")"
-PORT_FILE="$(mktemp)"
-"$BUILD_DIR/server/glintd" --listen 127.0.0.1:0 --port-file "$PORT_FILE" --quiet \
-  2>"$OUT/glintd.log" &
-GLINTD=$!
-trap 'kill $GLINTD 2>/dev/null || true; rm -f "$PORT_FILE"' EXIT
-for _ in $(seq 1 300); do
-  [ -s "$PORT_FILE" ] && break
-  kill -0 $GLINTD 2>/dev/null || { cat "$OUT/glintd.log"; exit 1; }
-  sleep 0.1
-done
-[ -s "$PORT_FILE" ] || { echo "glintd did not report SERVING" >&2; exit 1; }
-SERVER="127.0.0.1:$(cat "$PORT_FILE")"
+figure_start_glintd "$OUT/glintd.log"
 
 # The materials: Table 1's stone and fabric (alpha, ln rho, beta, zeta), the example at three
 # densities, and the smooth Beckmann reference of the example.
-python3 - "$OUT/materials" <<'EOF'
+"$PY" - "$OUT/materials" <<'EOF'
 import json, sys
 out = sys.argv[1]
 base = json.load(open("examples/materials/sparkle_chermain.json"))
@@ -83,7 +69,7 @@ done
 # cells (the preview plane's uv is 2 units per world unit, too coarse to stretch u alone: the LOD
 # would pass the last level and give the smooth BRDF). The exposure of its PNG is -1.8 stops
 # (the streaked highlight fills the plane at ~2 W/m^2/sr, which the preview's PNG clips).
-python3 - "$OUT/plane_gbuffer.exr" "$OUT/plane_gbuffer_brushed.exr" <<'EOF'
+"$PY" - "$OUT/plane_gbuffer.exr" "$OUT/plane_gbuffer_brushed.exr" <<'EOF'
 import sys
 import numpy as np
 import OpenEXR
@@ -109,7 +95,7 @@ cp "$OUT/materials/sparkle_14.json" "$OUT/materials/rect_14.json"
   --out "$OUT/smooth_rect.exr" >/dev/null  # its reference (statistics only)
 echo "rendered $OUT/rect_14.{exr,png}"
 
-python3 - "$OUT" "$FIGURE" "$NAMES" <<'EOF'
+"$PY" - "$OUT" "$FIGURE" "$NAMES" <<'EOF'
 import json, sys
 import numpy as np
 import OpenEXR

@@ -9,7 +9,7 @@
 # Writes out/glints/<light>_<density>.{exr,png} (density "smooth" for the reference),
 # out/glints/stats.md (the table), docs/glints_figure.png (the contact sheet).
 # Expects a built tree (scripts/build.sh runs if the binaries are missing) and Python 3 with
-# numpy; installs Pillow and OpenEXR with pip if they are missing.
+# numpy, Pillow and OpenEXR (scripts/lib/figure_common.sh: the system's, or a venv of its own).
 #
 # Environment: GLINT_BUILD_DIR (default build), GLINT_OUT_DIR (default out/glints),
 # GLINT_FIGURE (default docs/glints_figure.png), GLINT_SIZE (default 640x360),
@@ -27,32 +27,18 @@ LIGHTS="rect_small rect_large sun"
 # PNG exposure (stops) per row: the same for every image of a row so brightness compares.
 declare -A EXPOSURE=([rect_small]=0 [rect_large]=0 [sun]=-0.5)
 
-if [ ! -x "$BUILD_DIR/server/glintd" ] || [ ! -x "$BUILD_DIR/client/cli/glint" ]; then
-  bash scripts/build.sh
-fi
-python3 -c 'import numpy' 2>/dev/null || pip install numpy
-python3 -c 'import PIL' 2>/dev/null || pip install pillow
-python3 -c 'import OpenEXR' 2>/dev/null || pip install OpenEXR
+source scripts/lib/figure_common.sh
+figure_require_build
+figure_python
 
 mkdir -p "$OUT" "$(dirname "$FIGURE")"
-PORT_FILE="$(mktemp)"
-"$BUILD_DIR/server/glintd" --listen 127.0.0.1:0 --port-file "$PORT_FILE" --quiet \
-  2>"$OUT/glintd.log" &
-GLINTD=$!
-trap 'kill $GLINTD 2>/dev/null || true; rm -f "$PORT_FILE"' EXIT
-for _ in $(seq 1 300); do
-  [ -s "$PORT_FILE" ] && break
-  kill -0 $GLINTD 2>/dev/null || { cat "$OUT/glintd.log"; exit 1; }
-  sleep 0.1
-done
-[ -s "$PORT_FILE" ] || { echo "glintd did not report SERVING" >&2; exit 1; }
-SERVER="127.0.0.1:$(cat "$PORT_FILE")"
+figure_start_glintd "$OUT/glintd.log"
 GLINT="$BUILD_DIR/client/cli/glint"
 
 # Material variants: one per density (the example's binomial block with that density), and
 # the smooth reference (same NDF, roughness and Fresnel, no binomial block).
 mkdir -p "$OUT/materials"
-python3 - "$MATERIAL" "$OUT/materials" $DENSITIES <<'EOF'
+"$PY" - "$MATERIAL" "$OUT/materials" $DENSITIES <<'EOF'
 import json, sys
 src, out, densities = sys.argv[1], sys.argv[2], sys.argv[3:]
 m = json.load(open(src))
@@ -76,7 +62,7 @@ done
 
 # Statistics (from the EXRs) and the contact sheet (from the PNGs).
 EXPOSURES="$(for l in $LIGHTS; do printf '%s %s, ' "$l" "${EXPOSURE[$l]}"; done)"
-python3 - "$OUT" "$FIGURE" "$SIZE" "$MATERIAL" "$LIGHTS" "$DENSITIES" "${EXPOSURES%, }" <<'EOF'
+"$PY" - "$OUT" "$FIGURE" "$SIZE" "$MATERIAL" "$LIGHTS" "$DENSITIES" "${EXPOSURES%, }" <<'EOF'
 import json, math, sys
 import numpy as np
 import OpenEXR

@@ -10,7 +10,7 @@
 #
 # Writes out/kemppinen/k_<name>.{exr,png}, out/kemppinen/stats.md and docs/kemppinen_figure.png.
 # Expects a built tree (scripts/build.sh runs if the binaries are missing) and Python 3 with
-# numpy; installs Pillow and OpenEXR with pip if they are missing.
+# numpy, Pillow and OpenEXR (scripts/lib/figure_common.sh: the system's, or a venv of its own).
 # Environment: GLINT_BUILD_DIR (default build), GLINT_OUT_DIR (default out/kemppinen),
 # GLINT_FIGURE (default docs/kemppinen_figure.png), GLINT_SIZE (default 192x192).
 set -euo pipefail
@@ -20,31 +20,17 @@ OUT="${GLINT_OUT_DIR:-$PWD/out/kemppinen}"
 FIGURE="${GLINT_FIGURE:-$PWD/docs/kemppinen_figure.png}"
 SIZE="${GLINT_SIZE:-192x192}"
 
-if [ ! -x "$BUILD_DIR/server/glintd" ] || [ ! -x "$BUILD_DIR/client/cli/glint" ]; then
-  bash scripts/build.sh
-fi
-python3 -c 'import numpy' 2>/dev/null || pip install numpy
-python3 -c 'import PIL' 2>/dev/null || pip install pillow
-python3 -c 'import OpenEXR' 2>/dev/null || pip install OpenEXR
+source scripts/lib/figure_common.sh
+figure_require_build
+figure_python
 
 rm -rf "$OUT/materials"
 mkdir -p "$OUT/materials" "$(dirname "$FIGURE")"
-PORT_FILE="$(mktemp)"
-"$BUILD_DIR/server/glintd" --listen 127.0.0.1:0 --port-file "$PORT_FILE" --quiet \
-  2>"$OUT/glintd.log" &
-GLINTD=$!
-trap 'kill $GLINTD 2>/dev/null || true; rm -f "$PORT_FILE"' EXIT
-for _ in $(seq 1 600); do
-  [ -s "$PORT_FILE" ] && break
-  kill -0 $GLINTD 2>/dev/null || { cat "$OUT/glintd.log"; exit 1; }
-  sleep 0.1
-done
-[ -s "$PORT_FILE" ] || { echo "glintd did not report SERVING" >&2; exit 1; }
-SERVER="127.0.0.1:$(cat "$PORT_FILE")"
+figure_start_glintd "$OUT/glintd.log"
 
 # The rows (name, field, values); the base material is GGX alpha 0.3, density 1e5 facets per
 # unit uv, microroughness 0.02, filter 0.7, 4 neighbours, isotropic glints.
-python3 - "$OUT/materials" <<'EOF'
+"$PY" - "$OUT/materials" <<'EOF'
 import json, sys
 out = sys.argv[1]
 base = {"model": "KEMPPINEN", "ndf": "GGX", "alpha_x": 0.3, "alpha_y": 0.3,
@@ -70,7 +56,7 @@ EOF
   --lights examples/lights/studio.json --scene sphere --size "$SIZE" --seed 1 \
   --out "$OUT/k.exr"
 
-python3 - "$OUT" "$FIGURE" <<'EOF'
+"$PY" - "$OUT" "$FIGURE" <<'EOF'
 import json, sys
 import numpy as np
 import OpenEXR

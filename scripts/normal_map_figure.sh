@@ -11,7 +11,7 @@
 #
 # Writes out/normal_map/<family>_<light>.{exr,png}, out/normal_map/stats.md and
 # docs/normal_map_figure.png. Expects a built tree (scripts/build.sh runs if the binaries are
-# missing) and Python 3 with numpy; installs Pillow and OpenEXR with pip if they are missing.
+# missing) and Python 3 with numpy, Pillow and OpenEXR (scripts/lib/figure_common.sh: the system's, or a venv of its own).
 # Environment: GLINT_BUILD_DIR (default build), GLINT_OUT_DIR (default out/normal_map),
 # GLINT_FIGURE (default docs/normal_map_figure.png), GLINT_SIZE (default 160x160),
 # GLINT_MAP_SIZE (default 128), GLINT_AREA_SAMPLES (default 16).
@@ -24,26 +24,12 @@ SIZE="${GLINT_SIZE:-160x160}"
 MAP_SIZE="${GLINT_MAP_SIZE:-128}"
 SAMPLES="${GLINT_AREA_SAMPLES:-16}"
 
-if [ ! -x "$BUILD_DIR/server/glintd" ] || [ ! -x "$BUILD_DIR/client/cli/glint" ]; then
-  bash scripts/build.sh
-fi
-python3 -c 'import numpy' 2>/dev/null || pip install numpy
-python3 -c 'import PIL' 2>/dev/null || pip install pillow
-python3 -c 'import OpenEXR' 2>/dev/null || pip install OpenEXR
+source scripts/lib/figure_common.sh
+figure_require_build
+figure_python
 
 mkdir -p "$OUT" "$(dirname "$FIGURE")"
-PORT_FILE="$(mktemp)"
-"$BUILD_DIR/server/glintd" --listen 127.0.0.1:0 --port-file "$PORT_FILE" --quiet \
-  2>"$OUT/glintd.log" &
-GLINTD=$!
-trap 'kill $GLINTD 2>/dev/null || true; rm -f "$PORT_FILE"' EXIT
-for _ in $(seq 1 600); do
-  [ -s "$PORT_FILE" ] && break
-  kill -0 $GLINTD 2>/dev/null || { cat "$OUT/glintd.log"; exit 1; }
-  sleep 0.1
-done
-[ -s "$PORT_FILE" ] || { echo "glintd did not report SERVING" >&2; exit 1; }
-SERVER="127.0.0.1:$(cat "$PORT_FILE")"
+figure_start_glintd "$OUT/glintd.log"
 
 # family: generator, f0, intrinsic roughness, PNG exposure (stops)
 FAMILIES="bumpy:bumpy:0.04:0.02:4 flakes:flakes:0.95,0.8,0.5:0.01:0 brushed:brushed:0.9,0.9,0.92:0.02:0 scratches:scratches:0.9,0.9,0.9:0.01:0"
@@ -51,7 +37,7 @@ for entry in $FAMILIES; do
   IFS=: read -r name gen f0 sigma exposure <<<"$entry"
   "$BUILD_DIR/client/cli/glint" normal-map "$gen" --size "$MAP_SIZE" --seed 1 \
     --out "$OUT/map_$name.exr" 2>/dev/null
-  python3 - "$OUT/m_$name.json" "$f0" "$sigma" <<'PY'
+  "$PY" - "$OUT/m_$name.json" "$f0" "$sigma" <<'PY'
 import json, sys
 f0 = [float(x) for x in sys.argv[2].split(",")]
 f0 = f0 * 3 if len(f0) == 1 else f0
@@ -69,7 +55,7 @@ PY
   done
 done
 
-python3 - "$OUT" "$FIGURE" "$MAP_SIZE" "$SAMPLES" <<'EOF'
+"$PY" - "$OUT" "$FIGURE" "$MAP_SIZE" "$SAMPLES" <<'EOF'
 import sys
 import numpy as np
 import OpenEXR

@@ -47,7 +47,9 @@
  * arithmetic is the sequential one, so a lane's count is the scalar count.
  * What diverges: the exact searches (O(count of the rarer outcome) steps, the
  * work-item pays the largest of its lanes) and, per draw, lanes in different
- * regimes (the work-item pays the approximation and a search). */
+ * regimes (the work-item pays the approximation and a search; binomial_lanes.cl regroups
+ * the draws of several blocks by regime where a query has one draw, through the stages of
+ * binomial_whole_prob below). */
 #ifndef GLINT_BINOMIAL_COUNT_H
 #define GLINT_BINOMIAL_COUNT_H
 

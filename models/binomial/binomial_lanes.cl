@@ -10,7 +10,10 @@
  * twice as many queries; the longer exact searches of a 16-lane work-item (it pays its longest
  * lane) cost less than that at every N_P measured (models/binomial/README.md "Quad throughput
  * (session 15)"). The result per query is the same bit for bit: every lane runs the scalar
- * arithmetic whatever the width. */
+ * arithmetic whatever the width.
+ * fp32 work-items evaluate GLINT_BLOCKS (4, binomial_model.cpp) such blocks one after the other;
+ * with one light and STOCHASTIC (one draw per query) the blocks' count draws run with their lanes
+ * regrouped by regime (binomial_lanes_regrouped below). */
 #include "kernels/kernel_args.h"
 #include "kernels/simd_io.h"
 #include "kernels/work_item.h"

@@ -377,9 +377,16 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const QueryView 
     if (!s.ok()) return s;
     // A 2D grid below PoCL's small-grid limit: the work-group function the one-query warm-up
     // compiled runs every batch (server/launch_grid.h).
-    const size_t width =
-        size_t(passes[k]->Width(spec.fp64)) * size_t(passes[k]->Blocks(spec.fp64, spec.probe));
-    const LaunchGrid grid = GridFor((size_t(n) + width - 1) / width, options_.local_size);
+    const size_t blocks = size_t(passes[k]->Blocks(spec.fp64, spec.probe));
+    const size_t width = size_t(passes[k]->Width(spec.fp64)) * blocks;
+    // A pass with several blocks per work-item for lights (BINOMIAL's regrouped draws) keeps the
+    // queries per work-group: local_size / blocks work-items of `blocks` blocks. Otherwise a
+    // batch of up to local_size x width queries (8192 for BINOMIAL's 4 x 16) would be one
+    // work-group, i.e. run on one of PoCL's threads. Probes keep local_size (SMOOTH's 2 blocks
+    // were measured so).
+    const size_t local =
+        spec.probe ? options_.local_size : std::max<size_t>(1, options_.local_size / blocks);
+    const LaunchGrid grid = GridFor((size_t(n) + width - 1) / width, local);
     GLINT_CL_CHECK(clEnqueueNDRangeKernel(queue.queue.get(), kernel, 2, nullptr, grid.global,
                                           grid.local, 0, nullptr, nullptr));
   }

@@ -45,11 +45,19 @@ struct ModelPass {
   // work-item give the out-of-order core twice the independent work (models/smooth/README.md).
   int probe_blocks_fp32 = 0;
 
+  // Blocks of Width() queries per work-item for fp32 requests with lights (built with
+  // -DGLINT_BLOCKS= when above 1; the entry must evaluate that many blocks), 0 or 1 = one block.
+  // BINOMIAL's lane kernel regroups the count draws of its blocks by regime
+  // (models/binomial/binomial_lanes.cl).
+  int lights_blocks_fp32 = 0;
+
   // The width the pass compiles and launches with for a request of this precision.
   int Width(bool fp64) const { return fp64 && simd_width_fp64 > 0 ? simd_width_fp64 : simd_width; }
   // Blocks per work-item for a request of this precision and kind (probe or lights).
   int Blocks(bool fp64, bool probe) const {
-    return !fp64 && probe && probe_blocks_fp32 > 1 ? probe_blocks_fp32 : 1;
+    if (fp64) return 1;
+    const int blocks = probe ? probe_blocks_fp32 : lights_blocks_fp32;
+    return blocks > 1 ? blocks : 1;
   }
 };
 

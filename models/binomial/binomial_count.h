@@ -47,7 +47,9 @@
  * arithmetic is the sequential one, so a lane's count is the scalar count.
  * What diverges: the exact searches (O(count of the rarer outcome) steps, the
  * work-item pays the largest of its lanes) and, per draw, lanes in different
- * regimes (the work-item pays the approximation and a search). */
+ * regimes (the work-item pays the approximation and a search; binomial_lanes.cl regroups
+ * the draws of several blocks by regime where a query has one draw, through the stages of
+ * binomial_whole_prob below). */
 #ifndef GLINT_BINOMIAL_COUNT_H
 #define GLINT_BINOMIAL_COUNT_H
 
@@ -636,44 +638,85 @@ GLINT_FN real binomial_prob_log1m_q(GLINT_PRIVATE BinomialProb *b) {
  * within a few counts of p1's: elsewhere the draw costs one A.
  * In lanes: the approximation runs when any lane of `active` is between the switches, the
  * search E(p) once for the lanes below p1 and above p2 together. */
-GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real threshold, real u,
-                                  glint_mask active) {
-  real p = prob->p;
-  /* Clearly exact (variance below half the threshold, so p < p1 or p > p2 whatever the
-   * rounding of p1): skip computing p1. */
+/* binomial_whole_prob's three stages, so that the lane kernel can run each stage on lanes
+ * regrouped by regime (binomial_lanes.cl, GLINT_BLOCKS > 1) with the same per-lane arithmetic:
+ * the switch p1 = (1 - sqrt(1 - 4 threshold / n)) / 2 without cancellation (NaN where
+ * 4 threshold > n, only read in lanes that are not clearly exact). */
+GLINT_FN real binomial_switch_p1(real n, real threshold) {
+  return GLINT_R(2.0) * threshold /
+         (n * (GLINT_R(1.0) + sqrt(GLINT_R(1.0) - GLINT_R(4.0) * threshold / n)));
+}
+
+/* Stage 1: the lanes of `active` between the switches (p1 <= p; the approximation's), with p1
+ * where a lane is not clearly exact. Clearly exact (variance below half the threshold, so p <
+ * p1 or p > p2 whatever the rounding of p1) skips computing p1. */
+GLINT_FN glint_mask binomial_whole_regime(real n, real p, real threshold, glint_mask active,
+                                          GLINT_PRIVATE real *p1_out) {
   glint_mask clearly_exact = (n <= GLINT_R(GLINT_BINOMIAL_EXACT_MAX)) |
                              (GLINT_R(4.0) * threshold > n) |
                              (n * p * (GLINT_R(1.0) - p) < GLINT_R(0.5) * threshold);
-  /* p1 = (1 - sqrt(1 - 4 threshold / n)) / 2 without cancellation, when a lane is not clearly
-   * exact (NaN in the clearly exact lanes of a mixed work-item, unused there). */
   glint_mask approx = active & !clearly_exact;
-  real p1 = GLINT_R(0.0), p2 = GLINT_R(1.0);
+  real p1 = GLINT_R(0.0);
   if (glint_any_by_mask(approx)) {
-    p1 = GLINT_R(2.0) * threshold /
-         (n * (GLINT_R(1.0) + sqrt(GLINT_R(1.0) - GLINT_R(4.0) * threshold / n)));
-    p2 = GLINT_R(1.0) - p1;
+    p1 = binomial_switch_p1(n, threshold);
     approx = approx & !(p < p1);
   }
+  *p1_out = p1;
+  return approx;
+}
+
+/* Stage 2, in the lanes of `approx`: A(p) (p clamped to p2 = 1 - p1), and in *near_p1 the lanes
+ * where E(p1) can exceed it. */
+GLINT_FN real binomial_whole_approx(real n, GLINT_PRIVATE BinomialProb *prob, real u, real p1,
+                                    glint_mask approx, GLINT_PRIVATE glint_mask *near_p1_out) {
+  real p = prob->p;
+  real p2 = GLINT_R(1.0) - p1;
+  /* asin(sqrt(fmin(p, p2))): the light's theta unless p > p2 */
+  real theta = binomial_prob_theta(prob);
+  glint_mask above_p2 = approx & (p > p2);
+  if (glint_any_by_mask(above_p2)) theta = glint_select(theta, asin(sqrt(p2)), above_p2);
+  real x =
+      binomial_arcsine_theta(n, glint_fmin_nn(p, p2), theta, binomial_normal_of_uniform(u, approx));
+  /* max(x, E(p1)) needs E(p1) only if it can exceed x: E(p1) <= the cap for every u, and
+   * <= the Bernstein bound at L = -log(1 - u) for this u (L enlarged by 1e-3 against its
+   * rounding; plus one count for a comparison that rounding decides, binomial_exact).
+   * Whether it is skipped depends on u and on x, which grows with p: once skipped, it stays
+   * skipped. */
+  glint_mask near_p1 = approx & (x < binomial_exact_cap(n, p1));
+  if (glint_any_by_mask(near_p1)) {
+    real level = GLINT_R(1.001) * -log1p(-u) + GLINT_R(0.001);
+    near_p1 = near_p1 & (x < binomial_quantile_bound(n, p1, level) + GLINT_R(1.0));
+  }
+  *near_p1_out = near_p1;
+  return x;
+}
+
+/* Stage 3: the searches. `first` = near_p1 | search lanes get E(p_first) (p_first = p1 in the
+ * lanes near p1, p elsewhere; log1m_first its binomial_log1m_rarer), the maximum with x where
+ * approximated; a lane that needs both (near p1 and searching) its E(p) in a second search. */
+GLINT_FN real binomial_whole_searches(real n, GLINT_PRIVATE BinomialProb *prob, real u, real x,
+                                      real p_first, real log1m_first, glint_mask approx,
+                                      glint_mask near_p1, glint_mask search) {
+  glint_mask first = near_p1 | search;
+  real e = binomial_exact_log(n, p_first, u, log1m_first, first);
+  x = glint_select(x, glint_select(e, fmax(x, e), approx), first);
+  glint_mask both = near_p1 & search;
+  if (glint_any_by_mask(both)) {
+    real e2 = binomial_exact_log(n, prob->p, u, binomial_prob_log1m_q(prob), both);
+    x = glint_select(x, fmax(x, e2), both);
+  }
+  return x;
+}
+
+GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real threshold, real u,
+                                  glint_mask active) {
+  real p = prob->p;
+  real p1;
+  glint_mask approx = binomial_whole_regime(n, p, threshold, active, &p1);
+  real p2 = GLINT_R(1.0) - p1;
   real x = GLINT_R(0.0);
   glint_mask near_p1 = approx & !approx; /* no lane */
-  if (glint_any_by_mask(approx)) {
-    /* asin(sqrt(fmin(p, p2))): the light's theta unless p > p2 */
-    real theta = binomial_prob_theta(prob);
-    glint_mask above_p2 = approx & (p > p2);
-    if (glint_any_by_mask(above_p2)) theta = glint_select(theta, asin(sqrt(p2)), above_p2);
-    x = binomial_arcsine_theta(n, glint_fmin_nn(p, p2), theta,
-                               binomial_normal_of_uniform(u, approx));
-    /* max(x, E(p1)) needs E(p1) only if it can exceed x: E(p1) <= the cap for every u, and
-     * <= the Bernstein bound at L = -log(1 - u) for this u (L enlarged by 1e-3 against its
-     * rounding; plus one count for a comparison that rounding decides, binomial_exact).
-     * Whether it is skipped depends on u and on x, which grows with p: once skipped, it stays
-     * skipped. */
-    near_p1 = approx & (x < binomial_exact_cap(n, p1));
-    if (glint_any_by_mask(near_p1)) {
-      real level = GLINT_R(1.001) * -log1p(-u) + GLINT_R(0.001);
-      near_p1 = near_p1 & (x < binomial_quantile_bound(n, p1, level) + GLINT_R(1.0));
-    }
-  }
+  if (glint_any_by_mask(approx)) x = binomial_whole_approx(n, prob, u, p1, approx, &near_p1);
   /* E(p): the whole answer below p1 (or clearly exact), the last maximum above p2. */
   glint_mask exact = active & !approx;
   glint_mask search = exact | (approx & (p > p2));
@@ -693,13 +736,7 @@ GLINT_FN real binomial_whole_prob(real n, GLINT_PRIVATE BinomialProb *prob, real
     } else {
       log1m_first = binomial_prob_log1m_q(prob);
     }
-    real e = binomial_exact_log(n, p_first, u, log1m_first, first);
-    x = glint_select(x, glint_select(e, fmax(x, e), approx), first);
-  }
-  glint_mask both = near_p1 & search;
-  if (glint_any_by_mask(both)) {
-    real e = binomial_exact_log(n, p, u, binomial_prob_log1m_q(prob), both);
-    x = glint_select(x, fmax(x, e), both);
+    x = binomial_whole_searches(n, prob, u, x, p_first, log1m_first, approx, near_p1, search);
   }
   return x;
 }
@@ -723,6 +760,35 @@ GLINT_FN glint_mask binomial_surely_zero(real n, real p, real u) {
   return (p <= GLINT_R(0.5)) & (u < GLINT_R(1.0) - n * p - GLINT_R(1.52587890625e-5));
 }
 
+/* A draw's inputs before its whole trials are counted: the whole trials, their uniform u and
+ * the lanes that draw them, and the lanes whose partial trial succeeds. `p` is the draw's
+ * probability as given (0 in lanes that do not draw), `p_clamped` fmin(p, 1) (BinomialProb). */
+typedef struct {
+  real whole;
+  real u;
+  glint_mask has_whole;
+  glint_mask partial;
+} BinomialDrawInputs;
+
+GLINT_FN BinomialDrawInputs binomial_draw_inputs(real n, real p, real p_clamped, glint_key key,
+                                                 glint_mask active) {
+  BinomialDrawInputs d;
+  glint_mask drawn = active & (n > GLINT_R(0.0)) & (p > GLINT_R(0.0));
+  p = p_clamped;
+  d.whole = glint_floor(n);
+  real part = n - d.whole;
+  d.u = rng_u01_key(rng_absorb_key(key, 1u));
+  d.has_whole = drawn & (d.whole > GLINT_R(0.0)) & !binomial_surely_zero(d.whole, p, d.u);
+  d.partial = drawn & (part > GLINT_R(0.0)) & (rng_u01_key(rng_absorb_key(key, 4u)) < part * p);
+  return d;
+}
+
+/* The draw's count from its whole trials' count k_whole (read in the lanes of has_whole). */
+GLINT_FN real binomial_draw_count(BinomialDrawInputs d, real k_whole) {
+  real k = glint_select(GLINT_R(0.0), k_whole, d.has_whole);
+  return glint_select(k, k + GLINT_R(1.0), d.partial);
+}
+
 /* A draw of "Binomial(n, p)" for real n >= 0: floor(n) whole trials plus one partial trial
  * that succeeds with probability frac(n) p, so that the mean is n p exactly for every real n (a
  * footprint holding 0.3 facets reflects with probability 0.3 p; with N_P < 1 this is what
@@ -732,18 +798,11 @@ GLINT_FN glint_mask binomial_surely_zero(real n, real p, real u) {
  * light and view the count never falls as p grows. 0 in the lanes outside `active`. */
 GLINT_FN real binomial_draw_prob(real n, real p, GLINT_PRIVATE BinomialProb *prob, real threshold,
                                  glint_key key, glint_mask active) {
-  glint_mask drawn = active & (n > GLINT_R(0.0)) & (p > GLINT_R(0.0));
-  p = prob->p; /* fmin(p, 1) */
-  real whole = glint_floor(n);
-  real part = n - whole;
+  BinomialDrawInputs d = binomial_draw_inputs(n, p, prob->p, key, active);
   real k = GLINT_R(0.0);
-  real u = rng_u01_key(rng_absorb_key(key, 1u));
-  glint_mask has_whole = drawn & (whole > GLINT_R(0.0)) & !binomial_surely_zero(whole, p, u);
-  if (glint_any_by_mask(has_whole))
-    k = glint_select(k, binomial_whole_prob(whole, prob, threshold, u, has_whole), has_whole);
-  glint_mask partial =
-      drawn & (part > GLINT_R(0.0)) & (rng_u01_key(rng_absorb_key(key, 4u)) < part * p);
-  return glint_select(k, k + GLINT_R(1.0), partial);
+  if (glint_any_by_mask(d.has_whole))
+    k = binomial_whole_prob(d.whole, prob, threshold, d.u, d.has_whole);
+  return binomial_draw_count(d, k);
 }
 
 GLINT_FN real binomial_draw_lanes(real n, real p, real threshold, glint_key key,

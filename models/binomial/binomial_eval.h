@@ -73,12 +73,60 @@ GLINT_FN real binomial_p_cone(SmoothMaterial m, BinomialParams b, real3 wi, real
   return glint_clamp_nn(p, GLINT_R(0.0), GLINT_R(1.0));
 }
 
+/* A request's one light whose count draw the lane kernel defers (binomial_lanes.cl,
+ * GLINT_BLOCKS > 1): binomial_shade records what binomial_light and its draw computed before
+ * the whole trials' count, the kernel draws the counts of several blocks with the lanes
+ * regrouped by regime, and binomial_deferred_finish completes the light as binomial_light and
+ * binomial_shade would have. Only for one light and one grid (STOCHASTIC: grids 1..7 hold no
+ * facets), which is what the kernel asks it for. */
+typedef struct {
+  int deferred; /* a light was recorded (uniform); else binomial_shade's result is the block's */
+  real3 l_smooth;
+  real p;
+  real n_facets;
+  glint_mask lit;     /* binomial_light's */
+  glint_mask counted; /* binomial_fraction_lanes' */
+  glint_mask live;    /* binomial_shade's */
+  real p_draw;        /* fmin(p, 1), BinomialProb's */
+  BinomialDrawInputs draw;
+} BinomialDeferred;
+
+/* binomial_light from the whole trials' count k_whole (lanes of d->draw.has_whole), then
+ * binomial_shade's sum (of this one light) and its mask: the same operations, so the same bits. */
+GLINT_FN real3 binomial_deferred_finish(const GLINT_PRIVATE BinomialDeferred *d, real k_whole) {
+  real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
+  /* binomial_fraction_lanes: 0 + the draw of grid 0 */
+  real count = GLINT_R(0.0) + binomial_draw_count(d->draw, k_whole);
+  real fraction = glint_select(GLINT_R(0.0), count / d->n_facets, d->counted);
+  real3 term =
+      r3_select(zero, r3_scale(d->l_smooth, fraction / d->p), d->lit & (fraction > GLINT_R(0.0)));
+  return r3_select(zero, r3_add(zero, term), d->live);
+}
+
 /* One light's glint radiance from its smooth radiance: L_smooth x fraction / p; 0 in the
- * lanes outside `active`. */
+ * lanes outside `active`. With `defer` (not 0), the light is recorded there instead and 0
+ * returned (BinomialDeferred). */
 GLINT_FN real3 binomial_light(FootprintGrids g, BinomialParams b, real3 l_smooth, real p,
-                              glint_key light_key, glint_mask active) {
+                              glint_key light_key, glint_mask active,
+                              GLINT_PRIVATE BinomialDeferred *defer) {
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   glint_mask lit = active & (p > GLINT_R(0.0));
+  if (defer) {
+    /* binomial_fraction_lanes up to grid 0's draw of its whole trials */
+    glint_mask counted = lit & (g.n_facets > GLINT_R(0.0)) & (p > GLINT_R(0.0));
+    BinomialProb prob = binomial_prob(p);
+    defer->deferred = 1;
+    defer->l_smooth = l_smooth;
+    defer->p = p;
+    defer->n_facets = g.n_facets;
+    defer->lit = lit;
+    defer->counted = counted;
+    defer->p_draw = prob.p;
+    defer->draw = binomial_draw_inputs(g.share[0] * g.n_facets, p, prob.p,
+                                       rng_absorb_key(g.cell_key[0], light_key),
+                                       counted & (g.share[0] > GLINT_R(0.0)));
+    return zero;
+  }
   real fraction = binomial_fraction_lanes(g, p, b.normal_threshold, light_key, lit);
   /* No reflecting facet: exactly 0, also when l_smooth overflowed to +Inf (0 x Inf = NaN). */
   return r3_select(zero, r3_scale(l_smooth, fraction / p), lit & (fraction > GLINT_R(0.0)));
@@ -95,7 +143,8 @@ GLINT_FN real3 binomial_safe_normalize(real3 v, real3 fallback) {
  * e6 = D_PR, e7 = D_H (KK24 Eq. 19). */
 GLINT_FN real3 binomial_polygon(FootprintGrids g, BinomialParams b, SmoothMaterial m, real3 wo,
                                 real d_n, const GLINT_PRIVATE real3 *v, int n, real3 ls, real ff,
-                                real e6, real e7, uint l, glint_mask active) {
+                                real e6, real e7, uint l, glint_mask active,
+                                GLINT_PRIVATE BinomialDeferred *defer) {
   glint_mask lit = active & (ls.x + ls.y + ls.z > GLINT_R(0.0));
   /* Centre direction: for the angular key and the heuristic's h. */
   real3 up = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(1.0));
@@ -108,7 +157,7 @@ GLINT_FN real3 binomial_polygon(FootprintGrids g, BinomialParams b, SmoothMateri
                   : ff * e6 / e7;
   prob = glint_clamp_nn(prob, GLINT_R(0.0), GLINT_R(1.0));
   return binomial_light(g, b, ls, prob, binomial_light_key(GLINT_KEY_POLYGON, l, h, b.slope_cell),
-                        lit);
+                        lit, defer);
 }
 
 /* Polygon light l by LTC (area_ltc.h), lane-safe: its smooth radiance, p and glints.
@@ -119,7 +168,8 @@ GLINT_FN real3 binomial_polygon(FootprintGrids g, BinomialParams b, SmoothMateri
 GLINT_FN real3 binomial_polygon_ltc(FootprintGrids g, BinomialParams b, SmoothMaterial m,
                                     EvalSpec spec, KernelInputs in, ShadingPoint sp, real alpha,
                                     real d_n, uint l, int n, glint_mask live,
-                                    const GLINT_PRIVATE real *entry) {
+                                    const GLINT_PRIVATE real *entry,
+                                    GLINT_PRIVATE BinomialDeferred *defer) {
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   const GLINT_GLOBAL float *rec = in.polygons + GLINT_POLYGON_FLOATS * l;
   real3 v[GLINT_POLYGON_MAX_VERTICES];
@@ -138,14 +188,15 @@ GLINT_FN real3 binomial_polygon_ltc(FootprintGrids g, BinomialParams b, SmoothMa
   real ff = area_ltc_form_factor_entry(sp.wo, tx, ty, v, n, e);
   real3 ls = r3_mul(r3_scale(area_ltc_albedo(m, e), ff),
                     make_real3((real)rec[2], (real)rec[3], (real)rec[4]));
-  return binomial_polygon(g, b, m, sp.wo, d_n, v, n, ls, ff, e[6], e[7], l, facing);
+  return binomial_polygon(g, b, m, sp.wo, d_n, v, n, ls, ff, e[6], e[7], l, facing, defer);
 }
 
 /* Reflected radiance towards wo (RGB) of the binomial model for the queries q (one, or a block
  * of lanes) with their uv (u, v) and footprints. Polygon lights by LTC in lanes; the other
  * area methods only in one-query builds, keyed by `area_key` (area_query_key). */
 GLINT_FN real3 binomial_shade(EvalSpec spec, KernelInputs in, QueryInputs q, real u, real v,
-                              const GLINT_PRIVATE real *footprint, uint area_key) {
+                              const GLINT_PRIVATE real *footprint, uint area_key,
+                              GLINT_PRIVATE BinomialDeferred *defer) {
   real3 zero = make_real3(GLINT_R(0.0), GLINT_R(0.0), GLINT_R(0.0));
   real3 radiance = zero;
   SmoothMaterial m = smooth_material_unpack(in.material, spec.ndf, spec.fresnel);
@@ -179,9 +230,10 @@ GLINT_FN real3 binomial_shade(EvalSpec spec, KernelInputs in, QueryInputs q, rea
     real3 h = r3_normalize(r3_add(light.wi, wo));
     uint kind =
         light.kind == GLINT_LIGHT_KIND_DIRECTIONAL ? GLINT_KEY_DIRECTIONAL : GLINT_KEY_POINT;
-    radiance = r3_add(radiance,
-                      binomial_light(g, b, ls, prob,
-                                     binomial_light_key(kind, light.index, h, b.slope_cell), lit));
+    radiance =
+        r3_add(radiance,
+               binomial_light(g, b, ls, prob,
+                              binomial_light_key(kind, light.index, h, b.slope_cell), lit, defer));
   }
 
   for (uint l = 0; l < in.n_polygon; ++l) {
@@ -189,8 +241,9 @@ GLINT_FN real3 binomial_shade(EvalSpec spec, KernelInputs in, QueryInputs q, rea
     if (in.area_method != GLINT_AREA_LTC) {
       PolygonLight P = polygon_light(spec, in, sp, m, l, area_key);
       if (P.n == 0) continue; /* faces away: no radiance, P.ltc unset */
-      radiance = r3_add(radiance, binomial_polygon(g, b, m, wo, d_n, P.v, P.n, P.radiance,
-                                                   P.form_factor, P.ltc[6], P.ltc[7], l, live));
+      radiance =
+          r3_add(radiance, binomial_polygon(g, b, m, wo, d_n, P.v, P.n, P.radiance, P.form_factor,
+                                            P.ltc[6], P.ltc[7], l, live, defer));
       continue;
     }
 #endif
@@ -202,11 +255,12 @@ GLINT_FN real3 binomial_shade(EvalSpec spec, KernelInputs in, QueryInputs q, rea
      * directional + point ~4% in session 12, so those kernels look it up again here. */
     const GLINT_PRIVATE real *entry = spec.has_directional || spec.has_point ? 0 : e;
     int n = (int)in.polygons[GLINT_POLYGON_FLOATS * l];
-    radiance =
-        r3_add(radiance,
-               n == 4 ? binomial_polygon_ltc(g, b, m, spec, in, sp, alpha, d_n, l, 4, live, entry)
-                      : binomial_polygon_ltc(g, b, m, spec, in, sp, alpha, d_n, l, n, live, entry));
+    radiance = r3_add(
+        radiance,
+        n == 4 ? binomial_polygon_ltc(g, b, m, spec, in, sp, alpha, d_n, l, 4, live, entry, defer)
+               : binomial_polygon_ltc(g, b, m, spec, in, sp, alpha, d_n, l, n, live, entry, defer));
   }
+  if (defer) defer->live = live;
   return r3_select(zero, radiance, live);
 }
 
@@ -218,7 +272,7 @@ GLINT_FN real3 binomial_query(EvalSpec spec, KernelInputs in, uint i) {
   uint area_key = area_query_key(in.seed_lo, in.seed_hi, in.wo + 3 * i,
                                  spec.has_frame ? in.position + 3 * i : 0);
   return binomial_shade(spec, in, query_load(spec, in, i), (real)in.uv[2 * i],
-                        (real)in.uv[2 * i + 1], footprint, area_key);
+                        (real)in.uv[2 * i + 1], footprint, area_key, 0);
 }
 #endif
 

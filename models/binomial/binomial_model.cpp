@@ -9,6 +9,11 @@
 #include "server/host_pass.h"
 #include "server/model.h"
 
+// Blocks of 16 queries per fp32 work-item with lights: binomial_lanes.cl regroups the count
+// draws of that many blocks by regime when a request has one light (models/binomial/README.md
+// "Quad throughput (session 19): one regime per lane group").
+#define GLINT_BINOMIAL_LIGHTS_BLOCKS 4
+
 GLINT_DECLARE_HOST_PASS(Binomial)
 
 namespace glint {
@@ -159,7 +164,7 @@ const Model kBinomialModel = {
     // with one quad (0.88-1.08 of 16) and 0.75-0.98 with directional + point
     // (models/binomial/README.md "fp64 lanes (session 16)").
     .passes = {{"models/binomial/binomial_lanes.cl", "glint_binomial_lanes", 16, BinomialInLanes,
-                BinomialF32, BinomialF64},
+                BinomialF32, BinomialF64, 0, 0, GLINT_BINOMIAL_LIGHTS_BLOCKS},
                {"models/binomial/binomial.cl", "glint_binomial", 1, BinomialOneQueryPerItem,
                 BinomialF32, BinomialF64}},
     .validate_params = ValidateBinomialParams,

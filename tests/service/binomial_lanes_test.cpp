@@ -122,6 +122,7 @@ v1::QueryBatch Slice(const v1::QueryBatch &q, int pad, int pad_from, int first, 
     for (int k = 0; k < 4; ++k) out.add_footprint(q.footprint(4 * i + k));
     for (int k = 0; k < 3; ++k) {
       out.add_wo(q.wo(3 * i + k));
+      if (q.position_size() == 0) continue; /* queries in the local frame */
       out.add_position(q.position(3 * i + k));
       out.add_normal(q.normal(3 * i + k));
       out.add_tangent(q.tangent(3 * i + k));
@@ -172,6 +173,79 @@ TEST_F(BinomialLanes, ResultDoesNotDependOnLaneNeighboursOrBatchSize) {
         ASSERT_EQ(pieces.size(), whole.size());
         EXPECT_EQ(0, std::memcmp(pieces.data(), whole.data(), whole.size() * sizeof(float)))
             << "fp64 " << fp64 << " batches of " << chunk;
+      }
+    }
+}
+
+// One light and STOCHASTIC (one draw per query): the fp32 lane kernel evaluates 4 blocks of 16
+// queries per work-item and draws their counts with the lanes regrouped by regime
+// (models/binomial/binomial_lanes.cl binomial_lanes_regrouped), so a draw runs in a group with
+// lanes of other blocks. Its count must be the one its query gets alone: the same queries whole,
+// after 1..15 copies of another query (every lane moves to another place in its block and in the
+// packed groups), reversed, and in batches of 1 and 16 (one block per work-item: nothing to
+// regroup with) and of odd sizes give bit-identical results. The requests are
+// bench/binomial_breakdown's (its queries, material, 6 x 6 quad, or a directional light with a
+// 10 degree cone) at N_P = 1e2 and 1e3 in the mean footprint, where the draws of a work-item mix
+// the exact and the approximated regimes (models/binomial/README.md "Quad throughput (session
+// 12)"): a stage that mixed up two lanes' inputs or results would change counts.
+TEST_F(BinomialLanes, RegroupedDrawsDoNotDependOnNeighboursOrBatchSize) {
+  const v1::QueryBatch q = test::RandomQueries(403, false, false, 42);
+  double area = 0;
+  for (uint32_t i = 0; i < q.count(); ++i) {
+    const float *f = q.footprint().data() + 4 * i;
+    area += std::fabs(double(f[0]) * f[3] - double(f[2]) * f[1]);
+  }
+  area /= q.count();
+  for (int light = 0; light < 2; ++light)
+    for (double n_p : {1e2, 1e3}) {
+      EvaluateRequest settings;
+      auto *m = settings.mutable_material();
+      m->set_model(v1::BINOMIAL);
+      m->set_ndf(v1::GGX);
+      m->set_alpha_x(0.3f);
+      m->set_alpha_y(0.1f);
+      for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
+      m->mutable_binomial()->set_density(n_p / area);
+      m->mutable_binomial()->set_footprint_interpolation(v1::STOCHASTIC);
+      if (light == 0) {
+        AddPolygon(&settings, {-3, -3, 3, 3, -3, 3, 3, 3, 3, -3, 3, 3}, true);
+      } else {
+        auto *d = settings.add_lights()->mutable_directional();
+        for (float v : {0.6f, 0.0f, 0.8f}) d->add_direction(v);
+        for (float v : {2.0f, 2.0f, 2.0f}) d->add_irradiance(v);
+        d->set_cone_half_angle_deg(10.0f);
+      }
+      settings.set_area_method(v1::LTC);
+      settings.set_precision(v1::FP32);
+      settings.set_seed(0x9e3779b97f4aull);
+      ASSERT_TRUE(ValidateSettings(settings, {}).ok());
+      ASSERT_TRUE(ValidateQueriesForModel(q, settings).ok());
+      const std::vector<float> whole = Device(settings, q);
+      int lit = 0;
+      for (float v : whole) lit += v > 0.0f;
+      std::printf("light %d N_P %g: %d of %zu values lit\n", light, n_p, lit, whole.size());
+      // The comparisons must see glints.
+      ASSERT_GT(lit, int(whole.size()) / 20) << "light " << light << " N_P " << n_p;
+      for (int pad = 1; pad < 16; ++pad) {
+        const std::vector<float> shifted = Device(settings, Slice(q, pad, 40, 0, 403));
+        ASSERT_EQ(0,
+                  std::memcmp(shifted.data() + 3 * pad, whole.data(), whole.size() * sizeof(float)))
+            << "light " << light << " N_P " << n_p << " shifted by " << pad;
+      }
+      const std::vector<float> reversed = Device(settings, Slice(q, 0, 0, 0, 403, true));
+      for (int i = 0; i < 403; ++i)
+        for (int c = 0; c < 3; ++c)
+          ASSERT_EQ(reversed[size_t(3 * (402 - i) + c)], whole[size_t(3 * i + c)]) << "query " << i;
+      for (uint32_t chunk : {1u, 16u, 37u, 64u, 100u}) {
+        std::vector<float> pieces;
+        for (uint32_t first = 0; first < q.count(); first += chunk) {
+          const std::vector<float> out = Device(
+              settings, client::SliceQueries(q, first, first + std::min(chunk, q.count() - first)));
+          pieces.insert(pieces.end(), out.begin(), out.end());
+        }
+        ASSERT_EQ(pieces.size(), whole.size());
+        EXPECT_EQ(0, std::memcmp(pieces.data(), whole.data(), whole.size() * sizeof(float)))
+            << "light " << light << " N_P " << n_p << " batches of " << chunk;
       }
     }
 }

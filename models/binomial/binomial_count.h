@@ -56,6 +56,7 @@
 #include "kernels/compat.h"
 #include "kernels/rng.h"
 #include "models/binomial/binomial_params.h"
+#include "models/binomial/binomial_trig.h"
 
 /* This file's loops and regime branches test their masks with glint_any_by_mask (kernels/compat.h:
  * the mask register, vpmovd2m + kortest) instead of glint_any's OR reduction, which PoCL lowers
@@ -549,8 +550,8 @@ GLINT_FN real binomial_normal_of_uniform(real u, glint_mask used) {
  *    one the exact counts of the neighbouring regimes can meet (binomial_whole). Rounding adds
  *    1/12 to the variance and, at standard deviations >= 1, nothing measurable to the mean.
  * Monotone in p for fixed z: theta grows, the angle is clamped to [0, pi/2] where sin^2 grows
- * (and the device's fp32 sin does not fall between any two consecutive inputs there:
- * BinomialSinDevice.NonDecreasingOnEveryFp32InZeroToHalfPi),
+ * (in fp32 theta and the sine are binomial_trig.h's, which fall between no two consecutive fp32
+ * inputs: checked on every one, on the device and the host, BinomialTrig*; fp64 keeps libm's),
  * -(1 - 2p) grows, and the Cornish-Fisher term falls at most at rate 1/6 (|z| < 1; the
  * arcsine term then grows at rate >= n/2 for variances >= 1). The plain n p + z sqrt(n p (1-p))
  * is not monotone (sqrt(p (1 - p)) falls above p = 1/2, which a positive z turns into a falling
@@ -561,7 +562,7 @@ GLINT_FN real binomial_normal_of_uniform(real u, glint_mask used) {
 GLINT_FN real binomial_arcsine_theta(real n, real p, real theta, real z) {
   real phi =
       glint_clamp_nn(theta + GLINT_R(0.5) * z / sqrt(n), GLINT_R(0.0), GLINT_R(0.5) * GLINT_PI);
-  real s = sin(phi);
+  real s = binomial_sin_quadrant(phi);
   /* 1 - exp(-x) for x = 1/(2n) < 1/128 (n > 64 here): the series to x^3, relative error x^3/24 */
   real x = GLINT_R(0.5) / n;
   real mean_excess =
@@ -576,7 +577,7 @@ GLINT_FN real binomial_arcsine_theta(real n, real p, real theta, real z) {
 
 /* theta = asin(sqrt(p)) depends on p alone: the draws of one light share it (binomial_prob). */
 GLINT_FN real binomial_arcsine(real n, real p, real z) {
-  return binomial_arcsine_theta(n, p, asin(sqrt(p)), z);
+  return binomial_arcsine_theta(n, p, binomial_asin_sqrt(p), z);
 }
 
 /* What the draws of one light at probability p (clamped to 1) share: asin(sqrt(p)) and
@@ -605,7 +606,7 @@ GLINT_FN BinomialProb binomial_prob(real p) {
 
 GLINT_FN real binomial_prob_theta(GLINT_PRIVATE BinomialProb *b) {
   if (!b->has_theta) {
-    b->theta = asin(sqrt(b->p));
+    b->theta = binomial_asin_sqrt(b->p);
     b->has_theta = 1;
   }
   return b->theta;
@@ -674,7 +675,7 @@ GLINT_FN real binomial_whole_approx(real n, GLINT_PRIVATE BinomialProb *prob, re
   /* asin(sqrt(fmin(p, p2))): the light's theta unless p > p2 */
   real theta = binomial_prob_theta(prob);
   glint_mask above_p2 = approx & (p > p2);
-  if (glint_any_by_mask(above_p2)) theta = glint_select(theta, asin(sqrt(p2)), above_p2);
+  if (glint_any_by_mask(above_p2)) theta = glint_select(theta, binomial_asin_sqrt(p2), above_p2);
   real x =
       binomial_arcsine_theta(n, glint_fmin_nn(p, p2), theta, binomial_normal_of_uniform(u, approx));
   /* max(x, E(p1)) needs E(p1) only if it can exceed x: E(p1) <= the cap for every u, and

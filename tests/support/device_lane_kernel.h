@@ -17,23 +17,33 @@
 
 namespace glint::test {
 
-// Builds `kernel_source` after the expanded `header` (a kernels/ or models/ path) as the 16-lane
-// fp32 device entries compile it (GLINT_FAST_ROOTS, GLINT_CONTRACT_FMA, local frame), on the
-// default device with the kernel cache of $GLINT_CACHE_DIR.
-inline ::testing::AssertionResult BuildFastRootsLaneProgram(const std::string &header,
-                                                            const char *kernel_source,
-                                                            std::unique_ptr<ClRuntime> *rt,
-                                                            cl_program *program) {
+// Builds `kernel_source` after `prelude` and the expanded `header` (a kernels/ or models/ path) as
+// a 16-lane fp32 device entry in the local frame, on the default device with the kernel cache of
+// $GLINT_CACHE_DIR.
+inline ::testing::AssertionResult BuildLaneProgram(const std::string &prelude,
+                                                   const std::string &header,
+                                                   const char *kernel_source,
+                                                   std::unique_ptr<ClRuntime> *rt,
+                                                   cl_program *program) {
   const char *cache = std::getenv("GLINT_CACHE_DIR");
   if (!ClRuntime::Create("", cache ? cache : "", rt).ok())
     return ::testing::AssertionFailure() << "no OpenCL runtime";
   const Status built = (*rt)->GetProgram(
-      "#define GLINT_FAST_ROOTS 1\n#define GLINT_CONTRACT_FMA 1\n" + ExpandKernelSource(header) +
-          kernel_source,
+      prelude + ExpandKernelSource(header) + kernel_source,
       "-DGLINT_LANES=16 -DGLINT_USE_DOUBLE=0 -DGLINT_HAS_FRAME=0 -cl-single-precision-constant",
       program);
   if (!built.ok()) return ::testing::AssertionFailure() << built.message();
   return ::testing::AssertionSuccess();
+}
+
+// The same as the 16-lane fp32 entries that ask for fast roots and fused multiply-adds compile it
+// (GLINT_FAST_ROOTS, GLINT_CONTRACT_FMA: SMOOTH's and KEMPPINEN's).
+inline ::testing::AssertionResult BuildFastRootsLaneProgram(const std::string &header,
+                                                            const char *kernel_source,
+                                                            std::unique_ptr<ClRuntime> *rt,
+                                                            cl_program *program) {
+  return BuildLaneProgram("#define GLINT_FAST_ROOTS 1\n#define GLINT_CONTRACT_FMA 1\n", header,
+                          kernel_source, rt, program);
 }
 
 inline ::testing::AssertionResult RunFloatLaneKernel(

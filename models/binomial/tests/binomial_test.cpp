@@ -18,9 +18,12 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <functional>
+#include <initializer_list>
 #include <limits>
 #include <map>
 #include <random>
@@ -497,6 +500,148 @@ TEST(BinomialDraw, MarksteinQuotientIsTheDivision) {
               mismatches, uncorrected);
   EXPECT_EQ(mismatches, 0);
   EXPECT_GT(uncorrected, compared / 10);  // the correction is what makes them equal
+}
+
+// ---------------------------------------------------------------------------------------------
+// The arcsine count's sine and arcsine in fp32 (models/binomial/binomial_trig.h), on every fp32
+// input of their ranges, as the host runs them (BinomialTrigDevice checks the device's lanes,
+// built as the binomial kernels are, and that they give the host's bits).
+
+float FloatOfBits(uint32_t b) {
+  float f;
+  std::memcpy(&f, &b, sizeof f);
+  return f;
+}
+
+// |y - ref| in units of the fp32 spacing at ref (2^(e - 23) for |ref| in [2^e, 2^(e + 1))).
+double UlpError(float y, long double ref) {
+  int e = 0;
+  std::frexp(double(std::fabs(ref)), &e);
+  return double(std::fabs((long double)y - ref)) / std::ldexp(1.0, std::max(e - 24, -149));
+}
+
+// Inputs for the accuracy checks: every one with GLINT_EXHAUSTIVE set, else every 61st and all
+// within 2^16 of each switch and of the range's end (where the pieces meet and the slopes vanish).
+bool AccuracyInput(uint32_t b, uint32_t last, std::initializer_list<float> switches) {
+  static const bool exhaustive = std::getenv("GLINT_EXHAUSTIVE") != nullptr;
+  if (exhaustive || b % 61 == 0 || last - b < (1u << 16)) return true;
+  for (float s : switches) {
+    uint32_t sb;
+    std::memcpy(&sb, &s, sizeof sb);
+    if ((b > sb ? b - sb : sb - b) < (1u << 16)) return true;
+  }
+  return false;
+}
+
+// The a-priori error bound of both functions (binomial_trig.h): the final rounding (1/2 ulp),
+// the rounding errors of the polynomial part (a handful of roundings, each of relative size
+// 2^-24, of a part that is at most ~1/6 of the result: <= 0.85 ulp for the sine below 1; the
+// argument y's rounding (0.27 ulp) and t's (0.5 ulp) from 1; the square root's 1/2 ulp for the
+// arcsine), and the polynomials' own error (<= 0.13 ulp): each piece <= 1.4 ulp. OpenCL asks
+// <= 4 ulp of `sin` and `asin`.
+constexpr double kTrigUlpBound = 1.5;
+
+// Below 2^-30 both functions are their leading term, exactly: the sine's T is at most x^3 / 6 <
+// 2^-62 x and the arcsine's s (p R(p)) at most s p / 5 < 2^-32 s, below half an ulp of x (of s =
+// sqrt(p)), so the last sum rounds to x (to s) whatever the rounding of the small term, whose
+// products are subnormal there. That is checked on every 509th input below 2^-30 (each
+// subnormal intermediate costs the host a ~150-cycle microcode assist: all of them would take a
+// minute); every input from 2^-30 up is checked for falls (and the device checks every input,
+// BinomialTrigDevice).
+constexpr uint32_t kTinyBits = 0x30800000u;  // 2^-30
+
+// f's values on the fp32 inputs [first, first + n) (bits) into `out`, in a loop of independent
+// iterations before the checks scan them (one input at a time, the polynomials' dependent chains
+// would leave the core mostly idle).
+template <class F>
+void FillOfBits(uint32_t first, uint32_t n, std::vector<float> *out, F f) {
+  for (uint32_t i = 0; i < n; ++i) (*out)[i] = f(FloatOfBits(first + i));
+}
+
+TEST(BinomialTrig, SineNeverFallsOnAnyFp32InZeroToHalfPiAndIsWithinItsBound) {
+  // the clamp's upper end in binomial_arcsine_theta, 0.5f * GLINT_PI: the float above pi/2
+  constexpr uint32_t kLast = 0x3fc90fdbu;
+  for (uint32_t b = 0; b < kTinyBits; b += 509)
+    ASSERT_EQ(k32::binomial_sin_quadrant(FloatOfBits(b)), FloatOfBits(b));
+  constexpr uint32_t kBlock = 1u << 16;
+  std::vector<float> val(kBlock), head(kBlock), tail(kBlock);
+  long falls = 0, sum_falls = 0, compared = 0;
+  double worst = 0, worst_x = 0, min_rise = 1e30, min_rise_x = 0;
+  float prev = FloatOfBits(kTinyBits - 1);
+  double prev_sum = prev;
+  for (uint32_t first = kTinyBits; first <= kLast; first += kBlock) {
+    const uint32_t n = std::min(kBlock, kLast - first + 1);
+    FillOfBits(first, n, &val, [](float x) { return k32::binomial_sin_quadrant(x); });
+    FillOfBits(first, n, &head, [](float x) { return k32::binomial_sin_terms(x).head; });
+    FillOfBits(first, n, &tail, [](float x) { return k32::binomial_sin_terms(x).tail; });
+    for (uint32_t i = 0; i < n; ++i) {
+      const uint32_t b = first + i;
+      const float x = FloatOfBits(b), s = val[i];
+      // the exact sum before the last rounding (two floats: exact in double), which
+      // binomial_sin_quadrant rounds once
+      const double sum = double(head[i]) + double(tail[i]);
+      ASSERT_EQ(s, float(sum));
+      falls += s < prev;
+      sum_falls += sum < prev_sum;
+      const bool sampled = AccuracyInput(b, kLast, {1.0f});
+      // the sum's rise against the true increment cos(x) dx where that is not vanishingly small
+      // (on the sample: a cosine per input would take most of the test's time)
+      if (sampled && x < 1.5f) {
+        const double rise =
+            (sum - prev_sum) / (std::cos(double(x)) * (double(x) - double(FloatOfBits(b - 1))));
+        if (rise < min_rise) min_rise = rise, min_rise_x = x;
+      }
+      prev = s;
+      prev_sum = sum;
+      if (sampled) {
+        ++compared;
+        const double e = UlpError(s, std::sin((long double)x));
+        if (e > worst) worst = e, worst_x = x;
+      }
+    }
+  }
+  std::printf(
+      "%u fp32 x in [2^-30, pi/2]: the sine falls at %ld, its exact sum before the last "
+      "rounding at %ld (on the sample it rises by >= %.3f cos(x) dx, at %.9g); %ld "
+      "compared with long double: worst %.3f ulp at %.9g\n",
+      kLast + 1 - kTinyBits, falls, sum_falls, min_rise, min_rise_x, compared, worst, worst_x);
+  EXPECT_EQ(falls, 0);
+  EXPECT_EQ(sum_falls, 0);
+  EXPECT_LE(worst, kTrigUlpBound);
+}
+
+TEST(BinomialTrig, ArcsineOfRootNeverFallsOnAnyFp32InZeroToOneAndIsWithinItsBound) {
+  constexpr uint32_t kOne = 0x3f800000u;
+  for (uint32_t b = 0; b < kTinyBits; b += 509)
+    ASSERT_EQ(k32::binomial_asin_sqrt(FloatOfBits(b)), std::sqrt(FloatOfBits(b)));
+  constexpr uint32_t kBlock = 1u << 16;
+  std::vector<float> val(kBlock);
+  long falls = 0, compared = 0;
+  double worst = 0, worst_p = 0;
+  float prev = std::sqrt(FloatOfBits(kTinyBits - 1));
+  for (uint32_t first = kTinyBits; first <= kOne; first += kBlock) {
+    const uint32_t n = std::min(kBlock, kOne - first + 1);
+    FillOfBits(first, n, &val, [](float p) { return k32::binomial_asin_sqrt(p); });
+    for (uint32_t i = 0; i < n; ++i) {
+      const uint32_t b = first + i;
+      const float p = FloatOfBits(b), theta = val[i];
+      if (theta < prev && ++falls <= 5)
+        ADD_FAILURE() << "asin(sqrt(p)) falls at p = " << p << ": " << prev << " -> " << theta;
+      prev = theta;
+      if (AccuracyInput(b, kOne, {0.25f, 0.75f})) {
+        // the angle of the fp32 p itself (its square root not rounded)
+        ++compared;
+        const double e = UlpError(theta, std::asin(std::sqrt((long double)p)));
+        if (e > worst) worst = e, worst_p = p;
+      }
+    }
+  }
+  std::printf(
+      "%u fp32 p in [2^-30, 1]: asin(sqrt(p)) falls at %ld; %ld compared with long "
+      "double: worst %.3f ulp at %.9g\n",
+      kOne + 1 - kTinyBits, falls, compared, worst, worst_p);
+  EXPECT_EQ(falls, 0);
+  EXPECT_LE(worst, kTrigUlpBound);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -121,8 +121,12 @@ GLINT_FN SmoothReflect smooth_reflect_cos_parts_with(SmoothMaterial m, SmoothVie
   real DV_cos_i = m.ndf == GLINT_NDF_BECKMANN
                       ? D * smith_visibility_cos_i_view(m.ndf, wo, v.zlo, wi, m.alpha_x, m.alpha_y)
                       : ggx_D_visibility_cos_i_view(h, v.zo, v.r_o, wi, m.alpha_x, m.alpha_y);
+  /* Dead lanes get their 0 through the channels' common factor: one select instead of one per
+   * channel. Every Fresnel here is finite and >= 0 in every lane (clamped, or from validated
+   * f0 in [0, 1] and ior in (0, 1e6)), so F * 0 = +0, the zero the per-channel select gave. */
+  DV_cos_i = glint_select(DV_cos_i, GLINT_R(0.0), dead);
   real3 F = fresnel_eval(m.fresnel, r3_dot(wo, h));
-  r.fc = r3_select(r3_scale(F, DV_cos_i), zero, dead);
+  r.fc = r3_scale(F, DV_cos_i);
   r.h = h;
   r.D = D;
   return r;

@@ -21,9 +21,7 @@ GLINT_FN real F_schlick(real f0, real cos_theta) {
  *   Rp = Rs (c^2 a2b2 + s^4 - 2 a c s^2) / (c^2 a2b2 + s^4 + 2 a c s^2).
  * Two square roots and one division per channel (the cost that matters: the
  * conductor runs this three times per evaluation, issue 13). */
-GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
-  real c = clamp(cos_theta, GLINT_R(0.0), GLINT_R(1.0));
-  real c2 = c * c;
+GLINT_FN real F_conductor_cos2(real eta, real k, real c, real c2) {
   real s2 = GLINT_R(1.0) - c2;
   real t0 = eta * eta - k * k - s2;
   /* t0^2 + 4 eta^2 k^2 >= 0 as computed too (squares and a product of two squares, rounded: never
@@ -71,6 +69,12 @@ GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
   return clamp(f, GLINT_R(0.0), GLINT_R(1.0));
 }
 
+/* F_conductor_cos2 for c = cos_theta clamped to [0, 1] and c2 = c^2. */
+GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
+  real c = clamp(cos_theta, GLINT_R(0.0), GLINT_R(1.0));
+  return F_conductor_cos2(eta, k, c, c * c);
+}
+
 /* Exact unpolarised reflectance of a dielectric interface, light arriving
  * from the side with index 1 onto index `ior` (Walter et al. 2007 Eq. 22 in
  * the s/p amplitude form). ior < 1 can give total internal reflection. */
@@ -108,6 +112,16 @@ GLINT_FN real3 fresnel_eval(FresnelParams p, real cos_theta) {
   }
   return make_real3(F_schlick(p.a.x, cos_theta), F_schlick(p.a.y, cos_theta),
                     F_schlick(p.a.z, cos_theta));
+}
+
+/* fresnel_eval for c = cos_theta in [0, 1] given with c2, c^2 up to a rounding (the conductor's
+ * roots need c^2 only: kernels/smooth_brdf.h computes it without a root). */
+GLINT_FN real3 fresnel_eval_cos2(FresnelParams p, real c, real c2) {
+  if (p.kind == GLINT_FRESNEL_CONDUCTOR) {
+    return make_real3(F_conductor_cos2(p.a.x, p.b.x, c, c2), F_conductor_cos2(p.a.y, p.b.y, c, c2),
+                      F_conductor_cos2(p.a.z, p.b.z, c, c2));
+  }
+  return fresnel_eval(p, c);
 }
 
 #endif /* GLINT_FRESNEL_H */

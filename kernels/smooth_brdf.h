@@ -130,7 +130,10 @@ GLINT_FN SmoothReflect smooth_reflect_cos_parts_with(SmoothMaterial m, SmoothVie
   /* The Fresnel's cos theta_d = wo.h from |wi + wo| alone: for unit wi and wo,
    * wo.(wi + wo) = 1 + wo.wi = |wi + wo|^2 / 2, so wo.h = |wi + wo| / 2 and cos^2 = hh / 4.
    * cos^2, all the conductor's roots need, is then one product after hh instead of after h's
-   * root, its scaling and a dot product (~50 cycles off the block's longest chain, issue 13). */
+   * root, its scaling and a dot product (~50 cycles off the block's longest chain, issue 13).
+   * For directions of lengths^2 1 + 2 d_o and 1 + 2 d_i (normalised to a few ulp), hh / 4 is
+   * cos^2 (1 + d_o + d_i): a relative error independent of the angle, where wo.h carried
+   * (d_o - d_i) / (2 cos^2). The bound 1 only catches hh's rounding above 4 (wi = wo). */
   real cd2 = glint_fmin_nn(GLINT_R(0.25) * hh_live, GLINT_R(1.0));
   real cd = glint_fmin_nn(GLINT_R(0.5) * (hh_live * rs), GLINT_R(1.0));
   real3 F = fresnel_eval_cos2(m.fresnel, cd, cd2);

@@ -387,12 +387,19 @@ typedef real real_scalar;
 #if defined(GLINT_FAST_ROOTS) && defined(__OPENCL_VERSION__) && GLINT_LANES == 16 && \
     !GLINT_USE_DOUBLE && defined(__AVX512F__)
 #define GLINT_FAST_ROOTS_ACTIVE 1
-GLINT_FN real glint_sqrt_nn(real x) {
-  /* x rsqrt(x) with the Newton step on the product: s (3/2 - r s / 2), s = x r. x = 0 gives
-   * r = inf and 0 * inf: selected to the exact 0. */
+/* glint_sqrt_nn for x > 0: x = 0 gives NaN here (the estimate of 1 / sqrt(0) is inf, and 0 * inf),
+ * 0 elsewhere. glint_sqrt_nn(x) is glint_select(glint_sqrt_nn_nonzero(x), 0, x == 0), the same
+ * operations, so a caller that applies that select only where it matters (F_conductor's rare
+ * rescaling, kernels/fresnel.h) gets the same bits. */
+GLINT_FN real glint_sqrt_nn_nonzero(real x) {
+  /* x rsqrt(x) with the Newton step on the product: s (3/2 - r s / 2), s = x r. */
   real r = __builtin_ia32_rsqrt14ps512_mask(x, (real)(0.0f), (ushort)0xFFFF);
   real s = x * r;
-  return glint_select(s * (GLINT_R(1.5) - GLINT_R(0.5) * r * s), GLINT_R(0.0), x == GLINT_R(0.0));
+  return s * (GLINT_R(1.5) - GLINT_R(0.5) * r * s);
+}
+GLINT_FN real glint_sqrt_nn(real x) {
+  /* x = 0 gives r = inf and 0 * inf: selected to the exact 0. */
+  return glint_select(glint_sqrt_nn_nonzero(x), GLINT_R(0.0), x == GLINT_R(0.0));
 }
 GLINT_FN real glint_rsqrt_nn(real x) {
   real r = __builtin_ia32_rsqrt14ps512_mask(x, (real)(0.0f), (ushort)0xFFFF);
@@ -418,6 +425,9 @@ GLINT_FN real glint_fma_fast(real a, real b, real c) {
 #else
 #define GLINT_FAST_ROOTS_ACTIVE 0
 GLINT_FN real glint_sqrt_nn(real x) {
+  return sqrt(x);
+}
+GLINT_FN real glint_sqrt_nn_nonzero(real x) {
   return sqrt(x);
 }
 GLINT_FN real glint_rsqrt_nn(real x) {

@@ -21,12 +21,12 @@ GLINT_FN real F_schlick(real f0, real cos_theta) {
  *   Rp = Rs (c^2 a2b2 + s^4 - 2 a c s^2) / (c^2 a2b2 + s^4 + 2 a c s^2).
  * Two square roots and one division per channel (the cost that matters: the
  * conductor runs this three times per evaluation, issue 13). */
-GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
-  real c = clamp(cos_theta, GLINT_R(0.0), GLINT_R(1.0));
-  real c2 = c * c;
+GLINT_FN real F_conductor_cos2(real eta, real k, real c, real c2) {
   real s2 = GLINT_R(1.0) - c2;
   real t0 = eta * eta - k * k - s2;
-  real a2b2 = glint_sqrt_nn(fmax(t0 * t0 + GLINT_R(4.0) * eta * eta * k * k, GLINT_R(0.0)));
+  /* t0^2 + 4 eta^2 k^2 >= 0 as computed too (squares and a product of two squares, rounded: never
+   * negative), so the root needs no bound. */
+  real a2b2 = glint_sqrt_nn(t0 * t0 + GLINT_R(4.0) * eta * eta * k * k);
   /* a^2 = (a2b2 + t0) / 2 cancels when t0 < 0 and |t0| >> 2 eta k (small eta, large k: silver,
    * gold in the red), costing fp32 up to 1e-5 in F. With u = a2b2 + |t0| (a sum of
    * non-negatives: no cancellation) and w = sqrt(u / 2): a = w for t0 >= 0, and for t0 < 0
@@ -34,7 +34,10 @@ GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
    * merged into the final one: both fractions below are multiplied through by w, with
    * T = 2 a c w = c u (t0 >= 0) or 2 c eta k (t0 < 0), so no term needs a itself. */
   real u = a2b2 + fabs(t0);
-  real w = glint_sqrt_nn(GLINT_R(0.5) * u);
+  real half_u = GLINT_R(0.5) * u;
+  /* glint_sqrt_nn(half_u) is glint_select(w, 0, half_u == 0) (kernels/compat.h): the select is
+   * needed only in the rescaling below, where it is applied. */
+  real w = glint_sqrt_nn_nonzero(half_u);
   real T = glint_select(GLINT_R(2.0) * c * (eta * k), c * u, t0 >= GLINT_R(0.0));
   /* The fractions are now of degree 2 in w, and their terms can be as small as ~w^4 (a2b2 is
    * between w^2 and 2 w^2, and t1 t3 >= ~a2b2 as c -> 0 or 1): below w ~ 2^-32 they reach the
@@ -42,11 +45,20 @@ GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
    * grazing c, tests/kernels/fresnel_test.cpp). So for w < 2^-24, w and T are scaled by 2^64
    * (exact; the fractions do not change); there a <= w and a2b2 <= 2 w^2 keep t1, t3 <= ~1, so
    * nothing overflows. w = 0 means a = 0 and T = 0: any positive w gives the exact
-   * F = t1 t3 / (t1 t3) = 1 there (e.g. k = 0 at the critical angle), hence ws = 1. */
-  glint_mask tiny = w < GLINT_R(5.9604644775390625e-8);                           /* 2^-24 */
-  real scale = glint_select(GLINT_R(1.0), GLINT_R(18446744073709551616.0), tiny); /* 2^64 */
-  real ws = glint_select(w * scale, GLINT_R(1.0), w <= GLINT_R(0.0));
-  T = T * scale;
+   * F = t1 t3 / (t1 t3) = 1 there (e.g. k = 0 at the critical angle), hence ws = 1.
+   * Only a block with such a lane rescales (a uniform branch): w < 2^-24 needs eta k < ~2^-48
+   * (w^2 >= a2b2 / 2 >= eta k), so for every material but a near-dielectric one no lane ever
+   * does. Elsewhere scale = 1, ws = w and T * 1 = T: the same bits as rescaling every block,
+   * for 2 instructions per channel instead of 7 (issue 13, session 19). The test is written so
+   * that half_u = 0 (w NaN by the estimate, 0 exactly elsewhere) takes the rescaling too. */
+  real ws = w;
+  if (glint_any(!(w >= GLINT_R(5.9604644775390625e-8)))) {           /* 2^-24 */
+    real w0 = glint_select(w, GLINT_R(0.0), half_u == GLINT_R(0.0)); /* glint_sqrt_nn(half_u) */
+    glint_mask tiny = w0 < GLINT_R(5.9604644775390625e-8);
+    real scale = glint_select(GLINT_R(1.0), GLINT_R(18446744073709551616.0), tiny); /* 2^64 */
+    ws = glint_select(w0 * scale, GLINT_R(1.0), w0 <= GLINT_R(0.0));
+    T = T * scale;
+  }
   real t1w = (a2b2 + c2) * ws;           /* t1 w, t1 = a2b2 + c^2 */
   real t3w = (c2 * a2b2 + s2 * s2) * ws; /* t3 w */
   /* (Rs + Rp) / 2 = Rs (1 + (t3 - t4) / (t3 + t4)) / 2 = Rs t3 / (t3 + t4), t4 = 2 a c s^2,
@@ -55,6 +67,12 @@ GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
    * w <= ~1.5e6, so numerator and denominator stay below ~1e37, inside the float range. */
   real f = (t1w - T) * t3w / ((t1w + T) * (t3w + T * s2));
   return clamp(f, GLINT_R(0.0), GLINT_R(1.0));
+}
+
+/* F_conductor_cos2 for c = cos_theta clamped to [0, 1] and c2 = c^2. */
+GLINT_FN real F_conductor(real eta, real k, real cos_theta) {
+  real c = clamp(cos_theta, GLINT_R(0.0), GLINT_R(1.0));
+  return F_conductor_cos2(eta, k, c, c * c);
 }
 
 /* Exact unpolarised reflectance of a dielectric interface, light arriving
@@ -94,6 +112,16 @@ GLINT_FN real3 fresnel_eval(FresnelParams p, real cos_theta) {
   }
   return make_real3(F_schlick(p.a.x, cos_theta), F_schlick(p.a.y, cos_theta),
                     F_schlick(p.a.z, cos_theta));
+}
+
+/* fresnel_eval for c = cos_theta in [0, 1] given with c2, c^2 up to a rounding (the conductor's
+ * roots need c^2 only: kernels/smooth_brdf.h computes it without a root). */
+GLINT_FN real3 fresnel_eval_cos2(FresnelParams p, real c, real c2) {
+  if (p.kind == GLINT_FRESNEL_CONDUCTOR) {
+    return make_real3(F_conductor_cos2(p.a.x, p.b.x, c, c2), F_conductor_cos2(p.a.y, p.b.y, c, c2),
+                      F_conductor_cos2(p.a.z, p.b.z, c, c2));
+  }
+  return fresnel_eval(p, c);
 }
 
 #endif /* GLINT_FRESNEL_H */

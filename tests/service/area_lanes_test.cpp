@@ -15,6 +15,7 @@
 #include <memory>
 #include <vector>
 
+#include "light_reach.h"
 #include "server/device_engine.h"
 #include "server/eval_plan.h"
 #include "server/host_path.h"
@@ -54,11 +55,13 @@ EvaluateRequest Settings(float alpha_x, float alpha_y, bool fp64) {
   m->set_alpha_x(alpha_x);
   m->set_alpha_y(alpha_y);
   for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
-  AddPolygon(&r, {-1, -1, 3, 1, -1, 3, 1, 1, 3, -1, 1, 3}, false);
+  // Counter-clockwise seen from below: one-sided polygons emit towards that side (glint.proto),
+  // here down onto the shading points (positions in [-2, 2]^3).
+  AddPolygon(&r, {-1, 1, 3, 1, 1, 3, 1, -1, 3, -1, -1, 3}, false);
   const float t = 5e-4f;
   AddPolygon(&r, {4 - t, -t, 0.5f, 4 + t, -t, 0.5f, 4 + t, t, 0.5f, 4 - t, t, 0.5f}, true);
   const float h = 500.0f;
-  AddPolygon(&r, {-h, -h, 20, h, -h, 20, h, h, 20, -h, h, 20}, false);
+  AddPolygon(&r, {-h, h, 20, h, h, 20, h, -h, 20, -h, -h, 20}, false);
   AddPolygon(&r, {2.5f, -1, -0.5f, 2.5f, 1, -0.5f, 2.5f, 1, 1.5f, 2.5f, 0, 2, 2.5f, -1, 1.5f},
              true);
   r.set_area_method(v1::LTC);
@@ -82,6 +85,14 @@ v1::QueryBatch Slice(const v1::QueryBatch &q, int pad, int pad_from, int first, 
   for (int i = 0; i < pad; ++i) copy(pad_from);
   for (int i = 0; i < count; ++i) copy(reversed ? first + count - 1 - i : first + i);
   return out;
+}
+
+// The comparisons below see a light only where it reaches a query: each one must.
+TEST_F(AreaLanes, EveryLightOfTheSettingsReachesSomeQuery) {
+  EXPECT_EQ(test::LightsReachingNoQuery(Settings(0.2f, 0.05f, false),
+                                        test::RandomQueries(403, false, true, 23)),
+            std::vector<int>{})
+      << "lights (indices) that no query sees";
 }
 
 TEST_F(AreaLanes, LtcResultDoesNotDependOnLaneNeighbours) {

@@ -551,14 +551,17 @@ GLINT_FN real binomial_normal_of_uniform(real u, glint_mask used) {
  *    1/12 to the variance and, at standard deviations >= 1, nothing measurable to the mean.
  * Monotone in p for fixed z: theta grows, the angle is clamped to [0, pi/2] where sin^2 grows
  * (in fp32 theta and the sine are binomial_trig.h's, which fall between no two consecutive fp32
- * inputs: checked on every one, on the device and the host, BinomialTrig*; fp64 keeps libm's),
- * -(1 - 2p) grows, and the Cornish-Fisher term falls at most at rate 1/6 (|z| < 1; the
- * arcsine term then grows at rate >= n/2 for variances >= 1). The plain n p + z sqrt(n p (1-p))
- * is not monotone (sqrt(p (1 - p)) falls above p = 1/2, which a positive z turns into a falling
- * count, and likewise for z << 0 at small n p). Near p = 1, asin(sqrt(p)) resolves the
- * failures n (1 - p) to ~n eps, as fine as fp32's p itself. Measured against the pmf by explicit
- * sums over the draw's exact law (all 2^24 uniforms): total variation 1e-3 .. 3e-3 at variance 9,
- * 1e-4 at 210; variance n p (1 - p) + O(1): +1.3% at variance 9. */
+ * inputs: checked on every one on the device, as the lane kernels and the one-query kernel build
+ * them, BinomialTrigDevice; on the host on every one from 2^-30 up and one in 509 below, where
+ * both are their leading term exactly, BinomialTrig. fp64 keeps libm's sin and asin(sqrt) --
+ * PoCL's on the device, glibc's on the host -- whose never falling is NOT verified by any test:
+ * a gap that predates session 19), -(1 - 2p) grows, and the Cornish-Fisher term falls at most at
+ * rate 1/6 (|z| < 1; the arcsine term then grows at rate >= n/2 for variances >= 1). The plain n p
+ * + z sqrt(n p (1-p)) is not monotone (sqrt(p (1 - p)) falls above p = 1/2, which a positive z
+ * turns into a falling count, and likewise for z << 0 at small n p). Near p = 1, asin(sqrt(p))
+ * resolves the failures n (1 - p) to ~n eps, as fine as fp32's p itself. Measured against the pmf
+ * by explicit sums over the draw's exact law (all 2^24 uniforms): total variation 1e-3 .. 3e-3 at
+ * variance 9, 1e-4 at 210; variance n p (1 - p) + O(1): +1.3% at variance 9. */
 GLINT_FN real binomial_arcsine_theta(real n, real p, real theta, real z) {
   real phi =
       glint_clamp_nn(theta + GLINT_R(0.5) * z / sqrt(n), GLINT_R(0.0), GLINT_R(0.5) * GLINT_PI);

@@ -221,9 +221,10 @@ GLINT_FN void binomial_whole_regrouped(const GLINT_PRIVATE BinomialDeferred *d, 
     int16 flags = vload16(j, pflags);
     /* log(1 - q) of p_first: binomial_whole_prob's binomial_prob_log1m_q(prob) where p_first =
      * p, binomial_log1m_rarer(p1) where p1: the same function of the same value */
-    real xj = binomial_whole_searches(n, &prob, u, vload16(j, px), p_first,
-                                      binomial_log1m_rarer(p_first), act & ((flags & 1) != 0),
-                                      act & ((flags & 2) != 0), act & ((flags & 4) != 0));
+    real x0 = glint_select(GLINT_R(0.0), vload16(j, px), act); /* lanes past count: unset */
+    real xj = binomial_whole_searches(n, &prob, u, x0, p_first, binomial_log1m_rarer(p_first),
+                                      act & ((flags & 1) != 0), act & ((flags & 2) != 0),
+                                      act & ((flags & 4) != 0));
     vstore16(xj, j, px);
   }
   for (uint b = 0; b < blocks; ++b) {
@@ -244,7 +245,13 @@ GLINT_FN void binomial_lanes_regrouped(EvalSpec spec, KernelInputs in,
   for (uint b = 0; b < GLINT_BLOCKS; ++b) {
     uint base = base0 + b * GLINT_LANES;
     if (base >= n) break;
+    /* What the stages read of a block without a deferred light (active none): defined values,
+     * not uninitialised ones (binomial_light sets them all where it defers). */
     d[b].deferred = 0;
+    d[b].p_draw = GLINT_R(0.0);
+    d[b].draw.whole = GLINT_R(0.0);
+    d[b].draw.u = GLINT_R(0.0);
+    d[b].draw.has_whole = (glint_mask)0;
     L[b] = binomial_lanes_shade(spec, in, footprint, uv, base, n, &d[b]);
     ++blocks;
   }

@@ -48,7 +48,17 @@ struct ModelPass {
   // Blocks of Width() queries per work-item for fp32 requests with lights (built with
   // -DGLINT_BLOCKS= when above 1; the entry must evaluate that many blocks), 0 or 1 = one block.
   // BINOMIAL's lane kernel regroups the count draws of its blocks by regime
-  // (models/binomial/binomial_lanes.cl).
+  // (models/binomial/binomial_lanes.cl, on AVX-512 devices; elsewhere it runs the blocks one
+  // after the other). Private memory grows with it: the regrouped path keeps per work-item a
+  // deferred draw (~0.9 KB of 16-lane vectors), a result and a count per block and the packed
+  // stage arrays (6 x (blocks + 1) x 16 values), ~7-8 KB at 4 blocks of 16 fp32 lanes (clang-15
+  // -O2 for skylake-avx512, one quad: the kernel's frame 16.2 KB at 1 block, 22.6 KB at 4). PoCL
+  // keeps private arrays per work-item of the group on its worker thread's stack (presumably:
+  // 16 blocks at 128 work-items per group crashed with SIGSEGV in the kernel), so what bounds
+  // it is blocks x the work-items per group: DeviceEngine launches lights passes with
+  // DeviceEngineOptions::local_size / blocks work-items per group (128 / 4 = 32: ~240 KB of
+  // regrouping state, ~720 KB of frames if PoCL keeps them all), and
+  // a larger value here or a larger local_size must be checked against that stack.
   int lights_blocks_fp32 = 0;
 
   // The width the pass compiles and launches with for a request of this precision.

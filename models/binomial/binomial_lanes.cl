@@ -12,8 +12,8 @@
  * (session 15)"). The result per query is the same bit for bit: every lane runs the scalar
  * arithmetic whatever the width.
  * fp32 work-items evaluate GLINT_BLOCKS (4, binomial_model.cpp) such blocks one after the other;
- * with one light and STOCHASTIC (one draw per query) the blocks' count draws run with their lanes
- * regrouped by regime (binomial_lanes_regrouped below). */
+ * with one light and STOCHASTIC (one draw per query) on AVX-512 the blocks' count draws run with
+ * their lanes regrouped by regime (binomial_lanes_regrouped below, GLINT_BINOMIAL_REGROUP). */
 #include "kernels/kernel_args.h"
 #include "kernels/simd_io.h"
 #include "kernels/work_item.h"
@@ -22,9 +22,15 @@
 #ifndef GLINT_BLOCKS
 #define GLINT_BLOCKS 1
 #endif
-#if GLINT_BLOCKS > 1 && !(GLINT_LANES == 16 && !GLINT_USE_DOUBLE && defined(__AVX512DQ__))
-#error \
-    "glint_binomial_lanes regroups the draws of GLINT_BLOCKS blocks on 16 fp32 AVX-512 lanes only"
+/* The regrouped draws (binomial_lanes_regrouped) need AVX-512's compress and expand (and its
+ * mask registers) on 16 fp32 lanes; every other device, width and precision runs the blocks one
+ * after the other (the plain loop in glint_binomial_lanes), with the same results: server/model.h
+ * builds every fp32 lights request with GLINT_BLOCKS, whatever the device. As the other AVX-512
+ * paths (kernels/compat.h glint_any_by_mask, GLINT_FAST_ROOTS). */
+#if GLINT_BLOCKS > 1 && GLINT_LANES == 16 && !GLINT_USE_DOUBLE && defined(__AVX512DQ__)
+#define GLINT_BINOMIAL_REGROUP 1
+#else
+#define GLINT_BINOMIAL_REGROUP 0
 #endif
 
 /* Component k of the `stride` floats per query of array a, for the queries [base, base +
@@ -88,7 +94,7 @@ GLINT_FN void binomial_lanes_store(__global float *out, int accumulate, uint bas
   block_store3(out, base, n, L);
 }
 
-#if GLINT_BLOCKS > 1
+#if GLINT_BINOMIAL_REGROUP
 /* Regime-homogeneous lanes for the count draw (models/binomial/README.md "Quad throughput
  * (session 19): one regime per lane group"). A 16-lane block pays every regime that any of its
  * lanes needs (binomial_count.h: the arcsine approximation and an exact search run for the
@@ -215,9 +221,10 @@ GLINT_FN void binomial_whole_regrouped(const GLINT_PRIVATE BinomialDeferred *d, 
     int16 flags = vload16(j, pflags);
     /* log(1 - q) of p_first: binomial_whole_prob's binomial_prob_log1m_q(prob) where p_first =
      * p, binomial_log1m_rarer(p1) where p1: the same function of the same value */
-    real xj = binomial_whole_searches(n, &prob, u, vload16(j, px), p_first,
-                                      binomial_log1m_rarer(p_first), act & ((flags & 1) != 0),
-                                      act & ((flags & 2) != 0), act & ((flags & 4) != 0));
+    real x0 = glint_select(GLINT_R(0.0), vload16(j, px), act); /* lanes past count: unset */
+    real xj = binomial_whole_searches(n, &prob, u, x0, p_first, binomial_log1m_rarer(p_first),
+                                      act & ((flags & 1) != 0), act & ((flags & 2) != 0),
+                                      act & ((flags & 4) != 0));
     vstore16(xj, j, px);
   }
   for (uint b = 0; b < blocks; ++b) {
@@ -238,7 +245,13 @@ GLINT_FN void binomial_lanes_regrouped(EvalSpec spec, KernelInputs in,
   for (uint b = 0; b < GLINT_BLOCKS; ++b) {
     uint base = base0 + b * GLINT_LANES;
     if (base >= n) break;
+    /* What the stages read of a block without a deferred light (active none): defined values,
+     * not uninitialised ones (binomial_light sets them all where it defers). */
     d[b].deferred = 0;
+    d[b].p_draw = GLINT_R(0.0);
+    d[b].draw.whole = GLINT_R(0.0);
+    d[b].draw.u = GLINT_R(0.0);
+    d[b].draw.has_whole = (glint_mask)0;
     L[b] = binomial_lanes_shade(spec, in, footprint, uv, base, n, &d[b]);
     ++blocks;
   }
@@ -257,7 +270,7 @@ __kernel void glint_binomial_lanes(GLINT_KERNEL_ARGS) {
   if (base0 >= n) return;
   EvalSpec spec = kernel_spec();
   KernelInputs in = GLINT_KERNEL_INPUTS();
-#if GLINT_BLOCKS > 1
+#if GLINT_BINOMIAL_REGROUP
   /* One draw per query (one light, one grid): the draws of the blocks regrouped by regime. A
    * uniform branch (one material and light set per request). */
   if (binomial_params_unpack(params).interpolation == GLINT_BINOMIAL_STOCHASTIC &&

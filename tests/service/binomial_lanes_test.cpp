@@ -266,6 +266,74 @@ TEST_F(BinomialLanes, RegroupedDrawsDoNotDependOnNeighboursOrBatchSize) {
     }
 }
 
+// The regrouped draws against the plain loop over the blocks, bit for bit. The test above only
+// sees errors that depend on how lanes are grouped: every one of its runs takes the regrouped
+// path (batches of 1 and 16 too: one block, regrouped alone), so an error alike in every group
+// would pass it. Here the same requests get a second directional light from below the horizon,
+// (0, 0, -1) with the queries in the local frame (RandomQueries without a frame): two lights, so
+// the kernel loops over its 4 blocks with each draw in place (binomial_lanes.cl
+// glint_binomial_lanes). That light changes no bit of the first one's result: it lights no
+// query (smooth_reflect_cos_view is 0 for wi.z <= 0), so binomial_shade skips it before its
+// key, p or draw (`continue`) and adds nothing; it is the last punctual light, so the first
+// keeps its index (punctual_light, directional lights in request order), hence its hash key;
+// the polygon's key has its own index among polygons, and its LTC entry is looked up again
+// when punctual lights are present, the same entry (binomial_polygon_ltc). The sum is then 0 +
+// the first light's term in both (binomial_deferred_finish does binomial_shade's operations).
+TEST_F(BinomialLanes, RegroupedDrawsEqualTheDrawsInPlace) {
+  // Many queries (a few ms per evaluation): a wrong count shows only where a draw's u lies
+  // within the error of a CDF step, so the chance to see a small error grows with the draws.
+  const v1::QueryBatch q = test::RandomQueries(65536, false, false, 42);
+  ASSERT_EQ(q.position_size(), 0);  // local frame: (0, 0, -1) is below every query's horizon
+  double area = 0;
+  for (uint32_t i = 0; i < q.count(); ++i) {
+    const float *f = q.footprint().data() + 4 * i;
+    area += std::fabs(double(f[0]) * f[3] - double(f[2]) * f[1]);
+  }
+  area /= q.count();
+  for (int light = 0; light < 2; ++light)
+    for (double n_p : {1e2, 1e3}) {
+      EvaluateRequest settings;
+      auto *m = settings.mutable_material();
+      m->set_model(v1::BINOMIAL);
+      m->set_ndf(v1::GGX);
+      m->set_alpha_x(0.3f);
+      m->set_alpha_y(0.1f);
+      for (float f : {0.9f, 0.6f, 0.3f}) m->mutable_schlick()->add_f0(f);
+      m->mutable_binomial()->set_density(n_p / area);
+      m->mutable_binomial()->set_footprint_interpolation(v1::STOCHASTIC);
+      if (light == 0) {
+        AddPolygon(&settings, {-3, -3, 3, 3, -3, 3, 3, 3, 3, -3, 3, 3}, true);
+      } else {
+        auto *d = settings.add_lights()->mutable_directional();
+        for (float v : {0.6f, 0.0f, 0.8f}) d->add_direction(v);
+        for (float v : {2.0f, 2.0f, 2.0f}) d->add_irradiance(v);
+        d->set_cone_half_angle_deg(10.0f);
+      }
+      settings.set_area_method(v1::LTC);
+      settings.set_precision(v1::FP32);
+      settings.set_seed(0x9e3779b97f4aull);
+      EvaluateRequest in_place = settings;
+      auto *below = in_place.add_lights()->mutable_directional();
+      for (float v : {0.0f, 0.0f, -1.0f}) below->add_direction(v);
+      for (float v : {2.0f, 2.0f, 2.0f}) below->add_irradiance(v);
+      below->set_cone_half_angle_deg(10.0f);
+      ASSERT_TRUE(ValidateSettings(settings, {}).ok());
+      ASSERT_TRUE(ValidateSettings(in_place, {}).ok());
+      ASSERT_TRUE(ValidateQueriesForModel(q, in_place).ok());
+      const std::vector<float> regrouped = Device(settings, q);
+      const std::vector<float> plain = Device(in_place, q);
+      int lit = 0;
+      for (float v : regrouped) lit += v > 0.0f;
+      // The comparison must see glints.
+      ASSERT_GT(lit, int(regrouped.size()) / 20) << "light " << light << " N_P " << n_p;
+      int differ = 0;
+      for (size_t i = 0; i < regrouped.size(); ++i)
+        differ += std::memcmp(&regrouped[i], &plain[i], sizeof(float)) != 0;
+      EXPECT_EQ(differ, 0) << "light " << light << " N_P " << n_p << ": " << differ << " of "
+                           << regrouped.size() << " values differ";
+    }
+}
+
 // Device against host at the extremes. A glint is a discrete event: where the device's and the
 // host's libm differ by an ulp at a cell boundary (the floor of a rotated uv) or at a CDF step of
 // the count, a query gets another count. The chance is the rounding error over the spacing of

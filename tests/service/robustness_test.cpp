@@ -400,20 +400,21 @@ double HandledCalls(httplib::Client &http, const std::string &method) {
 // moment, then checks that the server abandoned between 1 and `total` of its queries under the
 // right reason, and that `follow_up` then runs to completion on the freed worker.
 //
-// Past its deadline, the 0.8 s can run out before the request leaves the client or reaches a
-// handler (a loaded machine): glintd then never sees the call and has nothing to abandon, and
-// the client's DEADLINE_EXCEEDED is the pass. Which case it was is decided without a clock: the
-// follow-up runs twice on the one worker, first in first out behind anything glintd admitted
-// before it (and the call's frames precede the follow-ups' on the one connection), so once the
-// second is answered a call glintd saw has been stopped and counted (the count precedes the
-// worker's next job), or run to its end and answered. A call glintd answered (`method`'s handled
-// count grew by more than the follow-ups of that method) and did not abandon fails: a server
-// that never enforces deadlines cannot pass unless the call never reached it. `follow_up` calls
-// `follow_up_method`.
+// Past its deadline, the `give_up_after` (0.8 s unless said) can run out before the request leaves
+// the client or reaches a handler (a loaded machine): glintd then never sees the call and has
+// nothing to abandon, and the client's DEADLINE_EXCEEDED is the pass. Which case it was is decided
+// without a clock: the follow-up runs twice on the one worker, first in first out behind anything
+// glintd admitted before it (and the call's frames precede the follow-ups' on the one connection),
+// so once the second is answered a call glintd saw has been stopped and counted (the count precedes
+// the worker's next job), or run to its end and answered. A call glintd answered (`method`'s
+// handled count grew by more than the follow-ups of that method) and did not abandon fails: a
+// server that never enforces deadlines cannot pass unless the call never reached it. `follow_up`
+// calls `follow_up_method`.
 template <class Call>
-void ExpectAbandonedThenWorkerFree(httplib::Client &http, const std::string &method, uint32_t total,
-                                   const Call &call, const std::string &follow_up_method,
-                                   const std::function<grpc::Status()> &follow_up) {
+void ExpectAbandonedThenWorkerFree(
+    httplib::Client &http, const std::string &method, uint32_t total, const Call &call,
+    const std::string &follow_up_method, const std::function<grpc::Status()> &follow_up,
+    std::chrono::milliseconds give_up_after = std::chrono::milliseconds(800)) {
   for (bool use_deadline : {false, true}) {
     const std::array<double, 3> before = AbandonedQueries(http);
     ASSERT_GE(before[0], 0) << "/metrics unreadable";
@@ -421,7 +422,7 @@ void ExpectAbandonedThenWorkerFree(httplib::Client &http, const std::string &met
     ASSERT_GE(handled_before, 0) << "/metrics unreadable";
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() +
-                     std::chrono::milliseconds(use_deadline ? 800 : 60000));
+                     (use_deadline ? give_up_after : std::chrono::milliseconds(60000)));
     grpc::Status status;
     std::atomic<bool> done{false};
     std::thread caller([&] {
@@ -433,7 +434,7 @@ void ExpectAbandonedThenWorkerFree(httplib::Client &http, const std::string &met
       // count below holds however far it got (dropped from the queue: all `total`).
       glint::test::WaitForQueueDepth(
           http, 1, [&] { return done.load(); }, kHangGuard);
-      std::this_thread::sleep_for(std::chrono::milliseconds(800));
+      std::this_thread::sleep_for(give_up_after);
       ctx.TryCancel();
     }
     caller.join();
@@ -454,8 +455,9 @@ void ExpectAbandonedThenWorkerFree(httplib::Client &http, const std::string &met
         EXPECT_EQ(answered, 0) << "glintd answered the call past its deadline without "
                                   "abandoning any of its queries";
         std::printf(
-            "deadline 0.8 s: expired before glintd saw the call (client side "
-            "DEADLINE_EXCEEDED)\n");
+            "deadline %.1f s: expired before glintd saw the call (client side "
+            "DEADLINE_EXCEEDED)\n",
+            1e-3 * double(give_up_after.count()));
         EXPECT_EQ(after[2] - before[2], 0);
         continue;
       }
@@ -469,9 +471,9 @@ void ExpectAbandonedThenWorkerFree(httplib::Client &http, const std::string &met
       }
     }
     const double abandoned = given_up(after) - given_up(before);
-    std::printf("%s: %.0f of %u queries abandoned (%.0f cancelled, %.0f deadline)\n",
-                use_deadline ? "deadline 0.8 s" : "cancelled at 0.8 s", abandoned, total,
-                after[0] - before[0], after[1] - before[1]);
+    std::printf("%s %.1f s: %.0f of %u queries abandoned (%.0f cancelled, %.0f deadline)\n",
+                use_deadline ? "deadline" : "cancelled at", 1e-3 * double(give_up_after.count()),
+                abandoned, total, after[0] - before[0], after[1] - before[1]);
     EXPECT_GE(abandoned, 1) << "the worker ran the abandoned call to its end";
     EXPECT_LE(abandoned, total);
     if (!use_deadline) {
@@ -1111,7 +1113,10 @@ TEST(Cancellation, CancelledOrExpiredSampleFreesTheWorkerAtASlice) {
     k->set_density(1e6);
     k->set_microroughness(0.02f);
     k->set_filter_size(0.7f);
-    k->set_neighbors(4);
+    // 16 neighbours (the example has 4) and the call given up after 0.3 s (below): with 4 and
+    // 0.8 s the 1M samples took ~0.8 s on a quiet 2-core machine (session 19) and could end
+    // before the cancel, leaving nothing to abandon; with 16 they take ~1.1 s there.
+    k->set_neighbors(16);
     k->set_anisotropy(1.0f);
     *big.mutable_queries() = glint::test::RandomQueries(1024, false, false, 21);
     big.set_samples_per_query(1024);
@@ -1143,7 +1148,8 @@ TEST(Cancellation, CancelledOrExpiredSampleFreesTheWorkerAtASlice) {
         grpc::Status s = stub->Evaluate(&ctx, ProbeRequest(64, 11), &res);
         EXPECT_EQ(res.radiance_size(), s.ok() ? 64 * 3 : 0);
         return s;
-      });
+      },
+      std::chrono::milliseconds(300));
   EXPECT_TRUE(server->Alive());
 }
 

@@ -386,9 +386,10 @@ TEST(KemppinenCost, FollowsTheMeasuredRateOfEachNeighborhood) {
 // ONE_LEVEL and ONE_CELL are bit-identical in one batch, repeated and in chunks (their level
 // dither is keyed by uv, not by the query's index), agree with the host path as the paper's
 // pass does (LanePassMatchesHostPathAtEveryTripCount: fp32, 1e-4 relative for 99% of values),
-// and are finite and non-negative at the extreme footprints, uv and views.
+// and are finite and non-negative at the extreme footprints, uv and views. With a polygon light
+// next to the punctual ones: the polygon pass honours the setting too (session 20).
 TEST_F(KemppinenEngineTest, CheaperNeighborhoodsDeterministicAndMatchTheHost) {
-  EvaluateRequest paper = MakeSettings(v1::GGX, true, false, false, 1);
+  EvaluateRequest paper = MakeSettings(v1::GGX, true, true, false, 1);
   v1::QueryBatch q = test::RandomQueries(1000, false, true, 41);
   auto unset = Device(MakeEvalPlan(paper, q), q);
   paper.mutable_material()->mutable_kemppinen()->set_neighborhood(v1::KEMPPINEN_PAPER);

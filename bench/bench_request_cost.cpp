@@ -103,6 +103,15 @@ std::vector<Shape> Shapes() {
     AddPolygon(&quad.request, 4);
     s.push_back(quad);
   }
+  // The polygon pass per neighbourhood (session 20: it honours material.kemppinen.neighborhood;
+  // Model::polygon_cost in kemppinen_model.cpp).
+  for (auto [hood, hood_name] : {std::pair{v1::KEMPPINEN_ONE_LEVEL, "ONE_LEVEL"},
+                                 std::pair{v1::KEMPPINEN_ONE_CELL, "ONE_CELL"}}) {
+    Shape quad{std::string("KEMPPINEN ") + hood_name + " quad LTC", Base(v1::KEMPPINEN)};
+    quad.request.mutable_material()->mutable_kemppinen()->set_neighborhood(hood);
+    AddPolygon(&quad.request, 4);
+    s.push_back(quad);
+  }
   {
     Shape x{"KEMPPINEN k=16 4 point lights", Base(v1::KEMPPINEN)};
     x.request.mutable_material()->mutable_kemppinen()->set_neighbors(16);

@@ -183,8 +183,23 @@ double KemppinenCostFactor(const glint::v1::Material &m) {
 // the run above, 985 units at 30.6 ns; the explicit block is widened to 4 x 4 cells for a light
 // that large whatever k, so one figure for every k. (With the former min(factor, 8) x the LTC
 // integral it was estimated at 161 units, 6x under.)
-double KemppinenPolygonCost(const glint::v1::Material &) {
-  return 1000.0;
+// The cheaper neighbourhoods (session 20: the polygon pass honours them) from their rates
+// relative to the paper's, kemppinen_throughput --lights quad --neighborhoods
+// paper,one_level,one_cell --ks 1,4 (and four_quads), 2 runs, loaded 2-core machine,
+// 2026-12-07 (README "Polygon lights and the neighbourhood, session 20"): ONE_LEVEL (one
+// level's E and facets) 1.80-1.85x per CPU-second for the quad, 1.60-1.63x for four quads,
+// bench_request_cost's quad 1.83-1.90x (3 runs); ONE_CELL (also one spatial cell of four)
+// 2.30-2.43x, 2.22-2.26x, 2.44-2.55x. A level's E (the block's expected mass), the image and
+// the smooth integral stay, so neither reaches the point pass's 2-4.6x: 550 and 420 units.
+double KemppinenPolygonCost(const glint::v1::Material &m) {
+  switch (m.kemppinen().neighborhood()) {
+    case glint::v1::KEMPPINEN_ONE_LEVEL:
+      return 550.0;
+    case glint::v1::KEMPPINEN_ONE_CELL:
+      return 420.0;
+    default:
+      return 1000.0;
+  }
 }
 
 const Model kKemppinenModel = {

@@ -764,9 +764,15 @@ GLINT_FN real kemppinen_outside_width(KemppinenFootprint fp, real res_s, real ts
   return tx + (GLINT_R(1.0) - tx) * ty;
 }
 
-GLINT_FN real kemppinen_outside_at(KemppinenFootprint fp, real res_s, real ts_x, real ts_y,
-                                   real bs_x, real bs_y) {
-  return kemppinen_outside_width(fp, res_s, ts_x, ts_y, bs_x, bs_y, GLINT_R(2.0), 0);
+/* 1 - P_s of the material's spatial neighbourhood with first cell bs: the 2x2 block, or with
+ * ONE_CELL the one cell holding the query (first cell floor(ts)); the erfc of A&S 7.1.27 for the
+ * one-level neighbourhoods (kemppinen_erfc4_with). One function for the point pass
+ * (kemppinen_level_query_into) and the polygon pass (kemppinen_spatial_outside), so the two
+ * passes of one material compensate the same spatial cells with the same arithmetic. */
+GLINT_FN real kemppinen_neighborhood_outside(KemppinenParams p, KemppinenFootprint fp, real res_s,
+                                             real ts_x, real ts_y, real bs_x, real bs_y) {
+  return kemppinen_outside_width(fp, res_s, ts_x, ts_y, bs_x, bs_y,
+                                 p.one_cell ? GLINT_R(1.0) : GLINT_R(2.0), p.one_level);
 }
 
 /* Everything of level l that every light of the query shares: the spatial
@@ -795,8 +801,8 @@ GLINT_FN void kemppinen_level_query_into(KemppinenParams p, KemppinenFootprint f
     q->key[1] = q->key[0];
     q->key[2] = q->key[0];
     q->key[3] = q->key[0];
-    q->outside = kemppinen_outside_width(fp, q->s.res_s, q->s.ts_x, q->s.ts_y, q->s.bs_x, q->s.bs_y,
-                                         GLINT_R(1.0), 1);
+    q->outside = kemppinen_neighborhood_outside(p, fp, q->s.res_s, q->s.ts_x, q->s.ts_y, q->s.bs_x,
+                                                q->s.bs_y);
     return;
   }
   /* kemppinen_spatial_key of the 2x2 block: 7 absorbs instead of 12. */
@@ -806,8 +812,8 @@ GLINT_FN void kemppinen_level_query_into(KemppinenParams p, KemppinenFootprint f
   for (int j = 0; j < 4; ++j)
     q->key[j] =
         kemppinen_absorb((j & 1) ? col1 : col0, kemppinen_cell_key(q->s.bs_y + (real)(j >> 1)));
-  q->outside = kemppinen_outside_width(fp, q->s.res_s, q->s.ts_x, q->s.ts_y, q->s.bs_x, q->s.bs_y,
-                                       GLINT_R(2.0), p.one_level);
+  q->outside =
+      kemppinen_neighborhood_outside(p, fp, q->s.res_s, q->s.ts_x, q->s.ts_y, q->s.bs_x, q->s.bs_y);
 }
 
 GLINT_FN KemppinenLevelQuery kemppinen_level_query(KemppinenParams p, KemppinenFootprint fp,
@@ -937,9 +943,19 @@ GLINT_FN real kemppinen_facet_lobe(KemppinenBlocks b, real cx, real cy, real ix,
                                  iy, g);
 }
 
-/* 1 - P_s of the blocks (the polygon pass). */
-GLINT_FN real kemppinen_spatial_outside(KemppinenFootprint fp, KemppinenBlocks b) {
-  return kemppinen_outside_at(fp, b.res_s, b.ts_x, b.ts_y, b.bs_x, b.bs_y);
+/* 1 - P_s of the blocks' spatial neighbourhood for the material's setting (the polygon pass;
+ * with ONE_CELL b.bs must be the cell holding the query, kemppinen_blocks_one_cell). PAPER: the
+ * 2x2 block with 7.1.26's erfc, as before session 20. */
+GLINT_FN real kemppinen_spatial_outside(KemppinenParams p, KemppinenFootprint fp,
+                                        KemppinenBlocks b) {
+  return kemppinen_neighborhood_outside(p, fp, b.res_s, b.ts_x, b.ts_y, b.bs_x, b.bs_y);
+}
+
+/* GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL for the blocks (the polygon pass): the spatial cell
+ * holding the query, as kemppinen_level_query_into chooses it for the point pass. */
+GLINT_FN void kemppinen_blocks_one_cell(GLINT_PRIVATE KemppinenBlocks *b) {
+  b->bs_x = glint_floor(b->ts_x);
+  b->bs_y = glint_floor(b->ts_y);
 }
 
 /* K25 Eq. 9-10 for level l: the expected lobe mass of the facets not
@@ -1229,6 +1245,24 @@ GLINT_FN real3 kemppinen_level(KemppinenParams p, KemppinenFootprint fp, Kemppin
 #define GLINT_KEMPPINEN_NOUNROLL
 #endif
 
+/* The one MIP level of the one-level neighbourhoods (GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL /
+ * ONE_CELL, kemppinen_query_levels_into says why it is unbiased): the coarser, floor(lambda) + 1,
+ * with probability w1 = lambda - floor(lambda) (the tent weight of Algorithm 1 lines 7-8), else
+ * the finer, from a 24-bit uniform t hashed from the seed and the float bits of the query's uv,
+ * clamped to the last level. A function of the footprint alone, so every pass of a query (the
+ * point pass, the polygon pass kemppinen_polygon_glints) dithers to the same level: one query
+ * sees one level's glints under all of its lights. */
+GLINT_FN real kemppinen_dithered_level(KemppinenFootprint fp) {
+  real lf = glint_floor(fp.lambda);
+  real w1 = fp.lambda - lf;
+  kemp_uint key =
+      kemppinen_absorb(kemppinen_absorb((kemp_uint)(fp.seed_key ^ 0x6c6f6431u), rng_real_key(fp.u)),
+                       rng_real_key(fp.v));
+  real t = KEMP_TO_REAL(kemppinen_mix(key) >> 8) * GLINT_R(5.9604644775390625e-8);
+  real level = glint_select(lf, lf + GLINT_R(1.0), t < w1);
+  return glint_fmin_nn(level, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL));
+}
+
 /* The two MIP levels of a query (Algorithm 1 lines 7-8: l in {floor, ceil}
  * of lambda, w = 1 - |lambda - l|; lambda <= GLINT_KEMPPINEN_MAX_LEVEL, so
  * w1 = 0 at the last level), prepared once for all of its lights. `n`: 2 if
@@ -1256,17 +1290,11 @@ GLINT_FN void kemppinen_query_levels_into(KemppinenParams p, KemppinenFootprint 
      * w1 = 1/2 sees one level's glints at full strength or the other's, not
      * both at half (dithering between the levels across pixels), and half the
      * facets. t is a 24-bit uniform, so P(coarser) = w1 within 2^-24. */
-    kemp_uint key = kemppinen_absorb(
-        kemppinen_absorb((kemp_uint)(fp.seed_key ^ 0x6c6f6431u), rng_real_key(fp.u)),
-        rng_real_key(fp.v));
-    real t = KEMP_TO_REAL(kemppinen_mix(key) >> 8) * GLINT_R(5.9604644775390625e-8);
-    real level = glint_select(lf, lf + GLINT_R(1.0), t < w1);
     L->w[0] = GLINT_R(1.0);
     L->w[1] = GLINT_R(0.0);
     L->n = 1;
     /* l[1] is not set: only l[lv < n] is read (as in the two-level path when n = 1). */
-    kemppinen_level_query_into(p, fp, glint_fmin_nn(level, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL)),
-                               &L->l[0]);
+    kemppinen_level_query_into(p, fp, kemppinen_dithered_level(fp), &L->l[0]);
     return;
   }
   L->w[0] = GLINT_R(1.0) - w1;

@@ -25,7 +25,14 @@
  * width |J_T| and rho taken at R's centroid / the block's part of R; facets of
  * cells beyond the explicit block enter only through the compensation (a
  * light whose image spans more than 4 x 4 cells of a level has smooth parts).
- * The result is clamped at 0 per channel. */
+ * The result is clamped at 0 per channel.
+ * NEIGHBOURHOOD (material.kemppinen.neighborhood, session 20): the point pass's
+ * estimators. ONE_LEVEL: one level per query at weight 1, the point pass's
+ * dither (kemppinen_dithered_level), no roulette; ONE_CELL: also only the
+ * spatial cell holding the query, P_s that cell's filter mass (both with the
+ * point pass's 7.1.27 erfc, kemppinen_neighborhood_outside). E[explicit] =
+ * rho_l P_s A_l per level still holds (facets uniform in their cells, each
+ * level a point process of density K_P), so the sum stays unbiased over uv. */
 #ifndef GLINT_KEMPPINEN_POLYGONS_H
 #define GLINT_KEMPPINEN_POLYGONS_H
 
@@ -124,16 +131,26 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
   KemppinenULines lines = kemppinen_image_lines(R, a.sx, a.sy);
   real lf = glint_floor(fp.lambda);
   real w1 = fp.lambda - lf;
-  for (int lv = 0; lv < 2; ++lv) {
-    real w = lv == 0 ? GLINT_R(1.0) - w1 : w1;
+  /* The material's neighbourhood (kemppinen_query_levels_into for the point pass): the paper's
+   * two levels at the tent weights, or one level at weight 1, dithered by the point pass's own
+   * function of the footprint (kemppinen_dithered_level), so a query's polygon and point lights
+   * see the same level's facets. */
+  int n_levels = p.one_level ? 1 : 2;
+  for (int lv = 0; lv < n_levels; ++lv) {
+    real w = p.one_level ? GLINT_R(1.0) : lv == 0 ? GLINT_R(1.0) - w1 : w1;
     if (!(w > GLINT_R(0.0))) continue;
-    real level = fmin(lf + (real)lv, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL));
+    real level = p.one_level ? kemppinen_dithered_level(fp)
+                             : fmin(lf + (real)lv, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL));
     real res_a = glint_floor(exp2(level) + GLINT_R(0.5));
     /* Cells per axis covering R's bounding box (+1: it straddles a border). */
     real cover = (real)ceil(fmax(bw, bh) * res_a) + GLINT_R(1.0);
     KemppinenParams pb = p;
     pb.n_side = (int)fmin(fmax((real)p.n_side, cover), (real)GLINT_KEMPPINEN_POLYGON_MAX_SIDE);
     KemppinenBlocks b = kemppinen_blocks(pb, fp, a, level);
+    /* ONE_CELL: only the spatial cell holding the query (its facets hash as that cell of the
+     * 2x2 block); the compensation below then takes the filter's mass outside that cell. */
+    if (p.one_cell) kemppinen_blocks_one_cell(&b);
+    int n_cells = p.one_cell ? 1 : 4;
     real bx0 = b.ba_x / res_a, bx1 = b.ea_x / res_a, by0 = b.ba_y / res_a, by1 = b.ea_y / res_a;
     real expect = kemppinen_lines_block_mass(R, &lines, bx0, bx1, by0, by1, a.sx, a.sy);
     if (!(expect > GLINT_R(0.0))) continue; /* no explicit lobe reaches R */
@@ -149,7 +166,7 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
      * without a division per cell and facet. */
     real inv_res_a = GLINT_R(1.0) / res_a;
     int n = pb.n_side;
-    for (int j = 0; j < 4; ++j) {
+    for (int j = 0; j < n_cells; ++j) {
       real cx = b.bs_x + (real)(j & 1);
       real cy = b.bs_y + (real)(j >> 1);
       if (kemppinen_filter_cell_min(b.qxx, b.qxy, b.qyy, b.ts_x - cx, b.ts_y - cy) >
@@ -179,9 +196,15 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
           real dx = b.ts_x - cx - kemppinen_u16_hi(h1), dy = b.ts_y - cy - kemppinen_u16_lo(h1);
           real es = b.qxx * dx * dx + b.qxy * dx * dy + b.qyy * dy * dy;
           if (es > GLINT_R(GLINT_KEMPPINEN_FILTER_CUT)) continue;
-          kemp_uint h2 = kemppinen_facet_draws(fkey);
-          real keep = kemppinen_roulette(kemppinen_u16_hi(h2), w);
-          if (!(keep > GLINT_R(0.0))) continue;
+          /* One level (w = 1): R(r, 1) = 1 for every r (kemppinen_level_facet_add), no roulette,
+           * and a white material reads no colour pick: no third mix. keep = 1 is exact. */
+          kemp_uint h2 = fkey;
+          real keep = GLINT_R(1.0);
+          if (!(p.one_level && p.white)) h2 = kemppinen_facet_draws(fkey);
+          if (!p.one_level) {
+            keep = kemppinen_roulette(kemppinen_u16_hi(h2), w);
+            if (!(keep > GLINT_R(0.0))) continue;
+          }
           real gx = (ix + kemppinen_u16_hi(fkey)) * inv_res_a,
                gy = (iy + kemppinen_u16_lo(fkey)) * inv_res_a;
           real ox = gx - GLINT_R(0.5), oy = gy - GLINT_R(0.5);
@@ -199,7 +222,7 @@ GLINT_FN real3 kemppinen_polygon_glints(SmoothMaterial m, KemppinenParams p, Kem
         }
       }
     }
-    real ps = GLINT_R(1.0) - kemppinen_spatial_outside(fp, b);
+    real ps = GLINT_R(1.0) - kemppinen_spatial_outside(p, fp, b);
     real3 expected = r3_scale(p.mean_color, w * ps * expect);
     out = r3_add(out, r3_mul(rho, r3_sub(r3_scale(sum, GLINT_R(1.0) / (res_a * res_a)), expected)));
   }

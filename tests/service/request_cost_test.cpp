@@ -68,7 +68,8 @@ TEST(RequestCost, ModelFactorMultipliesAndLtcGrowsWithVertices) {
   r.mutable_material()->mutable_kemppinen()->set_neighbors(4);
   const double k4 = glint::EstimateRequestCost(r, 1).per_query;
   // The Kemppinen factor (1.5 + 1.4 k) multiplies the query's punctual work; a polygon is the
-  // smooth integral plus the model's measured polygon cost (1000 units), whatever k.
+  // smooth integral plus the model's measured polygon cost (1000 units for the paper's
+  // neighbourhood), whatever k.
   EXPECT_DOUBLE_EQ(k16, quad + 1000);
   EXPECT_DOUBLE_EQ(k4, quad + 1000);
   r.clear_lights();

@@ -381,14 +381,38 @@ TEST(KemppinenCost, FollowsTheMeasuredRateOfEachNeighborhood) {
   }
 }
 
+// The polygon light's admission cost (Model::polygon_cost, KemppinenPolygonCost) follows the
+// measured rates of the neighbourhoods' polygon pass relative to the paper's (README "Polygon
+// lights and the neighbourhood, session 20": the quad, per CPU-second and in
+// bench_request_cost, ONE_LEVEL 1.80-1.90x, ONE_CELL 2.30-2.55x): within 25%, ONE_CELL cheaper than
+// ONE_LEVEL, and the same for every k (the explicit block of a large light is widened to 4 x 4
+// cells whatever k).
+TEST(KemppinenCost, PolygonCostFollowsTheMeasuredRateOfEachNeighborhood) {
+  EvaluateRequest r = MakeSettings(v1::GGX, false, true, false, 1);
+  auto cost = [&](int k, v1::KemppinenNeighborhood hood) {
+    r.mutable_material()->mutable_kemppinen()->set_neighbors(uint32_t(k));
+    r.mutable_material()->mutable_kemppinen()->set_neighborhood(hood);
+    return EstimateRequestCost(r, 1).per_query;
+  };
+  for (int k : {1, 4, 16}) {
+    const double paper = cost(k, v1::KEMPPINEN_PAPER);
+    EXPECT_DOUBLE_EQ(paper, cost(k, v1::KEMPPINEN_NEIGHBORHOOD_UNSPECIFIED));
+    EXPECT_NEAR(paper / cost(k, v1::KEMPPINEN_ONE_LEVEL), 1.83, 0.25 * 1.83) << k;
+    EXPECT_NEAR(paper / cost(k, v1::KEMPPINEN_ONE_CELL), 2.4, 0.25 * 2.4) << k;
+    EXPECT_LT(cost(k, v1::KEMPPINEN_ONE_CELL), cost(k, v1::KEMPPINEN_ONE_LEVEL)) << k;
+    EXPECT_DOUBLE_EQ(paper, cost(1, v1::KEMPPINEN_PAPER)) << k;
+  }
+}
+
 // The cheaper neighbourhoods (glint.v1.KemppinenNeighborhood) on the device: KEMPPINEN_PAPER set
 // explicitly gives the bits of the unset field (the default is the paper's model, unchanged);
 // ONE_LEVEL and ONE_CELL are bit-identical in one batch, repeated and in chunks (their level
 // dither is keyed by uv, not by the query's index), agree with the host path as the paper's
 // pass does (LanePassMatchesHostPathAtEveryTripCount: fp32, 1e-4 relative for 99% of values),
-// and are finite and non-negative at the extreme footprints, uv and views.
+// and are finite and non-negative at the extreme footprints, uv and views. With a polygon light
+// next to the punctual ones: the polygon pass honours the setting too (session 20).
 TEST_F(KemppinenEngineTest, CheaperNeighborhoodsDeterministicAndMatchTheHost) {
-  EvaluateRequest paper = MakeSettings(v1::GGX, true, false, false, 1);
+  EvaluateRequest paper = MakeSettings(v1::GGX, true, true, false, 1);
   v1::QueryBatch q = test::RandomQueries(1000, false, true, 41);
   auto unset = Device(MakeEvalPlan(paper, q), q);
   paper.mutable_material()->mutable_kemppinen()->set_neighborhood(v1::KEMPPINEN_PAPER);

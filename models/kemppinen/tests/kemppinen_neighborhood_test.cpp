@@ -28,37 +28,16 @@
 
 namespace {
 
+using glint::test::FootprintForLevel;
 using glint::test::Glinty;
+using glint::test::HoodName;
+using glint::test::kCheapErfcBiasBound;
+using glint::test::kCheapErfcBound;
 using glint::test::NdfName;
 using glint::test::Normalize;
 using glint::test::Stats;
 using glint::test::Summarise;
 using glint::test::V3;
-
-const char *HoodName(int hood) {
-  return hood == GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_CELL    ? "ONE_CELL"
-         : hood == GLINT_KEMPPINEN_NEIGHBORHOOD_ONE_LEVEL ? "ONE_LEVEL"
-                                                          : "PAPER";
-}
-
-// Footprint diag(j, j) (axis aligned) such that lambda = log2(8 sigma_max sqrt(K_P))
-// (kemppinen_ndf.h) is `lambda`.
-std::array<double, 4> FootprintForLevel(const Glinty &g, double lambda) {
-  double sigma = std::exp2(lambda) / (8.0 * std::sqrt(g.density));
-  double j = sigma / (g.filter * std::max(g.aniso, 1.0 / g.aniso));
-  return {j, 0.0, 0.0, j};
-}
-
-// A&S 7.1.27's bound on |erf error|, so on erfc's.
-const double kCheapErfcBound = 5e-4;
-
-// The bias the cheap erfc can give one level's S (weight 1): the compensation (Eq. 9-10) and
-// 1 - P_s are sums of products of per-axis masses, each factor in [0, 1] and each mass a half
-// sum or difference of two erfc (error <= eps), the two-sided ones (x_out, y_out, 1 - P_s per
-// axis) two masses: kemppinen_compensation_with's terms x_sq y_out + y_b x_out + (1 - P_s) x_b
-// y_b change by at most eps + 2 eps + eps + 2 eps + 2 eps + 2 eps = 10 eps (first order; eps^2
-// terms are below 1e-6).
-const double kCheapErfcBiasBound = 10 * kCheapErfcBound;
 
 // ---------------------------------------------------------------------------------------------
 // The cheap erfc (Abramowitz & Stegun 7.1.27) against libm on [0, 12] standard scores: within

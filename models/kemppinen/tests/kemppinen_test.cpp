@@ -27,20 +27,13 @@
 
 namespace {
 
+using glint::test::FootprintForLevel;
 using glint::test::Glinty;
 using glint::test::NdfName;
 using glint::test::Normalize;
 using glint::test::Stats;
 using glint::test::Summarise;
 using glint::test::V3;
-
-// Footprint diag(j, j) (axis aligned) such that the level lambda = log2(8 sigma_max sqrt(K_P))
-// (kemppinen_ndf.h) is `lambda`: sigma_max = f j max(a, 1/a).
-std::array<double, 4> FootprintForLevel(const Glinty &g, double lambda) {
-  double sigma = std::exp2(lambda) / (8.0 * std::sqrt(g.density));
-  double j = sigma / (g.filter * std::max(g.aniso, 1.0 / g.aniso));
-  return {j, 0.0, 0.0, j};
-}
 
 // ---------------------------------------------------------------------------------------------
 // The map T (K25 3.2): the kernel's |J_T| is the area of U per unit solid angle, i.e. the

@@ -4,6 +4,8 @@
 // tests/support/kernels_both_precisions.h.
 #pragma once
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -25,4 +27,11 @@ struct Glinty {
   std::vector<double> colors;  // flat RGB triples, 0 to 8 colours
   int neighborhood = 0;        // GLINT_KEMPPINEN_NEIGHBORHOOD_*
 };
+// Footprint diag(j, j) (axis aligned) such that the level lambda = log2(8 sigma_max sqrt(K_P))
+// (kemppinen_ndf.h kemppinen_footprint) is `lambda`: sigma_max = f j max(a, 1/a).
+inline std::array<double, 4> FootprintForLevel(const Glinty &g, double lambda) {
+  double sigma = std::exp2(lambda) / (8.0 * std::sqrt(g.density));
+  double j = sigma / (g.filter * std::max(g.aniso, 1.0 / g.aniso));
+  return {j, 0.0, 0.0, j};
+}
 }  // namespace glint::test

@@ -1293,7 +1293,11 @@ GLINT_FN real kemppinen_dithered_level(KemppinenFootprint fp) {
   kemp_uint key =
       kemppinen_absorb(kemppinen_absorb((kemp_uint)(fp.seed_key ^ 0x6c6f6431u), rng_real_key(fp.u)),
                        rng_real_key(fp.v));
-  real t = KEMP_TO_REAL(kemppinen_mix(key) >> 8) * GLINT_R(5.9604644775390625e-8);
+  /* t from the second absorb's word itself (a full lowbias32 mix plus a constant, a bijection:
+   * uniform over 2^32), not from one more mix of it as until session 19: that mix added a chain
+   * of two multiplies ahead of the level, the spatial key and every facet, and nothing to the
+   * word's uniformity (OneLevel tests: the coarser level's frequency against w1). */
+  real t = KEMP_TO_REAL(key >> 8) * GLINT_R(5.9604644775390625e-8);
   real level = glint_select(lf, lf + GLINT_R(1.0), t < w1);
   return glint_fmin_nn(level, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL));
 }

@@ -289,20 +289,26 @@ GLINT_FN real kemppinen_erfc_abs_cut(real x) {
  * the compensation's 4 erfc per light and level and P_s's 4 per level would
  * otherwise cost more than their explicit facets (an exp each on the PoCL
  * CPU device; models/kemppinen/README.md "Neighbourhood"). */
-/* Its denominator (1 + a1 y + ... + a4 y^4)^4, y = |x| / sqrt 2 clamped to
- * `ymax` (callers that zero erfc beyond a cut clamp there, so that four of
- * them multiply without overflow: kemppinen_erfc4_with). */
-GLINT_FN real kemppinen_erfc_cheap_denominator(real x, real ymax) {
-  real y = glint_fmin_nn(fabs(x) * GLINT_R(0.70710678118654752440), ymax);
+/* Its denominator (1 + a1 y + ... + a4 y^4)^4 at y = |x| / sqrt 2, written in z = |x| clamped to
+ * `zmax` (callers that zero erfc beyond a cut clamp there, so that four of them multiply without
+ * overflow: kemppinen_erfc4_with): 1 + b1 z + ... + b4 z^4 with b_k = a_k 2^(-k/2), the same
+ * polynomial without the product by 1 / sqrt 2 per erfc (12 per 16-query block in ONE_CELL k = 1
+ * with two lights; session 20). The b_k are A&S's six-digit a_k scaled exactly (b2, b4 exact
+ * halvings and quarterings, b1, b3 to 17 digits), so the approximation and its bound are A&S's;
+ * only the rounding of the scaled constants and of z (exact) instead of y (one rounding) changes,
+ * far below 5e-4 (CheapErfc tests, unchanged bounds). */
+GLINT_FN real kemppinen_erfc_cheap_denominator(real x, real zmax) {
+  real z = glint_fmin_nn(fabs(x), zmax);
   /* Horner's steps fused in the point pass's 16-lane device entry (kernels/compat.h
    * glint_fma_fast: one rounding instead of two per step, far below the formula's 5e-4), a
-   * product and a sum elsewhere (the same bits as before). */
+   * product and a sum elsewhere. */
   real d = glint_fma_fast(
-      y,
-      glint_fma_fast(y,
-                     glint_fma_fast(y, glint_fma_fast(y, GLINT_R(0.078108), GLINT_R(0.000972)),
-                                    GLINT_R(0.230389)),
-                     GLINT_R(0.278393)),
+      z,
+      glint_fma_fast(
+          z,
+          glint_fma_fast(z, glint_fma_fast(z, GLINT_R(0.019527), GLINT_R(3.4365389565666203e-4)),
+                         GLINT_R(0.1151945)),
+          GLINT_R(0.19685357813486650)),
       GLINT_R(1.0));
   real d2 = d * d;
   return d2 * d2;
@@ -467,6 +473,16 @@ GLINT_FN KemppinenFootprint kemppinen_footprint(KemppinenParams p, real u, real 
 /* A cell index (an integer-valued real, possibly huge at uv = 1e7) as a hash
  * key, wrapped to [0, 2^24): the pattern repeats every 2^24 cells. */
 GLINT_FN kemp_uint kemppinen_cell_key(real c) {
+#if GLINT_FAST_ROOTS_ACTIVE
+  /* The 16-lane fp32 point pass, where every lane's |c| < 2^31 (almost always: uv * res_s up to
+   * 2e9): c is an integer-valued float, so its truncation to int is exact and the low 24 bits of
+   * its two's complement are c mod 2^24 (floored, negative c included), the value below; a NaN c
+   * gives 0x80000000, whose low bits are the 0 the clamp below gives it. The same key in 3
+   * instructions (a conversion and a mask) instead of a product, a rounding to floor (8 cycles'
+   * latency), a fused subtract, a clamp and a conversion, on the chain from the level to every
+   * facet's hash (session 20). */
+  if (!glint_any(fabs(c) >= GLINT_R(2147483648.0))) return as_uint16(convert_int16(c)) & 0xffffffu;
+#endif
   real w = c - GLINT_R(16777216.0) * glint_floor(c * GLINT_R(5.9604644775390625e-8));
   return KEMP_TO_UINT(glint_clamp_nn(w, GLINT_R(0.0), GLINT_R(16777215.0)));
 }
@@ -667,11 +683,26 @@ GLINT_FN KemppinenSpatial kemppinen_spatial(KemppinenParams p, KemppinenFootprin
   /* Sigma_c^-1 / 2 = adj(Sigma_s r2) / (2 det_c): scale the entries to cells
    * first (r2 / det_c alone overflows float at density 1e30, and 0 * inf is
    * NaN); each quotient is then ~1 / variance in cells, >= the regulariser. */
+#if GLINT_FAST_ROOTS_ACTIVE
+  /* The point pass's 16-lane device entry: both from one reciprocal square root estimate and its
+   * Newton step (kernels/compat.h glint_rsqrt_nn, <= 4 2^-24 relative), instead of two divisions
+   * and a square root on the divider (10-12 cycles each per 16 lanes) ahead of every facet lobe:
+   * inv_det = rs^2 carries <= 9 2^-24 relative (two of the estimate's errors and one rounding),
+   * norm_s <= 5 2^-24, against 1 and ~2 roundings. det_c is a positive normal float where the
+   * level follows the footprint (>= ~1e-12: eps keeps the filter's cells >= 1e-2 of its major
+   * axis) and +inf only past fp32's range (level 24, footprints near the 1e6 clamp at density
+   * 1e30), where the division gave 0 and the estimate's Newton step would give NaN (0 * inf):
+   * selected to the same 0. */
+  real rs = glint_select(glint_rsqrt_nn(det_c), GLINT_R(0.0), det_c == GLINT_R(INFINITY));
+  real inv_det = rs * rs;
+  s.norm_s = rs * GLINT_R(0.15915494309189533577);
+#else
   real inv_det = GLINT_R(1.0) / det_c;
+  s.norm_s = GLINT_R(1.0) / (GLINT_R(2.0) * GLINT_PI * sqrt(det_c));
+#endif
   s.qxx = GLINT_R(0.5) * (fp.syy * r2) * inv_det;
   s.qxy = -(fp.sxy * r2) * inv_det;
   s.qyy = GLINT_R(0.5) * (fp.sxx * r2) * inv_det;
-  s.norm_s = GLINT_R(1.0) / (GLINT_R(2.0) * GLINT_PI * sqrt(det_c));
   return s;
 }
 
@@ -698,16 +729,15 @@ GLINT_FN KemppinenErfc4 kemppinen_erfc4_with(real a, real b, real c, real d, int
     if (glint_any(na | nb | nc | nd)) {
       /* A&S 7.1.27 is 1 / P with P = (1 + a1 y + ...)^4: the four from one
        * division, 1 / (Pa Pb Pc Pd), and products (a division costs ~10
-       * multiplies on the CPU device). y is clamped at the cut (6 / sqrt 2),
+       * multiplies on the CPU device). |x| is clamped at the cut (6; y = 6 / sqrt 2),
        * where P < 1.2e6, so the product of four stays < 2e24 (no overflow in
        * fp32); lanes beyond the cut are zeroed below as before. Each erfc
        * then carries ~5 roundings instead of 1 (relative 3e-7 in fp32), far
        * below the approximation's 5e-4 (tested against libm). */
-      real ymax = GLINT_R(GLINT_KEMPPINEN_ERFC_CUT) * GLINT_R(0.70710678118654752440);
-      real pa = kemppinen_erfc_cheap_denominator(a, ymax);
-      real pb = kemppinen_erfc_cheap_denominator(b, ymax);
-      real pc = kemppinen_erfc_cheap_denominator(c, ymax);
-      real pd = kemppinen_erfc_cheap_denominator(d, ymax);
+      real pa = kemppinen_erfc_cheap_denominator(a, cut);
+      real pb = kemppinen_erfc_cheap_denominator(b, cut);
+      real pc = kemppinen_erfc_cheap_denominator(c, cut);
+      real pd = kemppinen_erfc_cheap_denominator(d, cut);
       real pab = pa * pb, pcd = pc * pd;
       /* pab pcd in [1, 2e24]: glint_recip_nn's estimate + Newton step in the 16-lane point
        * pass (<= 3 2^-24 + 2^-28 relative, kernels/compat.h), the division elsewhere. */
@@ -749,10 +779,21 @@ GLINT_FN real kemppinen_outside_width(KemppinenFootprint fp, real res_s, real ts
      * (eps >= 1e-6 / K_P), and at level 24 <= 1.2e8 (footprint clamp 1e6,
      * f <= 4, a <= 20) x 6e7 (K_P <= 1e30): qx in [1e-3, 7e15]. ~3 roundings
      * instead of 1. */
+#if GLINT_FAST_ROOTS_ACTIVE
+    /* The 16-lane point pass: 1 / sqrt by the estimate + Newton step (kernels/compat.h, <= 4
+     * 2^-24 relative; fp.sxx, fp.syy in [eps, ~1e16], positive normal floats) and 1 / res_s
+     * (res_s = sqrt(K_P) 2^-l in [2^-24, 1e15], inside glint_recip_nn's domain, <= 3 2^-24 +
+     * 2^-28): ~8 roundings' worth relative on the standard scores instead of ~6, against the
+     * cheap erfc's 5e-4 absolute; two root sequences and a product fewer than below. */
+    real inv_res_s = glint_recip_nn(res_s);
+    isx = glint_rsqrt_nn(fp.sxx) * inv_res_s;
+    isy = glint_rsqrt_nn(fp.syy) * inv_res_s;
+#else
     real qx = glint_sqrt_nn(fp.sxx) * res_s, qy = glint_sqrt_nn(fp.syy) * res_s;
     real r = glint_recip_nn(qx * qy); /* qx qy in [1e-6, 5e31]: see glint_recip_nn */
     isx = qy * r;
     isy = qx * r;
+#endif
   } else {
     isx = GLINT_R(1.0) / (sqrt(fp.sxx) * res_s);
     isy = GLINT_R(1.0) / (sqrt(fp.syy) * res_s);
@@ -976,7 +1017,11 @@ GLINT_FN real kemppinen_compensation_with(real ta_x, real ta_y, real ba_x, real 
    * edges are many standard deviations away except near the disk's rim. */
   KemppinenErfc4 eb = kemppinen_erfc4_with(x1, x2, y1, y2, cheap);
   real cut = GLINT_R(GLINT_KEMPPINEN_ERFC_CUT);
-  glint_mask square_far = (x0 <= -cut) & (x3 >= cut) & (y0 <= -cut) & (y3 >= cut);
+  /* x0 <= -cut is ta_x inv_sax >= cut (x0 is that product negated, exactly), so both edges of
+   * an axis are far when the smaller of the two products is: the same mask with two compares
+   * and one and fewer (x0, y0 are then only needed in the rare branch below). */
+  glint_mask square_far =
+      (glint_fmin_nn(ta_x * inv_sax, x3) >= cut) & (glint_fmin_nn(ta_y * inv_say, y3) >= cut);
   /* The block holds x_a strictly inside (x1 < 0 < x2, y1 < 0 < y2): so it does whenever x_a
    * lies in the unit square, as T(h) does up to rounding (kemppinen_angular_first keeps ta in
    * [ba, ea]), except on a cell edge. Where that holds in every lane and the square's edges are
@@ -1258,7 +1303,11 @@ GLINT_FN real kemppinen_dithered_level(KemppinenFootprint fp) {
   kemp_uint key =
       kemppinen_absorb(kemppinen_absorb((kemp_uint)(fp.seed_key ^ 0x6c6f6431u), rng_real_key(fp.u)),
                        rng_real_key(fp.v));
-  real t = KEMP_TO_REAL(kemppinen_mix(key) >> 8) * GLINT_R(5.9604644775390625e-8);
+  /* t from the second absorb's word itself (a full lowbias32 mix plus a constant, a bijection:
+   * uniform over 2^32), not from one more mix of it as until session 19: that mix added a chain
+   * of two multiplies ahead of the level, the spatial key and every facet, and nothing to the
+   * word's uniformity (OneLevel tests: the coarser level's frequency against w1). */
+  real t = KEMP_TO_REAL(key >> 8) * GLINT_R(5.9604644775390625e-8);
   real level = glint_select(lf, lf + GLINT_R(1.0), t < w1);
   return glint_fmin_nn(level, GLINT_R(GLINT_KEMPPINEN_MAX_LEVEL));
 }

@@ -168,6 +168,40 @@ TEST_P(WorkGroupSize, CappedWorkGroupsGiveTheDefaultsBits) {
       [&](glint::DeviceEngine &e, float *out) { return e.Sample(0, plan, r.queries(), k, out); });
 }
 
+// A configured size above what PoCL's device takes (CL_DEVICE_MAX_WORK_GROUP_SIZE 4096, and each
+// kernel's CL_KERNEL_WORK_GROUP_SIZE) is lowered to the device's own limit, read from the device,
+// not refused by clEnqueueNDRangeKernel (CL_INVALID_WORK_GROUP_SIZE before the limits were
+// asked): a real device limit, where the tests above impose theirs.
+TEST(WorkGroupSizeDevice, AConfiguredSizeAboveTheDevicesLimitRunsAtTheLimit) {
+  std::unique_ptr<glint::DeviceEngine> engine[2];
+  for (int i = 0; i < 2; ++i) {
+    glint::DeviceEngineOptions o;
+    o.workers = 1;
+    o.local_size = i == 0 ? 128 : 65534;  // the largest DeviceEngine::Create accepts
+    if (const char *d = std::getenv("GLINT_CACHE_DIR")) o.cache_dir = d;
+    glint::Status s = glint::DeviceEngine::Create(o, &engine[i]);
+    ASSERT_TRUE(s.ok()) << s.message();
+  }
+  size_t device_max = 0;
+  ASSERT_EQ(CL_SUCCESS,
+            clGetDeviceInfo(engine[0]->runtime().device(), CL_DEVICE_MAX_WORK_GROUP_SIZE,
+                            sizeof device_max, &device_max, nullptr));
+  if (device_max >= 65534) GTEST_SKIP() << "the device takes groups of " << device_max;
+  const v1::EvaluateRequest r = Request(v1::SMOOTH, Lights::kProbe);
+  const glint::EvalPlan plan = glint::MakeEvalPlan(r, r.queries());
+  std::vector<float> out[2];
+  for (int i = 0; i < 2; ++i) {
+    out[i].assign(size_t(kQueries) * 3, -1.0f);
+    glint::Status s = engine[i]->Evaluate(0, plan, r.queries(), out[i].data());
+    ASSERT_TRUE(s.ok()) << "local_size " << (i ? 65534 : 128) << ": " << s.message();
+  }
+  EXPECT_EQ(0, std::memcmp(out[0].data(), out[1].data(), out[0].size() * sizeof(float)));
+  const std::vector<size_t> used = engine[1]->LastLaunchLocalSizes(0);
+  ASSERT_EQ(used.size(), 1u);
+  EXPECT_LE(used[0], device_max);  // lowered to the device's limit (or the kernel's, below it)
+  EXPECT_GE(used[0], 1u);
+}
+
 // Listed, not read from Models() during static initialisation; the next test keeps the list whole.
 constexpr v1::Model kModels[] = {v1::SMOOTH, v1::BINOMIAL, v1::CHERMAIN, v1::KEMPPINEN,
                                  v1::NORMAL_MAP};

@@ -246,6 +246,16 @@ int main(int argc, char **argv) {
       cl_kernel k = clCreateKernel(program, "glint_smooth", &err);
       CHECK_CL(err);
       kernels.push_back(k);
+      // A --local the device or this kernel refuses would only fail as "kernel ... failed": said
+      // here instead (the engine lowers its own sizes, server/work_group_size.h; this bench
+      // measures the sizes asked for, so it does not).
+      size_t kernel_max = 0;
+      CHECK_CL(clGetKernelWorkGroupInfo(k, rt->device(), CL_KERNEL_WORK_GROUP_SIZE,
+                                        sizeof kernel_max, &kernel_max, nullptr));
+      for (int local : locals)
+        if (local < 1 || size_t(local) > kernel_max)
+          return Fail("--local " + std::to_string(local) + ": this kernel takes 1.." +
+                      std::to_string(kernel_max) + " work-items per group on this device");
       for (int local : locals) {
         const int k_per = si < file_per_item.size() ? file_per_item[si] : per_item;
         const size_t q_per = size_t(k_per > 0 ? k_per : lanes * blocks);

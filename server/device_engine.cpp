@@ -10,13 +10,21 @@
 #include "server/model_table.h"
 #include "server/shm_guard.h"
 #include "server/sliced_eval.h"
+#include "server/work_group_size.h"
 
 namespace glint {
 
+struct DeviceEngine::QueueKernel {
+  ClKernel kernel;
+  size_t max_local = 0;  // CL_KERNEL_WORK_GROUP_SIZE on the device (0: not reported)
+  size_t local = 0;      // the work-group size it launches with; 0 until its first launch
+};
+
 struct DeviceEngine::Queue {
   ClQueue queue;
-  ClBuffer dummy;                           // bound to the inputs a request does not carry
-  std::map<std::string, ClKernel> kernels;  // by kernel file + entry + build options
+  ClBuffer dummy;                              // bound to the inputs a request does not carry
+  std::map<std::string, QueueKernel> kernels;  // by kernel file + entry + build options
+  std::vector<size_t> launched_local;          // LastLaunchLocalSizes
 };
 
 namespace {
@@ -173,6 +181,27 @@ Status DeviceEngine::Create(const DeviceEngineOptions &options,
   Status s = ClRuntime::Create(options.device, options.cache_dir, &engine->runtime_);
   KeepSigbusGuardFirst();
   if (!s.ok()) return s;
+  {
+    // The device's bounds on any kernel's work-group size (a 2D launch of {local, 1}: the total
+    // and the first dimension); OpenCL requires both to be reported, 0 stays "none" otherwise.
+    cl_device_id device = engine->runtime_->device();
+    size_t max_group = 0;
+    cl_uint dims = 0;
+    if (clGetDeviceInfo(device, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof max_group, &max_group,
+                        nullptr) != CL_SUCCESS)
+      max_group = 0;
+    size_t max_x = 0;
+    if (clGetDeviceInfo(device, CL_DEVICE_MAX_WORK_ITEM_DIMENSIONS, sizeof dims, &dims, nullptr) ==
+            CL_SUCCESS &&
+        dims > 0) {
+      std::vector<size_t> sizes(dims);
+      if (clGetDeviceInfo(device, CL_DEVICE_MAX_WORK_ITEM_SIZES, dims * sizeof(size_t),
+                          sizes.data(), nullptr) == CL_SUCCESS)
+        max_x = sizes[0];
+    }
+    engine->device_max_local_ =
+        max_group == 0 || max_x == 0 ? std::max(max_group, max_x) : std::min(max_group, max_x);
+  }
   for (const Model *model : Models())
     for (const ModelPass &pass : model->passes)
       if (!engine->sources_.count(pass.kernel_file))
@@ -299,12 +328,12 @@ Status DeviceEngine::PrepareSample(int worker, const EvalPlan &plan,
 }
 
 Status DeviceEngine::KernelFor(Queue &queue, const ModelPass &pass, const KernelSpec &spec,
-                               cl_kernel *out) {
+                               QueueKernel **out) {
   const std::string options = PassBuildOptions(pass, spec);
   const std::string key = PassKey(pass, spec);
   auto it = queue.kernels.find(key);
   if (it != queue.kernels.end()) {
-    *out = it->second.get();
+    *out = &it->second;
     return Status::Ok();
   }
   cl_program program = nullptr;
@@ -315,9 +344,57 @@ Status DeviceEngine::KernelFor(Queue &queue, const ModelPass &pass, const Kernel
   if (err != CL_SUCCESS)
     return Status::Internal(std::string("clCreateKernel ") + pass.entry +
                             " failed: " + ClErrorName(err));
-  *out = kernel.get();
-  queue.kernels.emplace(key, std::move(kernel));
+  // The built kernel's own bound (registers, private memory); asked once, kept with the kernel.
+  size_t max_local = 0;
+  if (clGetKernelWorkGroupInfo(kernel.get(), runtime_->device(), CL_KERNEL_WORK_GROUP_SIZE,
+                               sizeof max_local, &max_local, nullptr) != CL_SUCCESS)
+    max_local = 0;
+  QueueKernel &entry = queue.kernels[key];
+  entry.kernel = std::move(kernel);
+  entry.max_local = max_local;
+  *out = &entry;
   return Status::Ok();
+}
+
+std::vector<size_t> DeviceEngine::LastLaunchLocalSizes(int worker) const {
+  return queues_.at(size_t(worker))->launched_local;
+}
+
+Status DeviceEngine::Launch(Queue &queue, QueueKernel &kernel, const Model &model,
+                            const ModelPass &pass, size_t work_items, size_t blocks) {
+  const WorkGroupLimits limits = {kernel.max_local, device_max_local_, options_.max_local_size};
+  if (kernel.local == 0) kernel.local = LocalSizeFor(options_.local_size, blocks, limits);
+  size_t local = kernel.local;
+  const cl_int err = EnqueueShrinkingGroups(work_items, &local, [&](const LaunchGrid &grid) {
+    return clEnqueueNDRangeKernel(queue.queue.get(), kernel.kernel.get(), 2, nullptr, grid.global,
+                                  grid.local, 0, nullptr, nullptr);
+  });
+  if (err == CL_SUCCESS) {
+    kernel.local = local;  // a size the device refused is not tried again on this queue
+    queue.launched_local.push_back(local);
+    return Status::Ok();
+  }
+  // Earlier passes of the call may be running on the request's memory: done before returning.
+  clFinish(queue.queue.get());
+  const std::string what =
+      std::string(model.name) + " kernel " + pass.entry + " (" + pass.kernel_file + ")";
+  if (!SmallerGroupsMayHelp(err))
+    return Status::Internal(what + ": clEnqueueNDRangeKernel failed: " + ClErrorName(err) +
+                            " (work-group size " + std::to_string(local) + ")");
+  // Not even one work-item per group fits: nothing this server can change; the device cannot run
+  // the variant (every request of it gets this, the other variants are unaffected).
+  cl_ulong private_bytes = 0;
+  clGetKernelWorkGroupInfo(kernel.kernel.get(), runtime_->device(), CL_KERNEL_PRIVATE_MEM_SIZE,
+                           sizeof private_bytes, &private_bytes, nullptr);
+  auto limit = [](size_t v) { return v ? std::to_string(v) : std::string("not reported"); };
+  return Status::FailedPrecondition(
+      what + " cannot run on " + runtime_->info().name +
+      ", not even in work-groups of 1: clEnqueueNDRangeKernel failed with " + ClErrorName(err) +
+      " (the kernel's CL_KERNEL_WORK_GROUP_SIZE " + limit(kernel.max_local) +
+      ", the device's maximum work-group size " + limit(device_max_local_) +
+      ", CL_KERNEL_PRIVATE_MEM_SIZE " + std::to_string(private_bytes) +
+      " bytes per work-item; configured work-group size " + std::to_string(options_.local_size) +
+      ")");
 }
 
 Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const glint::v1::QueryBatch &q,
@@ -363,18 +440,21 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const QueryView 
   // Every pass's kernel before any runs: a build may have LLVM install its SIGBUS handler over the
   // guard of the shared-memory regions the kernels may read in place; the guard goes back in
   // front before they run (one system call; server/shm_guard.h).
-  std::vector<cl_kernel> kernels(passes.size());
+  std::vector<QueueKernel *> kernels(passes.size());
   const KernelSpec spec = ProgramSpec(plan);
   for (size_t k = 0; k < passes.size(); ++k) {
     s = KernelFor(queue, *passes[k], spec, &kernels[k]);
     if (!s.ok()) return s;
   }
   KeepSigbusGuardFirst();
+  queue.launched_local.clear();
   for (size_t k = 0; k < passes.size(); ++k) {
-    cl_kernel kernel = kernels[k];
     // In-order queue: each later pass runs after the earlier ones and adds to their output.
-    s = BindKernelArguments(kernel, args, queue.dummy.get(), k > 0);
-    if (!s.ok()) return s;
+    s = BindKernelArguments(kernels[k]->kernel.get(), args, queue.dummy.get(), k > 0);
+    if (!s.ok()) {
+      clFinish(queue.queue.get());  // the earlier passes read request memory
+      return s;
+    }
     // A 2D grid below PoCL's small-grid limit: the work-group function the one-query warm-up
     // compiled runs every batch (server/launch_grid.h).
     const size_t blocks = size_t(passes[k]->Blocks(spec.fp64, spec.probe));
@@ -384,11 +464,9 @@ Status DeviceEngine::Evaluate(int worker, const EvalPlan &plan, const QueryView 
     // batch of up to local_size x width queries (8192 for BINOMIAL's 4 x 16) would be one
     // work-group, i.e. run on one of PoCL's threads. Probes keep local_size (SMOOTH's 2 blocks
     // were measured so).
-    const size_t local =
-        spec.probe ? options_.local_size : std::max<size_t>(1, options_.local_size / blocks);
-    const LaunchGrid grid = GridFor((size_t(n) + width - 1) / width, local);
-    GLINT_CL_CHECK(clEnqueueNDRangeKernel(queue.queue.get(), kernel, 2, nullptr, grid.global,
-                                          grid.local, 0, nullptr, nullptr));
+    s = Launch(queue, *kernels[k], *model, *passes[k], (size_t(n) + width - 1) / width,
+               spec.probe ? 1 : blocks);
+    if (!s.ok()) return s;
   }
   s = ReadBackAndFinish(queue.queue.get(), args.out.get(), size_t(n) * 3 * sizeof(float));
   return s;
@@ -429,16 +507,16 @@ Status DeviceEngine::Sample(int worker, const EvalPlan &plan, const glint::v1::Q
     return Status::Internal("clCreateBuffer (samples) failed: " + ClErrorName(err));
   const ModelPass pass = {
       model->sample.kernel_file, model->sample.entry, 1, nullptr, nullptr, nullptr};
-  cl_kernel kernel = nullptr;
+  QueueKernel *kernel = nullptr;
   s = KernelFor(queue, pass, plan.spec, &kernel);
   if (!s.ok()) return s;
-  s = BindKernelArguments(kernel, args, queue.dummy.get(), false);
+  s = BindKernelArguments(kernel->kernel.get(), args, queue.dummy.get(), false);
   if (!s.ok()) return s;
   const cl_uint k = samples_per_query;
-  GLINT_CL_CHECK(clSetKernelArg(kernel, kKernelArgCount, sizeof(k), &k));
-  const LaunchGrid grid = GridFor(samples, options_.local_size);
-  GLINT_CL_CHECK(clEnqueueNDRangeKernel(queue.queue.get(), kernel, 2, nullptr, grid.global,
-                                        grid.local, 0, nullptr, nullptr));
+  GLINT_CL_CHECK(clSetKernelArg(kernel->kernel.get(), kKernelArgCount, sizeof(k), &k));
+  queue.launched_local.clear();
+  s = Launch(queue, *kernel, *model, pass, samples, 1);
+  if (!s.ok()) return s;
   return ReadBackAndFinish(queue.queue.get(), args.out.get(),
                            samples * kSampleFloats * sizeof(float));
 }

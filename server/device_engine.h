@@ -35,7 +35,13 @@ struct DeviceEngineOptions {
   int workers = 2;        // command queues (concurrent Evaluate calls)
   // Work-group size: explicit, because PoCL picks the largest divisor of the
   // global size otherwise (size 1 for a prime count). Global sizes are padded.
+  // A kernel launches with the largest size not above this (divided by a lights pass's blocks
+  // per work-item) that the device and the built kernel accept, and smaller still if an enqueue
+  // fails for the size (server/work_group_size.h); results do not depend on it.
   size_t local_size = 128;
+  // A further limit on every kernel's work-group size, 0 = none: tests impose a small device's
+  // limits on PoCL with it (and an operator could where a driver misreports its own).
+  size_t max_local_size = 0;
   // Build an LTC polygon plan's programs for LTC alone (KernelSpec::area_only, -DGLINT_AREA_ONLY)
   // instead of the one program with every area method behind the runtime switch: the glint
   // models' one-query-per-item polygon programs then carry none of the per-query integrators
@@ -90,18 +96,31 @@ class DeviceEngine {
   // may run in parallel, as for Evaluate; server/warmup.h).
   Status Warm(const KernelSpec &spec, int worker = -1);
 
+  // The work-group size of each kernel launch of `worker`'s latest Evaluate or Sample call, in
+  // launch order (tests check that DeviceEngineOptions::max_local_size reached the launches).
+  std::vector<size_t> LastLaunchLocalSizes(int worker) const;
+
   // The spec the plan's programs are built for: plan.spec, with area_only = LTC when
   // DeviceEngineOptions::ltc_only_programs asks for it.
   KernelSpec ProgramSpec(const EvalPlan &plan) const;
 
  private:
   struct Queue;
+  struct QueueKernel;
   DeviceEngine() = default;
   // The queue's kernel for `pass` specialised by `spec` (built on first use).
-  Status KernelFor(Queue &queue, const ModelPass &pass, const KernelSpec &spec, cl_kernel *out);
+  Status KernelFor(Queue &queue, const ModelPass &pass, const KernelSpec &spec, QueueKernel **out);
+  // Enqueues `kernel` (of `model`'s `pass`) over `work_items` work-items in groups of its
+  // work-group size (computed at its first launch from `blocks` and the limits, lowered for good
+  // when the device refuses it: server/work_group_size.h). On an error, waits for the queue (the
+  // earlier passes' inputs wrap request memory) and says which kernel and limit.
+  Status Launch(Queue &queue, QueueKernel &kernel, const Model &model, const ModelPass &pass,
+                size_t work_items, size_t blocks);
 
   DeviceEngineOptions options_;
   std::unique_ptr<ClRuntime> runtime_;
+  // min(CL_DEVICE_MAX_WORK_GROUP_SIZE, CL_DEVICE_MAX_WORK_ITEM_SIZES[0]), 0 = not reported.
+  size_t device_max_local_ = 0;
   std::map<std::string, std::string> sources_;  // expanded kernel source per pass file
   ClBuffer ltc_tables_[2];                      // GGX, Beckmann (read-only, shared by queues)
   std::map<int, ClBuffer> model_tables_;        // Model::table by model id (read-only, shared)

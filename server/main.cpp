@@ -33,6 +33,7 @@ struct Flags {
   std::string port_file;
   uint32_t max_batch = 1u << 20;
   int workers = 2;
+  size_t max_local_size = 0;  // --max-work-group (DeviceEngineOptions::max_local_size)
   int max_pending = 16;
   int max_undelivered_mb = 0;  // 0: max-pending x max-message-mb
   int max_message_mb = 64;
@@ -65,6 +66,8 @@ const char kUsage[] =
     "                       $XDG_CACHE_HOME/glint, else ~/.cache/glint; '' disables)\n"
     "  --max-batch N        queries per unary call or stream chunk (default 1048576)\n"
     "  --workers N          evaluation threads / device queues (default 2)\n"
+    "  --max-work-group N   at most N work-items per work-group in every kernel launch, besides\n"
+    "                       the device's and each kernel's own limits (default: no further limit)\n"
     "  --max-pending N      queued+running requests before RESOURCE_EXHAUSTED (default 16)\n"
     "  --max-undelivered-mb U  answered unary replies not yet read by their clients before\n"
     "                       new Evaluate calls get RESOURCE_EXHAUSTED (default max-pending x\n"
@@ -170,6 +173,8 @@ bool ParseFlags(int argc, char **argv, Flags *f) {
       f->max_batch = uint32_t(number("--max-batch", 1, 1 << 24));
     else if (a == "--workers")
       f->workers = int(number("--workers", 1, 64));
+    else if (a == "--max-work-group")
+      f->max_local_size = size_t(number("--max-work-group", 1, 65534));
     else if (a == "--max-pending")
       f->max_pending = int(number("--max-pending", 1, 1 << 16));
     else if (a == "--max-undelivered-mb")
@@ -301,6 +306,7 @@ int main(int argc, char **argv) {
     eo.device = flags.device;
     eo.cache_dir = flags.cache_dir;
     eo.workers = flags.workers;
+    eo.max_local_size = flags.max_local_size;
     glint::Status s = glint::DeviceEngine::Create(eo, &engine);
     if (!s.ok()) {
       std::fprintf(stderr, "glintd: %s\n", s.message().c_str());

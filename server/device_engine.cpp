@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <iostream>
 #include <tuple>
 
 #include "server/kernel_source.h"
@@ -370,7 +371,13 @@ Status DeviceEngine::Launch(Queue &queue, QueueKernel &kernel, const Model &mode
                                   grid.local, 0, nullptr, nullptr);
   });
   if (err == CL_SUCCESS) {
-    kernel.local = local;  // a size the device refused is not tried again on this queue
+    // A size the device refused is not tried again on this queue. Said once per kernel and queue
+    // (it stays lowered), since a driver may also report an earlier command's failure this way.
+    if (local < kernel.local)
+      std::cerr << "glint: " << model.name << " kernel " << pass.entry << " (" << pass.kernel_file
+                << "): the device refused work-groups of " << kernel.local << "; now " << local
+                << "\n";
+    kernel.local = local;
     queue.launched_local.push_back(local);
     return Status::Ok();
   }

@@ -688,11 +688,11 @@ GLINT_FN KemppinenSpatial kemppinen_spatial(KemppinenParams p, KemppinenFootprin
    * Newton step (kernels/compat.h glint_rsqrt_nn, <= 4 2^-24 relative), instead of two divisions
    * and a square root on the divider (10-12 cycles each per 16 lanes) ahead of every facet lobe:
    * inv_det = rs^2 carries <= 9 2^-24 relative (two of the estimate's errors and one rounding),
-   * norm_s <= 5 2^-24, against 1 and ~2 roundings. det_c is a positive normal float where the
-   * level follows the footprint (>= ~1e-12: eps keeps the filter's cells >= 1e-2 of its major
-   * axis) and +inf only past fp32's range (level 24, footprints near the 1e6 clamp at density
-   * 1e30), where the division gave 0 and the estimate's Newton step would give NaN (0 * inf):
-   * selected to the same 0. */
+   * norm_s <= ~5.7 2^-24 (with 1 / 2 pi rounded to fp32), against 1 and ~2 roundings. det_c is a
+   * positive normal float where the level follows the footprint (>= ~1e-12: eps keeps the filter's
+   * cells >= 1e-2 of its major axis) and +inf only past fp32's range (level 24, footprints near the
+   * 1e6 clamp at density 1e30), where the division gave 0 and the estimate's Newton step would give
+   * NaN (0 * inf): selected to the same 0. */
   real rs = glint_select(glint_rsqrt_nn(det_c), GLINT_R(0.0), det_c == GLINT_R(INFINITY));
   real inv_det = rs * rs;
   s.norm_s = rs * GLINT_R(0.15915494309189533577);
@@ -782,9 +782,10 @@ GLINT_FN real kemppinen_outside_width(KemppinenFootprint fp, real res_s, real ts
 #if GLINT_FAST_ROOTS_ACTIVE
     /* The 16-lane point pass: 1 / sqrt by the estimate + Newton step (kernels/compat.h, <= 4
      * 2^-24 relative; fp.sxx, fp.syy in [eps, ~1e16], positive normal floats) and 1 / res_s
-     * (res_s = sqrt(K_P) 2^-l in [2^-24, 1e15], inside glint_recip_nn's domain, <= 3 2^-24 +
-     * 2^-28): ~8 roundings' worth relative on the standard scores instead of ~6, against the
-     * cheap erfc's 5e-4 absolute; two root sequences and a product fewer than below. */
+     * (res_s = sqrt(K_P) 2^-l in [~6e-11, 1e15] for densities >= 1e-6, inside glint_recip_nn's
+     * domain, <= 3 2^-24 + 2^-28): ~8 roundings' worth relative on the standard scores instead of
+     * ~6, against the cheap erfc's 5e-4 absolute; two root sequences and a product fewer than
+     * below. */
     real inv_res_s = glint_recip_nn(res_s);
     isx = glint_rsqrt_nn(fp.sxx) * inv_res_s;
     isy = glint_rsqrt_nn(fp.syy) * inv_res_s;
@@ -809,7 +810,8 @@ GLINT_FN real kemppinen_outside_width(KemppinenFootprint fp, real res_s, real ts
  * ONE_CELL the one cell holding the query (first cell floor(ts)); the erfc of A&S 7.1.27 for the
  * one-level neighbourhoods (kemppinen_erfc4_with). One function for the point pass
  * (kemppinen_level_query_into) and the polygon pass (kemppinen_spatial_outside), so the two
- * passes of one material compensate the same spatial cells with the same arithmetic. */
+ * passes of one material compensate the same spatial cells with the same formula (the point
+ * pass's 16-lane device entry takes its roots by the fast estimates in kemppinen_outside_width). */
 GLINT_FN real kemppinen_neighborhood_outside(KemppinenParams p, KemppinenFootprint fp, real res_s,
                                              real ts_x, real ts_y, real bs_x, real bs_y) {
   return kemppinen_outside_width(fp, res_s, ts_x, ts_y, bs_x, bs_y,

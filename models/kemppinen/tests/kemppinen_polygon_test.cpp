@@ -12,7 +12,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <random>
 #include <string>
 #include <vector>
@@ -467,15 +469,15 @@ std::vector<V3> SquareLight(V3 dir, double dist, double half) {
   return q;
 }
 
-// Polygon lights (kemppinen_polygons.h) against Monte Carlo over the light: per query, 2048
+// Polygon lights (kemppinen_polygons.h) against Monte Carlo over the light: per query, n_mc
 // directions drawn uniformly by area on the square (pdf d^2 / (A cos_l) in solid angle), each
 // evaluated with the model's own per-direction glinty BRDF (a probe: D_star at that direction's
 // half-vector, every direction sees its own facets), so the estimate converges to the exact
 // glinty reflection of the light. Configurations: a small light (~1 degree), a 10-degree one, a
 // large ~50-degree one, and grazing wo at 80 degrees; densities 1e5 and 1e7 (footprint 1e-3).
 // Asserted:
-//   - unbiased over uv: the mean difference (model - MC) over the queries is within 4.5
-//     standard errors of that mean;
+//   - unbiased over uv and patterns: the mean difference (model - MC) over the queries is
+//     within 4.5 standard errors of that mean;
 //   - per query, the RMS difference with the MC noise removed (mean squared difference minus
 //     the mean squared MC standard error), relative to the mean: for the small light below
 //     0.05 (every approximation of kemppinen_polygons.h becomes exact as the light shrinks to a
@@ -490,6 +492,25 @@ std::vector<V3> SquareLight(V3 dir, double dist, double half) {
 // 1 - P_s by 2 eps (two per-axis tails, kemppinen_outside_width), times rho A_l <= the light's
 // smooth radiance (rho ~constant over the light's image, the test's own approximation): the
 // bias tolerance adds (10 + 2) eps times the mean reference.
+// SAMPLE (session 20, issue 9): 4 glint patterns (seeds) x 60 uv, 1024 directions each, pooled.
+// At density 1e5 the per-query difference is skewed and heavy-tailed (medium light, ONE_CELL:
+// skewness +1.4 / -6.5, kurtosis ~500-850): most queries see no glint and there the polygon
+// pass sits below the MC by far more than the MC noise (over 20 patterns: -10% of the queries
+// under 0.1 of the smooth radiance, -0.8% of those at 0.1-0.5; cause not isolated, one of the
+// README's approximations, e.g. rho at the centroid in the subtracted rho_l P_s A_l), while the
+// ~3% that hold a glint brighter than the smooth radiance carry the mean and its spread. The
+// mean stays unbiased (E over uv of the explicit part is rho_l P_s A_l), but 60 queries of one
+// pattern hold no bright glint in ~0.973^60 = 20% of draws, and then the standard error
+// collapses with the mean left at the dim queries' offset. Measured over 800 patterns x 60 uv
+// (medium light, 1e5, ONE_CELL, 2048 directions): (polygon - MC) / mean = +0.0013 +- 0.0011
+// on session 20's hash and -0.0006 +- 0.0012 with 8ea7062's column key (branch s20-kcell), SE
+// over patterns: no bias; yet the 60-query test failed 71 and 59 of those 800 patterns.
+// Resampling their queries, the 4.5 SE test fails 8% of 60-query samples, 1.5% of 120, 0.1%
+// of 240, none of 2000 of 480. The spread of the per-pattern means over patterns equals the
+// within-pattern standard error (ratio 1.01 and 0.97: one pattern's uv draws are as
+// independent as patterns), so the 240 queries form one sample and its standard error. 1024
+// directions (not 2048) keep the test's time at twice session 20's: the MC noise is in each
+// difference, so in the bias's standard error, and is subtracted from the RMS.
 struct LightCase {
   const char *name;
   V3 wo;
@@ -497,38 +518,35 @@ struct LightCase {
   double density;
 };
 
-class PolygonLightsByNeighborhood : public ::testing::TestWithParam<int> {};
+struct LightCaseResult {
+  double bias, se, mean, rms, rms_old, mc_noise, spread;
+  double excess, excess_se;  // mean over queries of diff^2 - MC SE^2 (rms^2 mean^2), its SE
+};
 
-TEST_P(PolygonLightsByNeighborhood, AgainstMonteCarloOverTheLight) {
-  const int hood = GetParam();
-  const double erfc_bias =
-      hood == GLINT_KEMPPINEN_NEIGHBORHOOD_PAPER ? 0.0 : kCheapErfcBiasBound + 2 * kCheapErfcBound;
+// One configuration over `n_seeds` glint patterns (seed_lo = first_seed, ...) of `count` uv each.
+LightCaseResult RunLightCase(const LightCase &c, int hood, unsigned first_seed, int n_seeds,
+                             int count, int n_mc, uint64_t uv_seed) {
   const double fp[4] = {1e-3, 0, 0, 1e-3}, dist = 3.0;
-  const V3 wo10 = Normalize({0.3, 0.0, 1.0});
-  const V3 wo80 = {std::sin(80 * M_PI / 180), 0.0, std::cos(80 * M_PI / 180)};
-  const std::vector<LightCase> cases = {
-      {"small", wo10, 0.03, 1e5},   {"small", wo10, 0.03, 1e7},   {"medium", wo10, 0.25, 1e5},
-      {"medium", wo10, 0.25, 1e7},  {"large", wo10, 1.5, 1e5},    {"large", wo10, 1.5, 1e7},
-      {"grazing", wo80, 0.25, 1e5}, {"grazing", wo80, 0.25, 1e7},
-  };
-  const int count = 60, n_mc = 2048;
-  for (const LightCase &c : cases) {
-    Glinty g;
-    g.density = c.density;
-    g.neighborhood = hood;
-    const V3 mirror = {-c.wo.x, -c.wo.y, c.wo.z};
-    const std::vector<V3> quad = SquareLight(mirror, dist, c.half);
-    const V3 e1 = {quad[1].x - quad[0].x, quad[1].y - quad[0].y, quad[1].z - quad[0].z};
-    const V3 e2 = {quad[3].x - quad[0].x, quad[3].y - quad[0].y, quad[3].z - quad[0].z};
-    const double area = 4 * c.half * c.half;
-    const V3 hc = Normalize({mirror.x + c.wo.x, mirror.y + c.wo.y, mirror.z + c.wo.z});
-    std::mt19937_64 rng(5);
-    std::uniform_real_distribution<double> uni(0.0, 1.0);
-    std::vector<double> diff(count), diff_old(count), ref(count);
-    double se2 = 0;
-    for (int i = 0; i < count; ++i) {
+  Glinty g;
+  g.density = c.density;
+  g.neighborhood = hood;
+  const V3 mirror = {-c.wo.x, -c.wo.y, c.wo.z};
+  const std::vector<V3> quad = SquareLight(mirror, dist, c.half);
+  const V3 e1 = {quad[1].x - quad[0].x, quad[1].y - quad[0].y, quad[1].z - quad[0].z};
+  const V3 e2 = {quad[3].x - quad[0].x, quad[3].y - quad[0].y, quad[3].z - quad[0].z};
+  const double area = 4 * c.half * c.half;
+  const V3 hc = Normalize({mirror.x + c.wo.x, mirror.y + c.wo.y, mirror.z + c.wo.z});
+  std::mt19937_64 rng(uv_seed);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  const size_t total = size_t(n_seeds) * size_t(count);
+  std::vector<double> diff(total), diff_old(total), ref(total), excess(total);
+  double se2 = 0;
+  size_t i = 0;
+  for (int s = 0; s < n_seeds; ++s) {
+    g.seed_lo = first_seed + unsigned(s);
+    for (int q = 0; q < count; ++q, ++i) {
       double u = 100 * uni(rng), v = 100 * uni(rng);
-      std::vector<double> x(n_mc);
+      std::vector<double> x(static_cast<size_t>(n_mc));
       double smooth = 0;
       for (int k = 0; k < n_mc; ++k) {
         double a = uni(rng), b = uni(rng);
@@ -541,29 +559,109 @@ TEST_P(PolygonLightsByNeighborhood, AgainstMonteCarloOverTheLight) {
         smooth += k64::SmoothProbe(g, c.wo, wi) * jac / n_mc;
       }
       Stats sx = Summarise(x);
-      ref[size_t(i)] = sx.mean;
-      se2 += sx.se() * sx.se() / count;
-      diff[size_t(i)] =
-          k64::QueryPolygon(g, u, v, fp, c.wo, quad, GLINT_AREA_REFERENCE, 16) - sx.mean;
-      diff_old[size_t(i)] = smooth * k64::GlintFactor(g, u, v, fp, hc) - sx.mean;
+      ref[i] = sx.mean;
+      se2 += sx.se() * sx.se() / double(total);
+      diff[i] = k64::QueryPolygon(g, u, v, fp, c.wo, quad, GLINT_AREA_REFERENCE, 16) - sx.mean;
+      diff_old[i] = smooth * k64::GlintFactor(g, u, v, fp, hc) - sx.mean;
+      excess[i] = diff[i] * diff[i] - sx.se() * sx.se();
     }
-    Stats sd = Summarise(diff), so = Summarise(diff_old), sr = Summarise(ref);
-    auto rms = [&](const Stats &s) {
-      double ms = s.var * double(count - 1) / count + s.mean * s.mean;
-      return std::sqrt(std::max(0.0, ms - se2)) / sr.mean;
-    };
+  }
+  Stats sd = Summarise(diff), so = Summarise(diff_old), sr = Summarise(ref), se = Summarise(excess);
+  auto rms = [&](const Stats &st) {
+    double ms = st.var * double(total - 1) / double(total) + st.mean * st.mean;
+    return std::sqrt(std::max(0.0, ms - se2)) / sr.mean;
+  };
+  return {sd.mean,     sd.se(), sr.mean, rms(sd), rms(so), std::sqrt(se2) / sr.mean,
+          sr.spread(), se.mean, se.se()};
+}
+
+const std::vector<LightCase> &LightCases() {
+  static const V3 wo10 = Normalize({0.3, 0.0, 1.0});
+  static const V3 wo80 = {std::sin(80 * M_PI / 180), 0.0, std::cos(80 * M_PI / 180)};
+  static const std::vector<LightCase> cases = {
+      {"small", wo10, 0.03, 1e5},   {"small", wo10, 0.03, 1e7},   {"medium", wo10, 0.25, 1e5},
+      {"medium", wo10, 0.25, 1e7},  {"large", wo10, 1.5, 1e5},    {"large", wo10, 1.5, 1e7},
+      {"grazing", wo80, 0.25, 1e5}, {"grazing", wo80, 0.25, 1e7},
+  };
+  return cases;
+}
+
+double ErfcBias(int hood) {
+  return hood == GLINT_KEMPPINEN_NEIGHBORHOOD_PAPER ? 0.0
+                                                    : kCheapErfcBiasBound + 2 * kCheapErfcBound;
+}
+
+constexpr int kPatterns = 4, kUvPerPattern = 60, kDirections = 1024;
+
+// The small light's per-query budget: RMS 0.05 of the mean, i.e. E[diff^2 - MC SE^2] (each term
+// unbiased for that query's squared model error: the MC's sample variance is unbiased) at most
+// (0.05 mean)^2, up to 4.5 standard errors of the queries' mean excess. That mean is as skewed as
+// the bias's (a query holding a glint narrower than the light has a few MC hits on it, so its
+// diff^2 and sample variance both swing by orders of magnitude): without its standard error the
+// assertion failed 1 of 40 sets of session 20's sample (60 uv, 2048 directions) and 5 of 20 of
+// the pooled one (2 of 20 with 2048 directions), at RMS 0.06-0.10 of the mean with the MC noise
+// at 0.04-0.08; with it, none of 40 and 20 (DISABLED_ThePooledSampleIsNotFragile).
+bool SmallLightWithinBudget(const LightCaseResult &r) {
+  const double budget = 0.05 * r.mean;
+  return r.excess < budget * budget + 4.5 * r.excess_se;
+}
+
+class PolygonLightsByNeighborhood : public ::testing::TestWithParam<int> {};
+
+TEST_P(PolygonLightsByNeighborhood, AgainstMonteCarloOverTheLight) {
+  const int hood = GetParam();
+  for (const LightCase &c : LightCases()) {
+    LightCaseResult r = RunLightCase(c, hood, 11, kPatterns, kUvPerPattern, kDirections, 5);
     std::printf(
         "%-9s %-7s light, density %.0e: bias %+.4f +- %.4f of the mean; per-query RMS %.3f of "
         "the mean (centre-S approximation %.3f; MC noise %.3f removed; spread of the glints "
         "%.3f)\n",
-        HoodName(hood), c.name, c.density, sd.mean / sr.mean, sd.se() / sr.mean, rms(sd), rms(so),
-        std::sqrt(se2) / sr.mean, std::sqrt(sr.var) / sr.mean);
-    EXPECT_NEAR(sd.mean, 0.0, 4.5 * sd.se() + erfc_bias * sr.mean)
+        HoodName(hood), c.name, c.density, r.bias / r.mean, r.se / r.mean, r.rms, r.rms_old,
+        r.mc_noise, r.spread);
+    EXPECT_NEAR(r.bias, 0.0, 4.5 * r.se + ErfcBias(hood) * r.mean)
         << HoodName(hood) << " " << c.name << " " << c.density;
     if (c.half < 0.1)
-      EXPECT_LT(rms(sd), 0.05) << HoodName(hood) << " " << c.name << " " << c.density;
+      EXPECT_TRUE(SmallLightWithinBudget(r))
+          << HoodName(hood) << " " << c.name << " " << c.density << ": RMS " << r.rms << ", excess "
+          << r.excess << " +- " << r.excess_se;
     else
-      EXPECT_LT(rms(sd), rms(so)) << HoodName(hood) << " " << c.name << " " << c.density;
+      EXPECT_LT(r.rms, r.rms_old) << HoodName(hood) << " " << c.name << " " << c.density;
+  }
+}
+
+// The test above on other patterns and uv (GLINT_PROBE_SETS sets of kPatterns seeds, default
+// 20; a few minutes): counts the sets where either assertion fails, per configuration. Run with
+// --gtest_also_run_disabled_tests after changing a hash; the count should be ~0. GLINT_PROBE_
+// PATTERNS, _UV, _DIRECTIONS change the sample (session 20's test: 1, 60, 2048), _HALF keeps one
+// light size, _VERBOSE prints every set.
+TEST_P(PolygonLightsByNeighborhood, DISABLED_ThePooledSampleIsNotFragile) {
+  const int hood = GetParam();
+  const char *env = std::getenv("GLINT_PROBE_SETS");
+  const int sets = env ? std::atoi(env) : 20;
+  auto env_int = [](const char *name, int fallback) {
+    const char *e = std::getenv(name);
+    return e ? std::atoi(e) : fallback;
+  };
+  const int patterns = env_int("GLINT_PROBE_PATTERNS", kPatterns);
+  const int uv = env_int("GLINT_PROBE_UV", kUvPerPattern);
+  const int dirs = env_int("GLINT_PROBE_DIRECTIONS", kDirections);
+  const double only =
+      std::getenv("GLINT_PROBE_HALF") ? std::atof(std::getenv("GLINT_PROBE_HALF")) : 0;
+  for (const LightCase &c : LightCases()) {
+    if (only > 0 && c.half != only) continue;
+    int fail_bias = 0, fail_rms = 0;
+    for (int k = 0; k < sets; ++k) {
+      LightCaseResult r = RunLightCase(c, hood, 1000 + unsigned(k * patterns), patterns, uv, dirs,
+                                       77 + uint64_t(k));
+      if (std::getenv("GLINT_PROBE_VERBOSE"))
+        std::printf("  set %d: bias %+.4f +- %.4f, RMS %.3f (centre-S %.3f, MC noise %.3f)\n", k,
+                    r.bias / r.mean, r.se / r.mean, r.rms, r.rms_old, r.mc_noise);
+      fail_bias += std::fabs(r.bias) > 4.5 * r.se + ErfcBias(hood) * r.mean;
+      fail_rms += !(c.half < 0.1 ? SmallLightWithinBudget(r) : r.rms < r.rms_old);
+    }
+    std::printf("%-9s %-7s light, density %.0e: %d of %d sets fail the bias, %d the RMS\n",
+                HoodName(hood), c.name, c.density, fail_bias, sets, fail_rms);
+    EXPECT_EQ(fail_bias + fail_rms, 0) << HoodName(hood) << " " << c.name << " " << c.density;
   }
 }
 
